@@ -1,0 +1,1 @@
+"""The imperative shell: Zenoh, MAVLink, recording and web adapters (later issues)."""

@@ -1,0 +1,238 @@
+"""Scenario configuration: frozen msgspec Structs decoded from TOML and validated.
+
+A scenario file describes one experiment: the geodetic origin of the local ENU
+frame, the time step, the city, restricted airspace, the vehicles with their
+sensors, the ground target, the estimator and the planner. Units are SI and
+radians, and every field name that carries a unit says it (``altitude_m``,
+``max_turn_rate_rad_s``).
+
+Errors name the bad key with a msgspec-style path, e.g.
+``wang2012_urban.toml: $.vehicles[1].speed_mps: Expected `float` > 0.0``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Literal
+
+import msgspec
+
+__all__ = [
+    "ScenarioError",
+    "Origin",
+    "TimeConfig",
+    "CityConfig",
+    "RestrictedAirspace",
+    "SensorConfig",
+    "VehicleConfig",
+    "TargetConfig",
+    "EstimatorConfig",
+    "PlannerConfig",
+    "Scenario",
+    "validate_scenario",
+]
+
+Positive = Annotated[float, msgspec.Meta(gt=0.0)]
+NonNegative = Annotated[float, msgspec.Meta(ge=0.0)]
+Metres = Annotated[float, msgspec.Meta(ge=-1e7, le=1e7)]
+Radians = Annotated[float, msgspec.Meta(ge=-2 * math.pi, le=2 * math.pi)]
+Identifier = Annotated[str, msgspec.Meta(pattern=r"^[A-Za-z0-9_-]{1,64}$")]
+Point2 = tuple[Metres, Metres]
+
+
+class ScenarioError(ValueError):
+    """A scenario file that cannot be used; the message names the file and the key."""
+
+
+class _Config(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """Base of every configuration table: frozen, unknown keys rejected."""
+
+
+class Origin(_Config):
+    """Geodetic origin of the local ENU frame (WGS84 degrees, metres above the ellipsoid)."""
+
+    lat_deg: Annotated[float, msgspec.Meta(ge=-90.0, le=90.0)]
+    lon_deg: Annotated[float, msgspec.Meta(ge=-180.0, le=180.0)]
+    height_m: Metres = 0.0
+
+
+class TimeConfig(_Config):
+    """Decision step and run length, seconds."""
+
+    step_s: Positive = 1.0
+    duration_s: Positive = 300.0
+
+
+class CityConfig(_Config):
+    """Box buildings: generated from a seed, or read from a GeoJSON file of footprints.
+
+    ``kind = "generated"``: ``buildings`` boxes in a ``size_m`` rectangle whose
+    south-west corner is ``(0, 0)`` in ENU, streets of ``street_width_m`` between
+    blocks, heights uniform in [``min_height_m``, ``max_height_m``].
+    ``kind = "geojson"``: polygons from ``geojson`` (a path relative to the
+    scenario file) with a ``height_property`` in metres.
+    """
+
+    kind: Literal["generated", "geojson", "empty"] = "generated"
+    size_m: tuple[Positive, Positive] = (3000.0, 3000.0)
+    buildings: Annotated[int, msgspec.Meta(ge=0, le=100_000)] = 400
+    seed: Annotated[int, msgspec.Meta(ge=0)] = 0
+    street_width_m: NonNegative = 20.0
+    min_height_m: NonNegative = 10.0
+    max_height_m: NonNegative = 100.0
+    geojson: str | None = None
+    height_property: str = "height"
+
+
+class RestrictedAirspace(_Config):
+    """A no-fly zone (wang2012 eq. 5): a polygon in ENU metres with an altitude band."""
+
+    name: Identifier
+    polygon_enu_m: Annotated[list[Point2], msgspec.Meta(min_length=3)]
+    floor_m: Metres = 0.0
+    ceiling_m: Metres = 10_000.0
+
+
+class SensorConfig(_Config):
+    """Target sensor on a vehicle (wang2012 eq. 3-4; zuo2021 eq. 2 for distance-dependent noise).
+
+    ``kind``: ``range_bearing`` measures range, azimuth and elevation;
+    ``bearing_only`` measures azimuth (and elevation when ``elevation_std_rad`` is set).
+    ``noise``: ``constant`` standard deviations, or ``distance_dependent``
+    (zuo2021 eq. 2: sigma^2 = sigma0^2 r^2 / r0^2 beyond ``reference_range_m``).
+    """
+
+    kind: Literal["range_bearing", "bearing_only"] = "range_bearing"
+    range_std_m: Positive | None = 10.0
+    azimuth_std_rad: Positive = 0.05
+    elevation_std_rad: Positive | None = 0.05
+    max_range_m: Positive = 5000.0
+    noise: Literal["constant", "distance_dependent"] = "constant"
+    reference_range_m: Positive = 1500.0
+
+
+class VehicleConfig(_Config):
+    """One fixed-wing UAV (wang2012 eq. 1: constant speed and altitude, bounded turn rate)."""
+
+    id: Identifier
+    sysid: Annotated[int, msgspec.Meta(ge=1, le=250)]
+    altitude_m: Positive
+    speed_mps: Positive
+    max_turn_rate_rad_s: Positive
+    start_enu_m: Point2
+    start_heading_rad: Radians = 0.0
+    sensor: SensorConfig | None = None
+    """Overrides the scenario's ``[sensor]`` for this vehicle when given."""
+
+
+class TargetConfig(_Config):
+    """The ground target's truth model (wang2012 eq. 2).
+
+    ``white_noise_acceleration``: continuous white-noise acceleration of power
+    spectral density ``accel_psd_m2_s3`` (the per-step velocity noise standard
+    deviation is ``sqrt(accel_psd_m2_s3 * step_s)``; wang2012 section 5 gives
+    1.4 m/s, i.e. 1.96 m^2/s^3 at 1 s), speed capped at ``max_speed_mps``.
+    """
+
+    id: Identifier = "target"
+    motion: Literal["white_noise_acceleration", "streets", "scripted"] = "white_noise_acceleration"
+    start_enu_m: Point2 = (1500.0, 1500.0)
+    start_velocity_mps: Point2 = (0.0, 0.0)
+    accel_psd_m2_s3: NonNegative = 1.96
+    max_speed_mps: Positive = 15.0
+    path_file: str | None = None
+
+
+class EstimatorConfig(_Config):
+    """Target estimator. ``duif``: wang2012 section 3; ``model`` names the state layout."""
+
+    kind: Literal["duif"] = "duif"
+    model: Literal["cv2d", "ca2d"] = "cv2d"
+    accel_psd_m2_s3: NonNegative = 1.96
+    initial_position_std_m: Positive = 50.0
+    initial_velocity_std_mps: Positive = 10.0
+
+
+class PlannerConfig(_Config):
+    """Heading planner. ``ga_rhc``: wang2012 section 4 (RHC cost eq. 20-26, GA eq. 27-29)."""
+
+    kind: Literal["ga_rhc", "k0", "orbit", "pursuit"] = "ga_rhc"
+    horizon_steps: Annotated[int, msgspec.Meta(ge=1, le=100)] = 5
+    population: Annotated[int, msgspec.Meta(ge=2, le=10_000)] = 50
+    generations: Annotated[int, msgspec.Meta(ge=1, le=100_000)] = 200
+    deadline_s: Positive = 1.0
+    standoff_m: Positive = 300.0
+    w_vis: NonNegative = 0.0
+    u_max_rad_s: Positive = 0.1
+    w_u: NonNegative = 10.0
+    w_res: NonNegative = 1e6
+
+
+class Scenario(_Config, kw_only=True):
+    """A whole experiment; the default is wang2012 section 5."""
+
+    name: Identifier
+    description: str = ""
+    origin: Origin
+    time: TimeConfig = TimeConfig()
+    city: CityConfig = CityConfig()
+    restricted: list[RestrictedAirspace] = []
+    sensor: SensorConfig = SensorConfig()
+    vehicles: Annotated[list[VehicleConfig], msgspec.Meta(min_length=1)]
+    target: TargetConfig = TargetConfig()
+    estimator: EstimatorConfig = EstimatorConfig()
+    planner: PlannerConfig = PlannerConfig()
+
+    def sensor_for(self, vehicle: VehicleConfig) -> SensorConfig:
+        """The sensor a vehicle carries: its own override, else the scenario's."""
+        return vehicle.sensor if vehicle.sensor is not None else self.sensor
+
+
+def _check_sensor(sensor: SensorConfig, path: str) -> list[str]:
+    problems = []
+    if sensor.kind == "range_bearing" and sensor.range_std_m is None:
+        problems.append(f"{path}.range_std_m: required when kind = 'range_bearing'")
+    return problems
+
+
+def validate_scenario(scenario: Scenario) -> Scenario:
+    """Check the rules a schema cannot express; raise ScenarioError naming every bad key.
+
+    Rules: vehicle ids and MAVLink system ids are unique; every start point lies
+    inside the city rectangle; building heights are ordered; airspace bands
+    are ordered; a GeoJSON city names its file; sensors that measure range have
+    a range standard deviation.
+    """
+    problems: list[str] = []
+    width, height = scenario.city.size_m
+    seen_ids: dict[str, int] = {}
+    seen_sysids: dict[int, int] = {}
+    for index, vehicle in enumerate(scenario.vehicles):
+        path = f"$.vehicles[{index}]"
+        if vehicle.id in seen_ids:
+            problems.append(f"{path}.id: duplicate vehicle id {vehicle.id!r} (also $.vehicles[{seen_ids[vehicle.id]}])")
+        seen_ids.setdefault(vehicle.id, index)
+        if vehicle.sysid in seen_sysids:
+            problems.append(f"{path}.sysid: duplicate MAVLink system id {vehicle.sysid} (also $.vehicles[{seen_sysids[vehicle.sysid]}])")
+        seen_sysids.setdefault(vehicle.sysid, index)
+        x, y = vehicle.start_enu_m
+        if not (0.0 <= x <= width and 0.0 <= y <= height):
+            problems.append(f"{path}.start_enu_m: {vehicle.start_enu_m} is outside the city [0, {width}] x [0, {height}]")
+        if vehicle.sensor is not None:
+            problems += _check_sensor(vehicle.sensor, f"{path}.sensor")
+    problems += _check_sensor(scenario.sensor, "$.sensor")
+    tx, ty = scenario.target.start_enu_m
+    if not (0.0 <= tx <= width and 0.0 <= ty <= height):
+        problems.append(f"$.target.start_enu_m: {scenario.target.start_enu_m} is outside the city [0, {width}] x [0, {height}]")
+    if scenario.target.motion == "scripted" and not scenario.target.path_file:
+        problems.append("$.target.path_file: required when motion = 'scripted'")
+    if scenario.city.min_height_m > scenario.city.max_height_m:
+        problems.append("$.city.min_height_m: greater than max_height_m")
+    if scenario.city.kind == "geojson" and not scenario.city.geojson:
+        problems.append("$.city.geojson: required when kind = 'geojson'")
+    for index, zone in enumerate(scenario.restricted):
+        if zone.floor_m >= zone.ceiling_m:
+            problems.append(f"$.restricted[{index}].floor_m: must be below ceiling_m")
+    if problems:
+        raise ScenarioError("; ".join(problems))
+    return scenario

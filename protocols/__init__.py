@@ -1,0 +1,95 @@
+"""Wire protocol of the tracking ground station: messages, key expressions, codec.
+
+Imports only the standard library and msgspec; no numpy, no I/O, no Zenoh.
+
+- :mod:`protocols.messages`: frozen msgspec Structs (frames and units documented there).
+- :mod:`protocols.keys`: the Zenoh key space, builders, selectors and :func:`parse_key`.
+- :mod:`protocols.codec`: :func:`encode` / :func:`decode` with the Zenoh encoding
+  ``application/json;gcs.<TypeName>/<VERSION>``.
+- :mod:`protocols.errors`: :class:`ProtocolError`, the only exception for wire problems.
+"""
+
+from protocols.codec import (
+    MAX_PAYLOAD_BYTES,
+    decode,
+    encode,
+    encoding_for,
+    json_schema,
+    parse_encoding,
+)
+from protocols.errors import REJECT_REASONS, ProtocolError
+from protocols.keys import (
+    DEFAULT_PREFIX,
+    KEY_KINDS,
+    MESSAGE_TYPE_BY_KIND,
+    ParsedKey,
+    alive_key,
+    alive_selector,
+    nav_key,
+    navs_selector,
+    parse_key,
+    plan_key,
+    plans_selector,
+    report_key,
+    reports_selector,
+    status_key,
+    track_key,
+    tracks_selector,
+    validate_id,
+    validate_prefix,
+)
+from protocols.messages import (
+    MESSAGE_TYPES,
+    TRACK_MODEL_DIMS,
+    DaemonStatus,
+    GpsFix,
+    InsIncrement,
+    Message,
+    NavReport,
+    PlanCommand,
+    PredictedPoint,
+    SensorReport,
+    TrackEstimate,
+    VehicleStatus,
+)
+
+__all__ = [
+    "DEFAULT_PREFIX",
+    "KEY_KINDS",
+    "MAX_PAYLOAD_BYTES",
+    "MESSAGE_TYPES",
+    "MESSAGE_TYPE_BY_KIND",
+    "REJECT_REASONS",
+    "TRACK_MODEL_DIMS",
+    "DaemonStatus",
+    "GpsFix",
+    "InsIncrement",
+    "Message",
+    "NavReport",
+    "ParsedKey",
+    "PlanCommand",
+    "PredictedPoint",
+    "ProtocolError",
+    "SensorReport",
+    "TrackEstimate",
+    "VehicleStatus",
+    "alive_key",
+    "alive_selector",
+    "decode",
+    "encode",
+    "encoding_for",
+    "json_schema",
+    "nav_key",
+    "navs_selector",
+    "parse_encoding",
+    "parse_key",
+    "plan_key",
+    "plans_selector",
+    "report_key",
+    "reports_selector",
+    "status_key",
+    "track_key",
+    "tracks_selector",
+    "validate_id",
+    "validate_prefix",
+]

@@ -1,0 +1,62 @@
+"""The command lines list exactly their implemented subcommands and report errors clearly."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from gcs import cli as gcs_cli
+from sim_vehicles import cli as sim_cli
+
+
+def _subcommands(parser) -> set[str]:
+    for action in parser._actions:
+        if action.__class__.__name__ == "_SubParsersAction":
+            return set(action.choices)
+    return set()
+
+
+def test_gcs_help_lists_every_registered_subcommand(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as info:
+        gcs_cli.main(["--help"])
+    assert info.value.code == 0
+    out = capsys.readouterr().out
+    names = _subcommands(gcs_cli.build_parser())
+    assert "scenario" in names
+    for name in names:
+        assert name in out
+
+
+def test_gcs_help_lists_nothing_unimplemented(capsys: pytest.CaptureFixture[str]) -> None:
+    names = _subcommands(gcs_cli.build_parser())
+    for planned in ("run", "demo", "record", "replay", "router", "status"):
+        assert planned not in names, f"'{planned}' is registered but not implemented yet"
+
+
+def test_sim_vehicles_help_runs(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as info:
+        sim_cli.main(["--help"])
+    assert info.value.code == 0
+    assert "sim-vehicles" in capsys.readouterr().out
+    assert "run" not in _subcommands(sim_cli.build_parser())
+
+
+def test_scenario_show_prints_the_resolved_scenario(capsys: pytest.CaptureFixture[str]) -> None:
+    assert gcs_cli.main(["scenario", "show"]) == 0
+    shown = json.loads(capsys.readouterr().out)
+    assert shown["name"] == "wang2012_urban" and len(shown["vehicles"]) == 3
+
+
+def test_scenario_list_and_check(capsys: pytest.CaptureFixture[str]) -> None:
+    assert gcs_cli.main(["scenario", "list"]) == 0
+    assert "wang2012_urban" in capsys.readouterr().out
+    assert gcs_cli.main(["scenario", "check", "wang2012_urban"]) == 0
+    assert "ok" in capsys.readouterr().out
+
+
+def test_bad_scenario_exits_2_naming_the_key(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text('name = "x"\n[origin]\nlat_deg = 100.0\nlon_deg = 0.0\n')
+    assert gcs_cli.main(["scenario", "check", str(bad)]) == 2
+    assert "$.origin.lat_deg" in capsys.readouterr().err

@@ -1,0 +1,311 @@
+"""Codec properties: round trips of valid messages; fuzzing (nothing but ProtocolError escapes).
+
+The strategies generate only valid messages. Specific rejections and their messages are in
+``test_protocols_codec_errors.py``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import msgspec
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from protocols import (
+    MAX_PAYLOAD_BYTES,
+    MESSAGE_TYPES,
+    DaemonStatus,
+    GpsFix,
+    InsIncrement,
+    NavReport,
+    PlanCommand,
+    PredictedPoint,
+    ProtocolError,
+    SensorReport,
+    TrackEstimate,
+    VehicleStatus,
+    decode,
+    encode,
+    encoding_for,
+)
+
+PI = math.pi
+INT64_MAX = 2**63 - 1
+
+
+# ---------------------------------------------------------------- strategies (valid only)
+def floats(lo: float, hi: float, **kw: bool) -> st.SearchStrategy[float]:
+    return st.floats(lo, hi, allow_nan=False, allow_infinity=False, **kw)
+
+
+ids = st.from_regex(r"[A-Za-z0-9_-]{1,64}", fullmatch=True)
+stamps = st.integers(0, INT64_MAX)
+positions = floats(-1e8, 1e8)
+pos3 = st.tuples(positions, positions, positions)
+std_m = floats(0.0, 1e8, exclude_min=True)
+std_rad = floats(0.0, 2 * PI, exclude_min=True)
+angles = floats(-PI, PI)
+rates = floats(-2 * PI, 2 * PI)
+altitudes = floats(-1e4, 1e5)
+texts = st.text(max_size=40)
+
+
+@st.composite
+def sensor_reports(draw: st.DrawFn) -> SensorReport:
+    detected = draw(st.booleans())
+    meas: dict[str, float] = {}
+    if detected:
+        meas.update(azimuth_rad=draw(angles), azimuth_std_rad=draw(std_rad))
+        if draw(st.booleans()):
+            meas.update(range_m=draw(floats(0.0, 1e8)), range_std_m=draw(std_m))
+        if draw(st.booleans()):
+            meas.update(elevation_rad=draw(floats(-PI / 2, PI / 2)), elevation_std_rad=draw(std_rad))
+    return SensorReport(
+        vehicle_id=draw(ids),
+        seq=draw(stamps),
+        stamp_ns=draw(stamps),
+        target_id=draw(ids),
+        vehicle_position_enu_m=draw(pos3),
+        vehicle_position_std_m=draw(st.none() | std_m),
+        detected=detected,
+        **meas,
+    )
+
+
+gps_fixes = st.builds(
+    GpsFix,
+    lat_deg=floats(-90, 90),
+    lon_deg=floats(-180, 180),
+    alt_m=altitudes,
+    fix_type=st.integers(0, 8),
+    h_acc_m=std_m,
+    v_acc_m=std_m,
+    satellites=st.none() | st.integers(0, 255),
+)
+ins_increments = st.builds(
+    InsIncrement,
+    dt_s=floats(0.0, 3600.0, exclude_min=True),
+    distance_m=floats(0.0, 1e8),
+    heading_change_rad=rates,
+)
+velocities = floats(-1e4, 1e4)
+
+
+@st.composite
+def nav_reports(draw: st.DrawFn) -> NavReport:
+    present = draw(st.sets(st.sampled_from(["gps", "ins", "vel"]), min_size=1))
+    vel3 = st.tuples(velocities, velocities, velocities)
+    return NavReport(
+        vehicle_id=draw(ids),
+        seq=draw(stamps),
+        stamp_ns=draw(stamps),
+        gps=draw(gps_fixes) if "gps" in present else None,
+        ins=draw(ins_increments) if "ins" in present else None,
+        velocity_enu_mps=draw(vel3 if "vel" in present else st.none()),
+        turn_rate_rad_s=draw(st.none() | rates),
+        heading_rad=draw(st.none() | angles),
+    )
+
+
+@st.composite
+def covariances(draw: st.DrawFn, n: int) -> tuple[float, ...]:
+    """Symmetric n x n, row-major, diagonal >= 0 (not necessarily PSD: not a wire rule)."""
+    cov = [0.0] * (n * n)
+    for i in range(n):
+        cov[i * n + i] = draw(floats(0.0, 1e20))
+        for j in range(i + 1, n):
+            cov[i * n + j] = cov[j * n + i] = draw(floats(-1e20, 1e20))
+    return tuple(cov)
+
+
+predicted_points = st.builds(
+    PredictedPoint,
+    stamp_ns=stamps,
+    position_enu_m=st.tuples(positions, positions),
+    position_cov_m2=covariances(2),
+)
+
+
+@st.composite
+def track_estimates(draw: st.DrawFn) -> TrackEstimate:
+    model, n = draw(st.sampled_from([("cv2d", 4), ("ca2d", 6)]) | st.tuples(ids, st.integers(1, 16)))
+    if model in ("cv2d", "ca2d"):
+        n = {"cv2d": 4, "ca2d": 6}[model]
+    return TrackEstimate(
+        target_id=draw(ids),
+        seq=draw(stamps),
+        stamp_ns=draw(stamps),
+        model=model,
+        state=tuple(draw(st.lists(positions, min_size=n, max_size=n))),
+        covariance=draw(covariances(n)),
+        contributing_vehicles=tuple(draw(st.lists(ids, max_size=4))),
+        prediction=tuple(draw(st.lists(predicted_points, max_size=6))),
+    )
+
+
+plan_commands = st.builds(
+    PlanCommand,
+    vehicle_id=ids,
+    seq=stamps,
+    stamp_ns=stamps,
+    heading_rad=angles,
+    turn_rate_rad_s=rates,
+    airspeed_mps=floats(0.0, 1e3, exclude_min=True),
+    altitude_m=altitudes,
+    planned_path_enu_m=st.lists(st.tuples(positions, positions), max_size=10).map(tuple),
+    planner=ids,
+)
+vehicle_statuses = st.builds(
+    VehicleStatus,
+    vehicle_id=ids,
+    sysid=st.none() | st.integers(1, 250),
+    link=st.sampled_from(["ok", "lost", "unknown"]),
+    last_report_stamp_ns=st.none() | stamps,
+    reports=st.integers(0, INT64_MAX),
+    autopilot=st.none() | texts,
+)
+daemon_statuses = st.builds(
+    DaemonStatus,
+    stamp_ns=stamps,
+    uptime_s=floats(0.0, 1e10),
+    scenario=texts,
+    vehicles=st.lists(vehicle_statuses, max_size=4).map(tuple),
+    counters=st.dictionaries(
+        st.from_regex(r"[A-Za-z0-9_.:-]{1,64}", fullmatch=True), st.integers(0, INT64_MAX), max_size=5
+    ),
+    last_track_stamp_ns=st.none() | stamps,
+)
+
+STRATEGIES = {
+    SensorReport: sensor_reports(),
+    GpsFix: gps_fixes,
+    InsIncrement: ins_increments,
+    NavReport: nav_reports(),
+    PredictedPoint: predicted_points,
+    TrackEstimate: track_estimates(),
+    PlanCommand: plan_commands,
+    VehicleStatus: vehicle_statuses,
+    DaemonStatus: daemon_statuses,
+}
+any_message = st.one_of(*STRATEGIES.values())
+ENCODINGS = [encoding_for(tp) for tp in MESSAGE_TYPES]
+
+
+def test_every_message_type_has_a_strategy() -> None:
+    assert set(STRATEGIES) == set(MESSAGE_TYPES)
+
+
+# ---------------------------------------------------------------- round trip
+@pytest.mark.parametrize("tp", MESSAGE_TYPES, ids=lambda tp: tp.__name__)
+@settings(max_examples=150, suppress_health_check=[HealthCheck.too_slow])
+@given(data=st.data())
+def test_round_trip(tp: type, data: st.DataObject) -> None:
+    msg = data.draw(STRATEGIES[tp])
+    payload, encoding = encode(msg)
+    assert encoding == f"application/json;gcs.{tp.__name__}/1"
+    assert len(payload) <= MAX_PAYLOAD_BYTES
+    back = decode(payload, encoding, expected=tp)
+    assert type(back) is tp
+    assert back == msg
+    assert decode(payload, expected=tp) == msg  # encoding omitted: expected type decides
+
+
+# ---------------------------------------------------------------- fuzzing
+def assert_only_protocol_error(payload: bytes, encoding: str | None) -> object:
+    """Decode; return the message or the ProtocolError. Any other exception fails the test."""
+    try:
+        return decode(payload, encoding)
+    except ProtocolError as exc:
+        assert str(exc)
+        assert exc.field is None or exc.field.startswith("$")
+        return exc
+
+
+@settings(max_examples=300)
+@given(payload=st.binary(max_size=512), encoding=st.sampled_from(ENCODINGS))
+def test_arbitrary_bytes_raise_only_protocol_error(payload: bytes, encoding: str) -> None:
+    out = assert_only_protocol_error(payload, encoding)
+    assert isinstance(out, (ProtocolError, *MESSAGE_TYPES))
+
+
+json_values = st.recursive(
+    st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=8),
+    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner, max_size=4),
+    max_leaves=20,
+)
+
+
+@settings(max_examples=200)
+@given(value=json_values, encoding=st.sampled_from(ENCODINGS))
+def test_arbitrary_json_raises_only_protocol_error(value: object, encoding: str) -> None:
+    payload = json.dumps(value).encode()  # may contain NaN / Infinity tokens
+    out = assert_only_protocol_error(payload, encoding)
+    assert isinstance(out, (ProtocolError, *MESSAGE_TYPES))
+
+
+@settings(max_examples=300)
+@given(
+    encoding=st.text(max_size=60)
+    | st.from_regex(r"application/json;gcs\.[A-Za-z]{0,14}/[0-9]{0,3}", fullmatch=True)
+    | st.from_regex(r"[a-z/]{0,20};?gcs\.(SensorReport|NavReport)/-?[0-9]{0,2}", fullmatch=True)
+)
+def test_arbitrary_encoding_strings_raise_only_protocol_error(encoding: str) -> None:
+    msg = SensorReport(
+        vehicle_id="u", seq=0, stamp_ns=0, vehicle_position_enu_m=(0, 0, 0), detected=False
+    )
+    payload, good = encode(msg)
+    out = assert_only_protocol_error(payload, encoding)
+    if encoding == good:
+        assert isinstance(out, SensorReport)
+    else:
+        assert isinstance(out, ProtocolError)
+
+
+WRONG_VALUES = st.one_of(
+    st.none(), st.booleans(), st.integers(-(2**70), 2**70), st.floats(), st.text(max_size=8),
+    st.lists(st.integers(), max_size=3), st.just({"bogus key!": "x"}),
+)
+
+
+@settings(max_examples=300, suppress_health_check=[HealthCheck.too_slow])
+@given(msg=any_message, data=st.data())
+def test_mutated_valid_json_raises_only_protocol_error(msg: msgspec.Struct, data: st.DataObject) -> None:
+    tp = type(msg)
+    payload, encoding = encode(msg)
+    obj = json.loads(payload)
+    name = data.draw(st.sampled_from(sorted(obj)))
+    required = {f.name for f in msgspec.structs.fields(tp) if f.required}
+    if data.draw(st.booleans()):
+        del obj[name]
+        out = assert_only_protocol_error(json.dumps(obj).encode(), encoding)
+        if name in required:
+            assert isinstance(out, ProtocolError) and out.field == f"$.{name}"
+            assert f"`{name}`" in str(out)
+    else:
+        obj[name] = data.draw(WRONG_VALUES)
+        out = assert_only_protocol_error(json.dumps(obj).encode(), encoding)
+        if obj[name] == {"bogus key!": "x"}:  # never valid for any field
+            assert isinstance(out, ProtocolError) and out.field is not None
+            assert out.field.startswith(f"$.{name}")
+    assert isinstance(out, (ProtocolError, tp))
+
+
+@pytest.mark.parametrize(
+    "payload",
+    [
+        b"[" * 60000,
+        b'{"counters":' + b"[" * 60000,
+        b'{"scenario":' + b"{" * 30000,
+        b'{"scenario":"\xff\xfe"}',  # invalid UTF-8 inside a string
+        rb'{"scenario":"\ud800"}',  # lone surrogate escape
+        b"\xef\xbb\xbf{}",  # byte-order mark
+        b"",
+    ],
+)
+def test_pathological_payloads_raise_protocol_error(payload: bytes) -> None:
+    with pytest.raises(ProtocolError) as info:
+        decode(payload, encoding_for(DaemonStatus))
+    assert info.value.reason in {"malformed", "invalid"}

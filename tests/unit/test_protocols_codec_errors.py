@@ -1,0 +1,168 @@
+"""Codec errors: each rejection names the field (or the bad encoding part) and its reason."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import msgspec
+import pytest
+
+from protocols import (
+    MAX_PAYLOAD_BYTES,
+    DaemonStatus,
+    NavReport,
+    PredictedPoint,
+    ProtocolError,
+    SensorReport,
+    TrackEstimate,
+    VehicleStatus,
+    decode,
+    encode,
+    encoding_for,
+)
+
+# ---------------------------------------------------------------- named-field errors
+REPORT = SensorReport(
+    vehicle_id="uav1", seq=3, stamp_ns=1_000, vehicle_position_enu_m=(10.0, -20.0, 120.0),
+    detected=True, range_m=250.0, range_std_m=5.0, azimuth_rad=0.3, azimuth_std_rad=0.01,
+)
+ENC = encoding_for(SensorReport)
+
+
+def report_json(**changes: object) -> bytes:
+    obj = json.loads(encode(REPORT)[0])
+    for key, value in changes.items():
+        if value is ...:
+            del obj[key]
+        else:
+            obj[key] = value
+    return json.dumps(obj).encode()
+
+
+@pytest.mark.parametrize(
+    ("payload", "field"),
+    [
+        (report_json(detected="yes"), "$.detected"),  # wrong type
+        (report_json(seq=1.5), "$.seq"),
+        (report_json(detected=...), "$.detected"),  # missing
+        (report_json(vehicle_id="uav 1"), "$.vehicle_id"),  # pattern
+        (report_json(vehicle_id="uav1\n"), "$.vehicle_id"),  # Python's $ would allow this
+        (report_json(seq=-1), "$.seq"),  # bound
+        (report_json(azimuth_rad=4.0), "$.azimuth_rad"),
+        (report_json(extra_field=1), "$.extra_field"),  # unknown field
+        (report_json(azimuth_rad=None, azimuth_std_rad=None), "$.azimuth_rad"),  # detected w/o azimuth
+        (report_json(range_m=None), "$.range_std_m"),  # std without value
+        (report_json(detected=False), "$.range_m"),  # no detection carries no values
+        (report_json().replace(b'"range_m": 250.0', b'"range_m": 1e999'), "$.range_m"),  # inf in text
+        (report_json().replace(b"-20.0", b"-1e999"), "$.vehicle_position_enu_m[1]"),
+    ],
+)
+def test_decode_error_names_the_field(payload: bytes, field: str) -> None:
+    with pytest.raises(ProtocolError) as info:
+        decode(payload, ENC)
+    assert info.value.field == field
+    assert f"`{field}`" in str(info.value)
+    assert info.value.reason == "invalid"
+
+
+def test_nested_cross_field_error_has_the_full_path() -> None:
+    good = PredictedPoint(stamp_ns=1, position_enu_m=(0, 0), position_cov_m2=(1, 0, 0, 1))
+    track = TrackEstimate(
+        target_id="t", seq=0, stamp_ns=1, model="cv2d", state=(0, 0, 0, 0),
+        covariance=(1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1),
+        contributing_vehicles=("uav1",), prediction=(good, good),
+    )
+    obj = json.loads(encode(track)[0])
+    obj["prediction"][1]["position_cov_m2"] = [1, 2, 0, 1]
+    with pytest.raises(ProtocolError) as info:
+        decode(json.dumps(obj).encode(), encoding_for(TrackEstimate))
+    assert info.value.field == "$.prediction[1].position_cov_m2[1]"
+    assert "not symmetric" in str(info.value) and "$.prediction[1]" in str(info.value)
+
+
+def test_nan_token_in_json_text_is_malformed() -> None:
+    payload = report_json().replace(b"250.0", b"NaN")
+    with pytest.raises(ProtocolError) as info:
+        decode(payload, ENC)
+    assert info.value.reason == "malformed"
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_encode_rejects_non_finite_floats_naming_the_path(bad: float) -> None:
+    msg = msgspec.structs.replace(REPORT, vehicle_position_enu_m=(1.0, bad, 2.0))
+    with pytest.raises(ProtocolError) as info:
+        encode(msg)
+    assert info.value.field == "$.vehicle_position_enu_m[1]"
+    assert f"non-finite float {bad!r} at `$.vehicle_position_enu_m[1]`" in str(info.value)
+    point = PredictedPoint(stamp_ns=1, position_enu_m=(0.0, bad), position_cov_m2=(1, 0, 0, 1))
+    status = DaemonStatus(stamp_ns=0, uptime_s=bad, scenario="s", vehicles=())
+    with pytest.raises(ProtocolError, match=r"\$\.position_enu_m\[1\]"):
+        encode(point)
+    with pytest.raises(ProtocolError, match=r"\$\.uptime_s"):
+        encode(status)
+
+
+def test_encode_refuses_what_decode_would_reject() -> None:
+    with pytest.raises(ProtocolError) as info:
+        encode(msgspec.structs.replace(REPORT, azimuth_rad=7.0))
+    assert info.value.field == "$.azimuth_rad"
+    with pytest.raises(ProtocolError, match="not a registered message type"):
+        encode(msgspec.json.Decoder())  # type: ignore[arg-type]
+    big = DaemonStatus(
+        stamp_ns=0, uptime_s=0.0, scenario="s",
+        vehicles=tuple(
+            VehicleStatus(vehicle_id=f"v{i}", link="ok", reports=0, autopilot="x" * 256)
+            for i in range(256)
+        ),
+    )
+    with pytest.raises(ProtocolError) as info:
+        encode(big)
+    assert info.value.reason == "oversize"
+
+
+@pytest.mark.parametrize(
+    ("encoding", "words"),
+    [
+        ("application/json;gcs.SensorReport/2", ["version", "'2'", "SensorReport"]),
+        ("application/json;gcs.SensorReport/x", ["version", "'x'"]),
+        ("application/json;gcs.Bogus/1", ["unknown message type", "'Bogus'"]),
+        ("application/json;gcs.SensorReport", ["version"]),
+        ("application/json;ros.SensorReport/1", ["gcs."]),
+        ("application/json", ["gcs."]),
+        ("text/plain;gcs.SensorReport/1", ["media type", "application/json"]),
+        ("", ["media type"]),
+    ],
+)
+def test_bad_encoding_says_what_is_wrong(encoding: str, words: list[str]) -> None:
+    with pytest.raises(ProtocolError) as info:
+        decode(encode(REPORT)[0], encoding)
+    assert info.value.reason == "encoding"
+    for word in words:
+        assert word in str(info.value)
+
+
+def test_expected_type_mismatch_and_missing_type() -> None:
+    with pytest.raises(ProtocolError, match="expected NavReport.*SensorReport") as info:
+        decode(encode(REPORT)[0], ENC, expected=NavReport)
+    assert info.value.reason == "unexpected_type"
+    with pytest.raises(ProtocolError, match="no encoding"):
+        decode(encode(REPORT)[0])
+
+
+def test_oversized_payload_rejected_before_parsing() -> None:
+    valid, _ = encode(REPORT)
+    padded = valid[:-1] + b" " * (MAX_PAYLOAD_BYTES - len(valid) + 1) + b"}"
+    assert len(padded) == MAX_PAYLOAD_BYTES + 1
+    with pytest.raises(ProtocolError) as info:
+        decode(padded, ENC)
+    assert info.value.reason == "oversize" and str(MAX_PAYLOAD_BYTES) in str(info.value)
+    assert decode(padded[: MAX_PAYLOAD_BYTES - 1] + b"}", ENC) == REPORT  # at the limit: fine
+
+
+@pytest.mark.parametrize("payload", ["{}", 42, None, [1, 2]])
+def test_non_bytes_payloads(payload: object) -> None:
+    with pytest.raises(ProtocolError):
+        decode(payload, ENC)  # type: ignore[arg-type]
+    assert decode(bytearray(encode(REPORT)[0]), ENC) == REPORT
+    assert decode(memoryview(encode(REPORT)[0]), ENC) == REPORT

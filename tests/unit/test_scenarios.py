@@ -1,0 +1,101 @@
+"""Scenario files: the shipped default matches the paper; bad files name the bad key."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import msgspec
+import pytest
+
+from gcs.config import Scenario, ScenarioError
+from gcs.scenarios import DEFAULT_SCENARIO, list_scenarios, load_scenario, parse_scenario
+
+MINIMAL = b"""
+name = "tiny"
+[origin]
+lat_deg = 1.0
+lon_deg = 2.0
+[[vehicles]]
+id = "a"
+sysid = 1
+altitude_m = 100.0
+speed_mps = 20.0
+max_turn_rate_rad_s = 0.2
+start_enu_m = [10.0, 10.0]
+"""
+
+
+def test_default_scenario_is_wang2012_section5() -> None:
+    s = load_scenario(DEFAULT_SCENARIO)
+    assert DEFAULT_SCENARIO == "wang2012_urban" and DEFAULT_SCENARIO in list_scenarios()
+    assert [v.altitude_m for v in s.vehicles] == [200.0, 210.0, 220.0]
+    assert {v.speed_mps for v in s.vehicles} == {25.0}
+    assert {v.max_turn_rate_rad_s for v in s.vehicles} == {0.2}
+    assert (s.sensor.range_std_m, s.sensor.azimuth_std_rad, s.sensor.elevation_std_rad) == (10.0, 0.05, 0.05)
+    assert s.city.size_m == (3000.0, 3000.0) and s.city.buildings == 400
+    assert (s.time.step_s, s.time.duration_s) == (1.0, 300.0)
+    assert (s.planner.horizon_steps, s.planner.population, s.planner.generations) == (5, 50, 200)
+
+
+def test_every_shipped_scenario_loads() -> None:
+    for name in list_scenarios():
+        assert isinstance(load_scenario(name), Scenario)
+
+
+def test_config_is_frozen() -> None:
+    s = load_scenario(DEFAULT_SCENARIO)
+    with pytest.raises(AttributeError):
+        s.name = "other"  # type: ignore[misc]
+
+
+def test_minimal_file_gets_defaults() -> None:
+    s = parse_scenario(MINIMAL)
+    assert s.time.step_s == 1.0 and s.sensor_for(s.vehicles[0]) is s.sensor
+
+
+@pytest.mark.parametrize(
+    ("edit", "key"),
+    [
+        ((b"speed_mps = 20.0", b"speed_mps = -20.0"), "$.vehicles[0].speed_mps"),
+        ((b"speed_mps = 20.0", b'speed_mps = "fast"'), "$.vehicles[0].speed_mps"),
+        ((b"sysid = 1", b"sysid = 300"), "$.vehicles[0].sysid"),
+        ((b'id = "a"', b'id = "a b"'), "$.vehicles[0].id"),
+        ((b"lat_deg = 1.0", b"lat_deg = 95.0"), "$.origin.lat_deg"),
+        ((b"lat_deg = 1.0", b"lat_deg = 1.0\nbogus = 3"), "bogus"),
+        ((b"start_enu_m = [10.0, 10.0]", b"start_enu_m = [-10.0, 10.0]"), "$.vehicles[0].start_enu_m"),
+        ((b"sysid = 1\n", b""), "sysid"),
+    ],
+)
+def test_bad_value_names_the_key(edit: tuple[bytes, bytes], key: str) -> None:
+    text = MINIMAL.replace(*edit)
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(text, source="bad.toml")
+    assert "bad.toml" in str(info.value) and key in str(info.value)
+
+
+def test_duplicate_ids_are_named() -> None:
+    vehicle = MINIMAL.split(b"[[vehicles]]")[1]
+    with pytest.raises(ScenarioError, match=r"\$\.vehicles\[1\]\.id: duplicate vehicle id 'a'.*\$\.vehicles\[1\]\.sysid"):
+        parse_scenario(MINIMAL + b"[[vehicles]]" + vehicle)
+
+
+def test_range_sensor_needs_range_noise() -> None:
+    with pytest.raises(ScenarioError, match=r"\$\.sensor\.range_std_m"):
+        parse_scenario(MINIMAL + b'[sensor]\nkind = "range_bearing"\nrange_std_m = 0.0\n')
+
+
+def test_not_toml_and_unknown_name_and_missing_file(tmp_path: Path) -> None:
+    with pytest.raises(ScenarioError, match="not valid TOML"):
+        parse_scenario(b"name = ", source="x.toml")
+    with pytest.raises(ScenarioError, match="unknown scenario 'nope'.*wang2012_urban"):
+        load_scenario("nope")
+    with pytest.raises(ScenarioError, match="cannot read"):
+        load_scenario(tmp_path / "missing.toml")
+
+
+def test_load_from_path_round_trips(tmp_path: Path) -> None:
+    path = tmp_path / "mine.toml"
+    path.write_bytes(MINIMAL)
+    s = load_scenario(path)
+    assert s.name == "tiny"
+    assert msgspec.json.decode(msgspec.json.encode(s), type=Scenario) == s
