@@ -16,10 +16,11 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	@touch $(STAMP)
 
-# Until the daemon lands (`gcs demo`), the demo shows and checks the default scenario.
+# Until the daemon lands (`gcs demo`), the demo checks the default scenario and runs a
+# short target-estimation benchmark (DUIF vs FilterPy's UKF against the PCRLB).
 demo: $(STAMP)
-	$(BIN)/gcs scenario show
 	$(BIN)/gcs scenario check
+	$(BIN)/gcs bench estimation --runs 20 --table-runs 2
 
 test: $(STAMP)
 	$(BIN)/python -m pytest

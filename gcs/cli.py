@@ -16,6 +16,7 @@ from collections.abc import Callable, Sequence
 import msgspec
 
 from gcs import __version__
+from gcs.bench.cli import add_bench
 from gcs.config import ScenarioError
 from gcs.scenarios import DEFAULT_SCENARIO, list_scenarios, load_scenario
 
@@ -53,7 +54,7 @@ def _add_scenario(sub: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=_cmd_scenario)
 
 
-SUBCOMMANDS: tuple[Callable[[argparse._SubParsersAction], None], ...] = (_add_scenario,)
+SUBCOMMANDS: tuple[Callable[[argparse._SubParsersAction], None], ...] = (_add_scenario, add_bench)
 """Registration functions, one per subcommand, in the order ``--help`` lists them."""
 
 

@@ -1,0 +1,299 @@
+"""Unscented information filter (UIF) and its distributed fusion (DUIF), wang2012 section 3.
+
+Information form (eq. 7): ``y = P^-1 x``, ``Y = P^-1``.
+
+Prediction (eq. 9, 11, 16). The sigma points ``chi^j`` of the posterior are passed
+through the motion model, ``x^- = sum_j W_m^j chi^j``, ``P^- = sum_j W_c^j
+(chi^j - x^-)(chi^j - x^-)^T + Q``, then ``Y^- = (P^-)^-1`` and ``y^- = Y^- x^-``.
+The target models are linear (:mod:`gcs.core.models.motion`), for which that
+transform equals ``F x`` and ``F P F^T + Q`` exactly, so the closed form is used.
+
+Measurement contribution (eq. 12-13, Lee 2008/2009). Sigma points are drawn from
+the prediction; with ``Z^j = H(chi^j)``, ``z^- = sum_j W_m^j Z^j`` and the
+cross-covariance ``P_xz = sum_j W_c^j (chi^j - x^-)(Z^j - z^-)^T``, the
+statistically linearised measurement matrix is
+
+.. math::
+    H^p = (Y^- P_{xz})^T = P_{xz}^T Y^-
+
+and the measurement is approximated by ``z ~ H^p x + u`` with
+``u = z^- - H^p x^-`` (eq. 12). Its information contribution is
+
+.. math::
+    i = (H^p)^T R^{-1} \\big(\\nu + H^p x^-\\big), \\quad I = (H^p)^T R^{-1} H^p, \\quad
+    \\nu = z - z^-                                                          \\qquad (13)
+
+with the azimuth part of ``nu`` wrapped.
+
+Computation. With ``P^- = L L^T`` (Cholesky) the sigma-point offsets are
+``chi^j - x^- = +-c L e_j`` with ``c = sqrt(n + lambda)``, and the centre point has
+no offset, so ``P_xz = (c / (2 (n + lambda))) L D`` where row j of ``D`` (n x m)
+is ``Z^j - Z^{n+j}``. Hence, exactly,
+
+.. math::
+    H^p = P_{xz}^T Y^- = \frac{1}{2c} D^T L^{-1}
+
+which needs a triangular inverse instead of ``(P^-)^{-1}``; and because the
+measurement sees only the position, only the position block of ``L`` matters
+(:func:`pseudo_measurement`). Fusion keeps the sums of eq. (14) in information
+form and evaluates eq. (15) with the matrix inversion lemma
+(:meth:`UnscentedInformationFilter.update`). Everything is batched over
+vehicles (and, for the planner, over candidates and the horizon).
+
+Fusion (eq. 14-15). Each vehicle's ``(i_v, I_v)`` depends only on its own
+measurement and the shared prior (every node holds the fused estimate, the
+hierarchical structure of the paper's Fig. 1); the centre sums them:
+``y = y^- + sum_v i_v``, ``Y = Y^- + sum_v I_v``, ``x = Y^-1 y``. A missed
+detection (occlusion, out of range) contributes nothing.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.linalg import lapack
+
+from gcs.core.filters.unscented import SigmaPointParameters
+from gcs.core.geometry import wrap_angle
+from gcs.core.models.motion import LinearMotionModel
+from gcs.core.models.sensor import SensorModel
+
+__all__ = ["GaussianEstimate", "InformationContribution", "UnscentedInformationFilter", "pseudo_measurement"]
+
+NS_PER_S = 1_000_000_000
+_SIGMA_DIRECTIONS = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
+"""Sigma-point directions in the position plane: centre, +e1, +e2, -e1, -e2."""
+
+
+class NotPositiveDefinite(ValueError):
+    """A covariance or information matrix lost positive definiteness."""
+
+
+def _cholesky(matrix: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Lower Cholesky factor; LAPACK directly for one matrix, numpy for a stack."""
+    if matrix.ndim == 2:
+        factor, info = lapack.dpotrf(matrix, lower=1, clean=1)
+        if info != 0:
+            raise NotPositiveDefinite(f"matrix is not positive definite (LAPACK dpotrf info={info})")
+        return factor
+    return np.linalg.cholesky(matrix)
+
+
+def _triangular_inverse(lower: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Inverse of a lower-triangular matrix (or a stack of them)."""
+    if lower.ndim == 2:
+        inverse, info = lapack.dtrtri(lower, lower=1)
+        if info != 0:
+            raise NotPositiveDefinite(f"singular triangular factor (LAPACK dtrtri info={info})")
+        return inverse
+    return np.linalg.inv(lower)
+
+
+@dataclass(frozen=True)
+class GaussianEstimate:
+    """A target estimate: mean (..., n), covariance (..., n, n), and its time (ns).
+
+    A leading axis may hold several estimates (the k+1..k+n predictions). The
+    factors of the position block are computed once, on first use.
+    """
+
+    mean: NDArray[np.float64]
+    cov: NDArray[np.float64]
+    stamp_ns: int
+
+    @cached_property
+    def _position_factors(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Closed-form lower Cholesky factor of the 2 x 2 position block and its inverse.
+
+        ``L = [[a, 0], [b, d]]`` with ``a = sqrt(P_xx)``, ``b = P_xy / a``,
+        ``d = sqrt(P_yy - b^2)``; ``L^-1 = [[1/a, 0], [-b/(a d), 1/d]]``.
+        """
+        cov = self.cov
+        if cov.ndim == 2:  # one estimate: plain floats beat array calls at this size
+            pxx, pxy, pyy = float(cov[0, 0]), float(cov[0, 1]), float(cov[1, 1])
+            if not pxx > 0.0:
+                raise NotPositiveDefinite(f"position variance is not positive: {pxx!r}")
+            a = math.sqrt(pxx)
+            b = pxy / a
+            rest = pyy - b * b
+            if not rest > 0.0:
+                raise NotPositiveDefinite("position covariance is not positive definite")
+            d = math.sqrt(rest)
+            return np.array([[a, 0.0], [b, d]]), np.array([[1.0 / a, 0.0], [-b / (a * d), 1.0 / d]])
+        factor = _cholesky(cov[..., :2, :2])
+        return factor, _triangular_inverse(factor)
+
+    @property
+    def position_cholesky(self) -> NDArray[np.float64]:
+        """Lower factor ``L_pp`` of the position block ``P_pp`` (the first two states)."""
+        return self._position_factors[0]
+
+    @property
+    def position_cholesky_inverse(self) -> NDArray[np.float64]:
+        """``L_pp^-1``."""
+        return self._position_factors[1]
+
+    @property
+    def information_matrix(self) -> NDArray[np.float64]:
+        """``Y = P^-1 = L^-T L^-1`` with ``P = L L^T`` (eq. 7)."""
+        inv = _triangular_inverse(_cholesky(self.cov))
+        return np.swapaxes(inv, -1, -2) @ inv
+
+    @property
+    def information_vector(self) -> NDArray[np.float64]:
+        """``y = P^-1 x`` (eq. 7)."""
+        return np.einsum("...nk,...k->...n", self.information_matrix, self.mean)
+
+
+@dataclass(frozen=True)
+class InformationContribution:
+    """Information contributions of one or more measurements (eq. 13), position block.
+
+    ``H^p`` has zero columns outside the target's position (see
+    :func:`pseudo_measurement`), so ``i`` and ``I`` are zero there too; only
+    their position parts are stored: ``vector`` (..., 2) and ``matrix``
+    (..., 2, 2). A leading axis holds one contribution per vehicle.
+    """
+
+    vector: NDArray[np.float64]
+    matrix: NDArray[np.float64]
+
+    def total(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Sum over every leading axis: ``(sum i, sum I)``, the terms of eq. (14)."""
+        if self.vector.ndim == 1:
+            return self.vector, self.matrix
+        if self.vector.ndim == 2:
+            return self.vector.sum(axis=0), self.matrix.sum(axis=0)
+        return self.vector.reshape(-1, 2).sum(axis=0), self.matrix.reshape(-1, 2, 2).sum(axis=0)
+
+    def full(self, n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``(i, I)`` in the whole n-dimensional state: shapes (..., n) and (..., n, n)."""
+        lead = self.vector.shape[:-1]
+        vector = np.zeros(lead + (n,))
+        matrix = np.zeros(lead + (n, n))
+        vector[..., :2] = self.vector
+        matrix[..., :2, :2] = self.matrix
+        return vector, matrix
+
+
+def pseudo_measurement(
+    estimate: GaussianEstimate,
+    sensor: SensorModel,
+    vehicle_xyz: NDArray[np.float64],
+    sigma: SigmaPointParameters,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Unscented predicted measurement ``z^-`` and the position columns of ``H^p`` (eq. 12).
+
+    The measurement depends on the target's position only, and the state lists
+    position first, so with a lower Cholesky factor only the sigma points
+    ``x^- +- c L e_j`` for j = 1, 2 move the position; every other sigma point
+    measures ``Z^0``. Those four points are ``p^- +- c L_pp e_j`` with
+    ``L_pp = chol(P_pp)`` the factor of the position block, and the velocity
+    (and acceleration) columns of ``H^p = (1/2c) D^T L^-1`` are zero. The result
+    is exactly that of the full-state transform, at a fraction of the cost.
+
+    Parameters
+    ----------
+    estimate : GaussianEstimate
+        Mean (..., n) and covariance (..., n, n) of the predicted target state.
+    vehicle_xyz : ndarray, shape (..., 3)
+        Vehicle positions, broadcast against the estimate's leading axes (for the
+        planner: candidates x horizon against a horizon of predictions).
+
+    Returns
+    -------
+    z_pred : ndarray, shape (..., m)
+    h_pos : ndarray, shape (..., m, 2)
+        Columns of ``H^p`` for the position (x, y); the others are zero.
+    """
+    n = estimate.mean.shape[-1]
+    wm, _, lam = sigma.weights(n)
+    c = math.sqrt(n + lam)
+    # Sigma points p^- + c L_pp e_j, p^- - c L_pp e_j (j = 1, 2) after the centre: (..., 5, 2).
+    points = estimate.mean[..., None, :2] + (c * _SIGMA_DIRECTIONS) @ estimate.position_cholesky.swapaxes(-1, -2)
+    z_sigma = sensor.measure(points, vehicle_xyz[..., None, :])  # (..., 5, m)
+    # Differences from the centre point Z^0, the azimuth wrapped: a chart that is seam-safe.
+    z_centre = z_sigma[..., 0, :]
+    spread = z_sigma[..., 1:, :] - z_centre[..., None, :]  # (..., 4, m)
+    a = sensor.azimuth_index
+    spread[..., a] = wrap_angle(spread[..., a])
+    # z^- = sum_j W_m^j Z^j = Z^0 + sum_{j>=1} W_m^j (Z^j - Z^0); W_m^j is equal for j >= 1.
+    z_pred = z_centre + wm[1:5] @ spread
+    d = spread[..., :2, :] - spread[..., 2:, :]  # (..., 2, m): Z^j - Z^{n+j}
+    h_pos = d.swapaxes(-1, -2) @ ((0.5 / c) * estimate.position_cholesky_inverse)
+    return z_pred, h_pos
+
+
+@dataclass(frozen=True)
+class UnscentedInformationFilter:
+    """Parameters of the UIF/DUIF: the motion model and the sigma-point scheme.
+
+    The filter holds no estimate; every method takes one and returns a new one.
+    """
+
+    motion: LinearMotionModel
+    sigma: SigmaPointParameters = SigmaPointParameters()
+
+    def predict(self, estimate: GaussianEstimate, stamp_ns: int) -> GaussianEstimate:
+        """Predict to ``stamp_ns`` (eq. 9, 11, 16); the same stamp returns the estimate itself."""
+        if stamp_ns == estimate.stamp_ns:
+            return estimate
+        if stamp_ns < estimate.stamp_ns:
+            raise ValueError(f"cannot predict backwards from {estimate.stamp_ns} ns to {stamp_ns} ns")
+        f, q = self.motion.matrices((stamp_ns - estimate.stamp_ns) / NS_PER_S)
+        return GaussianEstimate(f @ estimate.mean, f @ estimate.cov @ f.T + q, stamp_ns)
+
+    def contribution(
+        self,
+        prior: GaussianEstimate,
+        sensor: SensorModel,
+        z: NDArray[np.float64],
+        vehicle_xyz: NDArray[np.float64],
+    ) -> InformationContribution:
+        """Information contributions (eq. 12-13) of measurements ``z`` (..., m) taken from
+        ``vehicle_xyz`` (..., 3), each computed on its own against the shared prior."""
+        vehicle_xyz = np.asarray(vehicle_xyz, dtype=np.float64)
+        z_pred, h_pos = pseudo_measurement(prior, sensor, vehicle_xyz, self.sigma)
+        r_inv = sensor.noise_information(z_pred, prior.mean, vehicle_xyz)  # diagonal of R^-1
+        ht_rinv = h_pos.swapaxes(-1, -2) * r_inv[..., None, :]  # (..., 2, m)
+        nu = sensor.residual(z, z_pred)
+        nu += h_pos @ prior.mean[:2]  # nu + H^p x^-  (eq. 12-13)
+        return InformationContribution((ht_rinv @ nu[..., None])[..., 0], ht_rinv @ h_pos)
+
+    def update(self, prior: GaussianEstimate, contributions: Sequence[InformationContribution]) -> GaussianEstimate:
+        r"""Fuse contributions into the prior (eq. 14) and recover the state (eq. 15).
+
+        Eq. (14) sums the information: ``y = y^- + E^T i``, ``Y = Y^- + E^T A E`` with
+        ``i = sum_v i_v`` and ``A = sum_v I_v`` the position-block totals and
+        ``E = [I_2 0]`` the position selector. Eq. (15), ``x = Y^-1 y``, is evaluated
+        with the matrix inversion lemma, exact because ``A`` has rank <= 2:
+
+        .. math::
+            P = Y^{-1} = P^- - P^- E^T A (I_2 + P_{pp} A)^{-1} E P^-, \quad
+            x = Y^{-1} y = x^- + P E^T (i - A p^-)
+
+        so neither ``Y^-`` nor ``Y`` is ever inverted.
+        """
+        if not contributions:
+            return prior
+        i_total, a_total = contributions[0].total()
+        for c in contributions[1:]:
+            i_more, a_more = c.total()
+            i_total = i_total + i_more
+            a_total = a_total + a_more
+        p_cols = prior.cov[:, :2]  # P^- E^T, (n, 2)
+        (m00, m01), (m10, m11) = (prior.cov[:2, :2] @ a_total).tolist()
+        m00 += 1.0
+        m11 += 1.0
+        det = m00 * m11 - m01 * m10
+        m_inv = np.array([[m11 / det, -m01 / det], [-m10 / det, m00 / det]])  # (I_2 + P_pp A)^-1
+        gain = p_cols @ (a_total @ m_inv)
+        cov = prior.cov - gain @ p_cols.T
+        cov = 0.5 * (cov + cov.T)
+        mean = prior.mean + cov[:, :2] @ (i_total - a_total @ prior.mean[:2])
+        return GaussianEstimate(mean, cov, prior.stamp_ns)

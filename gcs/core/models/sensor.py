@@ -1,0 +1,199 @@
+"""Range / azimuth / elevation sensor of wang2012 eq. (3)-(4), and its subsets.
+
+For a vehicle at ``p_i = (x_i, y_i, z_i)`` and the ground target at
+``(x_t, y_t, z_t)`` (``z_t`` is the target's height, 0 on flat ground), with
+the relative position ``d = p_t - p_i = (dx, dy, dz)``:
+
+.. math::
+    \\rho = \\sqrt{dx^2 + dy^2 + dz^2}, \\quad
+    \\varphi = \\operatorname{atan2}(dy, dx), \\quad
+    \\theta = \\operatorname{atan2}\\big(dz, \\sqrt{dx^2 + dy^2}\\big)      \\qquad (4)
+
+Azimuth is from east, counter-clockwise, in (-pi, pi]; elevation is negative
+when the target is below the vehicle. Measurements are ``z = H(x) + r``,
+``r ~ N(0, R)`` with ``R`` diagonal (eq. 3). Azimuth residuals are wrapped
+(``wrap_angle``), so a target crossing the +-pi seam is handled.
+
+Noise: ``constant`` standard deviations, or zuo2021 eq. (2)
+``sigma^2 = sigma0^2 rho^2 / rho0^2`` beyond the reference range ``rho0``
+(constant inside it) for every component.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from gcs.core.geometry import wrap_angle
+
+__all__ = ["RANGE", "AZIMUTH", "ELEVATION", "SensorModel"]
+
+RANGE, AZIMUTH, ELEVATION = "range", "azimuth", "elevation"
+_KNOWN = (RANGE, AZIMUTH, ELEVATION)
+
+
+@dataclass(frozen=True)
+class SensorModel:
+    """Which components a sensor measures, their noise, and the target's height.
+
+    Parameters
+    ----------
+    components : tuple of str
+        A subsequence of ``("range", "azimuth", "elevation")``; azimuth is required.
+    std : tuple of float
+        Standard deviation of each component (metres for range, radians for angles);
+        for distance-dependent noise, the value at and inside ``reference_range_m``.
+    distance_dependent : bool
+        zuo2021 eq. (2) noise growth beyond ``reference_range_m``.
+    reference_range_m : float
+        ``rho0`` of zuo2021 eq. (2).
+    target_height_m : float
+        ENU height of the tracked point on the target (0 for a target on the ground).
+    """
+
+    components: tuple[str, ...]
+    std: tuple[float, ...]
+    distance_dependent: bool = False
+    reference_range_m: float = 1500.0
+    target_height_m: float = 0.0
+
+    def __post_init__(self) -> None:
+        order = [_KNOWN.index(c) for c in self.components if c in _KNOWN]
+        if len(order) != len(self.components) or order != sorted(set(order)):
+            raise ValueError(f"components must be an ordered subset of {_KNOWN}, got {self.components!r}")
+        if AZIMUTH not in self.components:
+            raise ValueError("a sensor must measure azimuth")
+        if len(self.std) != len(self.components) or not all(s > 0 and np.isfinite(s) for s in self.std):
+            raise ValueError(f"std must give one positive value per component, got {self.std!r}")
+        object.__setattr__(self, "_az", self.components.index(AZIMUTH))
+        object.__setattr__(self, "_var", np.asarray(self.std, dtype=np.float64) ** 2)
+        object.__setattr__(self, "_inv_var", 1.0 / self._var)  # type: ignore[attr-defined]
+
+    @classmethod
+    def range_bearing(cls, range_std_m: float, azimuth_std_rad: float, elevation_std_rad: float, **kw) -> SensorModel:
+        """The paper's 3-D sensor: range, azimuth and elevation."""
+        return cls((RANGE, AZIMUTH, ELEVATION), (range_std_m, azimuth_std_rad, elevation_std_rad), **kw)
+
+    @classmethod
+    def bearing_only(cls, azimuth_std_rad: float, elevation_std_rad: float | None = None, **kw) -> SensorModel:
+        """Angles only: azimuth, plus elevation when its noise is given."""
+        if elevation_std_rad is None:
+            return cls((AZIMUTH,), (azimuth_std_rad,), **kw)
+        return cls((AZIMUTH, ELEVATION), (azimuth_std_rad, elevation_std_rad), **kw)
+
+    @property
+    def dim(self) -> int:
+        """Number of measured components m."""
+        return len(self.components)
+
+    @property
+    def azimuth_index(self) -> int:
+        """Position of the azimuth in a measurement vector."""
+        return self._az  # type: ignore[attr-defined]
+
+    def _relative(self, target_xy: NDArray[np.float64], vehicle_xyz: NDArray[np.float64]):
+        dx = target_xy[..., 0] - vehicle_xyz[..., 0]
+        dy = target_xy[..., 1] - vehicle_xyz[..., 1]
+        dz = self.target_height_m - vehicle_xyz[..., 2]
+        return dx, dy, dz
+
+    def distance(self, target_xy: NDArray[np.float64], vehicle_xyz: NDArray[np.float64]) -> NDArray[np.float64]:
+        """3-D distance ``rho`` from vehicles (..., 3) to target points (..., >=2)."""
+        dx, dy, dz = self._relative(target_xy, vehicle_xyz)
+        return np.sqrt(dx * dx + dy * dy + dz * dz)
+
+    def measure(self, target_xy: NDArray[np.float64], vehicle_xyz: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Noise-free ``H(x)`` of eq. (4), vectorised.
+
+        Parameters
+        ----------
+        target_xy : ndarray, shape (..., >=2)
+            Target states or positions; only the first two entries (ENU x, y) are used.
+        vehicle_xyz : ndarray, shape (..., 3)
+            Vehicle ENU positions; broadcast against ``target_xy``'s leading axes.
+
+        Returns
+        -------
+        ndarray, shape (..., m)
+        """
+        d = target_xy[..., :2] - vehicle_xyz[..., :2]
+        dx, dy = d[..., 0], d[..., 1]
+        dz = self.target_height_m - vehicle_xyz[..., 2]
+        horizontal = np.hypot(dx, dy)
+        out = np.empty(horizontal.shape + (self.dim,))
+        for k, component in enumerate(self.components):
+            if component == RANGE:
+                out[..., k] = np.hypot(horizontal, dz)
+            elif component == AZIMUTH:
+                out[..., k] = np.arctan2(dy, dx)
+            else:
+                out[..., k] = np.arctan2(dz, horizontal)
+        return out
+
+    def jacobian(self, target_xy: NDArray[np.float64], vehicle_xyz: NDArray[np.float64], state_dim: int = 2) -> NDArray[np.float64]:
+        """Analytic ``dH/dx`` of eq. (4) with respect to the target state, shape (..., m, state_dim).
+
+        Only the position columns (0 and 1) are non-zero:
+        ``d rho/dx = dx/rho``, ``d phi/dx = -dy/rho_h^2``, ``d theta/dx = -dz dx/(rho^2 rho_h)``
+        and likewise for y, with ``rho_h`` the horizontal distance.
+        """
+        dx, dy, dz = self._relative(target_xy, vehicle_xyz)
+        h2 = dx * dx + dy * dy
+        r2 = h2 + dz * dz
+        h = np.sqrt(h2)
+        rows = []
+        for component in self.components:
+            if component == RANGE:
+                r = np.sqrt(r2)
+                rows.append((dx / r, dy / r))
+            elif component == AZIMUTH:
+                rows.append((-dy / h2, dx / h2))
+            else:
+                rows.append((-dz * dx / (r2 * h), -dz * dy / (r2 * h)))
+        shape = np.broadcast(dx, dy).shape
+        jac = np.zeros(shape + (self.dim, state_dim))
+        for row, (gx, gy) in enumerate(rows):
+            jac[..., row, 0] = gx
+            jac[..., row, 1] = gy
+        return jac
+
+    def noise_variance(
+        self,
+        z_pred: NDArray[np.float64] | None = None,
+        target_xy: NDArray[np.float64] | None = None,
+        vehicle_xyz: NDArray[np.float64] | None = None,
+    ) -> NDArray[np.float64]:
+        """Diagonal of ``R`` (m,), or (..., m) for distance-dependent noise.
+
+        Distance-dependent noise (zuo2021 eq. 2) is evaluated at the predicted
+        range: the range component of ``z_pred`` when measured, otherwise the
+        distance from ``vehicle_xyz`` to ``target_xy``.
+        """
+        var = self._var  # type: ignore[attr-defined]
+        if not self.distance_dependent:
+            return var
+        if z_pred is not None and self.components[0] == RANGE:
+            ranges = z_pred[..., 0]
+        else:
+            ranges = self.distance(target_xy, vehicle_xyz)
+        scale = np.maximum(np.asarray(ranges, dtype=np.float64) / self.reference_range_m, 1.0) ** 2
+        return var * scale[..., None]
+
+    def noise_information(
+        self,
+        z_pred: NDArray[np.float64] | None = None,
+        target_xy: NDArray[np.float64] | None = None,
+        vehicle_xyz: NDArray[np.float64] | None = None,
+    ) -> NDArray[np.float64]:
+        """Diagonal of ``R^-1``; same arguments as :meth:`noise_variance`."""
+        if not self.distance_dependent:
+            return self._inv_var  # type: ignore[attr-defined]
+        return 1.0 / self.noise_variance(z_pred, target_xy, vehicle_xyz)
+
+    def residual(self, z: NDArray[np.float64], z_pred: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``z - z_pred`` with the azimuth component wrapped to (-pi, pi]."""
+        diff = np.asarray(z - z_pred, dtype=np.float64)
+        diff[..., self.azimuth_index] = wrap_angle(diff[..., self.azimuth_index])
+        return diff
