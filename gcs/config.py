@@ -166,6 +166,10 @@ class PlannerConfig(_Config):
     u_max_rad_s: Positive = 0.1
     w_u: NonNegative = 10.0
     w_res: NonNegative = 1e6
+    control_weight: NonNegative = 0.01
+    """Scale of J_u against J_in (ours: the paper adds them unscaled)."""
+    standoff_weight: NonNegative = 10.0
+    """Numerator of the stand-off fitness f_dis of eq. (29) (ours)."""
 
 
 class Scenario(_Config, kw_only=True):

@@ -10,6 +10,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from gcs.bench import PLANNERS
+
 
 def _progress(message: str) -> None:
     print(f"  ... {message}", file=sys.stderr, flush=True)
@@ -25,6 +27,25 @@ def _cmd_estimation(args: argparse.Namespace) -> int:
     if args.json:
         estimation.write_json(report, args.json)
         print(f"wrote {args.json}")
+    return 0
+
+
+def _cmd_urban(args: argparse.Namespace) -> int:
+    from gcs.bench import urban_report
+    from gcs.scenarios import load_scenario
+
+    scenario = load_scenario(args.scenario)
+    report, records = urban_report.run_benchmark(
+        scenario, runs=args.runs, seed=args.seed, planners=args.planner or PLANNERS, duration_s=args.duration,
+        motion=args.motion, scaling=() if args.no_scaling else (3, 6, 10, 20), progress=_progress,
+    )
+    print(urban_report.format_report(report))
+    if args.json:
+        urban_report.write_json(report, args.json)
+        print(f"wrote {args.json}")
+    if args.plots:
+        for path in urban_report.write_plots(report, records, scenario, args.plots):
+            print(f"wrote {path}")
     return 0
 
 
@@ -54,3 +75,23 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     est.add_argument("--seed", type=int, default=2012, help="seed of the generated data (default 2012)")
     est.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     est.set_defaults(handler=_cmd_estimation)
+
+    urb = benches.add_parser(
+        "urban",
+        help="wang2012 section 5 closed loop: observations, RMSE and decision time per planner",
+        description="Runs the closed loop (truth target, occluded sensing, DUIF, k+n prediction, planning, "
+                    "UAVs flying the first command) on paired seeds for each planner and prints Table 1 "
+                    "of wang2012 with RMSE and decision times, plus GA timing for 3, 6, 10 and 20 UAVs.",
+    )
+    urb.add_argument("--scenario", default="wang2012_urban", help="shipped name or .toml path (default wang2012_urban)")
+    urb.add_argument("--runs", type=_positive_int, default=10, help="paired runs per planner (default 10)")
+    urb.add_argument("--seed", type=int, default=2012, help="seed of the first run (default 2012)")
+    urb.add_argument("--planner", action="append", choices=PLANNERS,
+                     help=f"planner to run (repeatable; default all: {', '.join(PLANNERS)})")
+    urb.add_argument("--duration", type=float, help="seconds of simulation per run (default: the scenario's)")
+    urb.add_argument("--motion", choices=["white_noise_acceleration", "streets"],
+                     help="target motion (default: the scenario's)")
+    urb.add_argument("--no-scaling", action="store_true", help="skip the 3/6/10/20-UAV GA timing table")
+    urb.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
+    urb.add_argument("--plots", type=Path, metavar="DIR", help="write PNG plots into DIR")
+    urb.set_defaults(handler=_cmd_urban, planner=None)

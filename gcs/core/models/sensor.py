@@ -159,6 +159,47 @@ class SensorModel:
             jac[..., row, 1] = gy
         return jac
 
+    def fisher_information_xy(
+        self, target_xy: NDArray[np.float64], vehicle_xyz: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Fisher information ``H^T R^-1 H`` of one detection about the target's (x, y), closed form.
+
+        With ``u`` the unit horizontal line of sight and ``v`` its left normal,
+        ``H^T R^-1 H = alpha u u^T + beta v v^T`` where
+
+        .. math::
+            \\alpha = \\frac{\\rho_h^2}{\\rho^2 \\sigma_\\rho^2} + \\frac{dz^2}{\\rho^4 \\sigma_\\theta^2},
+            \\quad \\beta = \\frac{1}{\\rho_h^2 \\sigma_\\varphi^2}
+
+        (terms of components the sensor does not measure drop out; noise at the
+        true range for distance-dependent sensors).
+
+        Returns
+        -------
+        xx, xy, yy : ndarray, each shape (...)
+            Entries of the symmetric 2 x 2 matrix.
+        """
+        dx, dy, dz = self._relative(target_xy, vehicle_xyz)
+        h2 = dx * dx + dy * dy
+        r2 = h2 + dz * dz
+        inv_var = self.noise_information(None, target_xy, vehicle_xyz)
+        along = np.zeros(np.shape(h2))
+        across = np.zeros(np.shape(h2))
+        for k, component in enumerate(self.components):
+            if component == RANGE:
+                along = along + inv_var[..., k] * h2 / r2
+            elif component == AZIMUTH:
+                across = across + inv_var[..., k] / h2
+            else:
+                along = along + inv_var[..., k] * dz * dz / (r2 * r2)
+        # alpha u u^T + beta v v^T with u = (dx, dy)/rho_h, v = (-dy, dx)/rho_h
+        along_h = along / h2
+        across_h = across / h2
+        xx = along_h * dx * dx + across_h * dy * dy
+        yy = along_h * dy * dy + across_h * dx * dx
+        xy = (along_h - across_h) * dx * dy
+        return xx, xy, yy
+
     def noise_variance(
         self,
         z_pred: NDArray[np.float64] | None = None,

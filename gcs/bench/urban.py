@@ -1,0 +1,217 @@
+"""The wang2012 section 5 experiment as a closed loop in one process, with no I/O.
+
+Each 1 s step (the ASRTP loop): the truth target moves; the UAVs fly the
+command chosen at the previous step (eq. 1); every UAV senses the target unless
+a building blocks the line of sight or it is out of range
+(:mod:`sim_vehicles.truth.sensor`); the tracker fuses the detections (DUIF),
+predicts, plans (GA-RHC or a baseline) and returns the next commands
+(:func:`gcs.core.tracker.step`).
+
+Planners compared over paired runs (same seed: same city, same target path,
+same sensor noise draws):
+
+* ``ga_k5``: GA-RHC on the k+1..k+5 predictions (the paper's method);
+* ``ga_k0``: GA-RHC on the current estimate held over the horizon (the paper's k+0);
+* ``orbit``: stand-off orbit around the estimate;
+* ``pursuit``: fly straight at the estimate.
+
+Reported per planner (Table 1, Figs. 6-8): observations per UAV and by at least
+one UAV, fused position RMSE and its curve over time, and decision time (median
+and 99th percentile of the planner's wall-clock solve time).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import msgspec
+
+import numpy as np
+from numpy.typing import NDArray
+
+from gcs.bench import PLANNERS
+from gcs.config import Scenario
+from gcs.core.filters.uif import NS_PER_S, UnscentedInformationFilter
+from gcs.core.kinematics import VehicleState, step_vehicles
+from gcs.core.models.motion import motion_model
+from gcs.core.models.sensor import SensorModel
+from gcs.core.planners import GeneticPlanner, OrbitPlanner, PursuitPlanner, RhcWeights
+from gcs.core.tracker import Detection, StepInputs, TrackerConfig, TrackerState, step
+from gcs.core.world import VisibilityMaps, World
+from sim_vehicles.truth.sensor import TargetSensor
+from sim_vehicles.truth.target import StreetTarget, TargetState, WhiteNoiseTarget
+
+__all__ = ["PLANNERS", "RunRecord", "run_closed_loop", "sensor_models", "tracker_config", "with_vehicles"]
+
+
+@dataclass(frozen=True)
+class RunRecord:
+    """Everything one closed-loop run produced, step by step (K steps, V vehicles)."""
+
+    planner: str
+    seed: int
+    seen: NDArray[np.bool_]  # (K, V)
+    errors_m: NDArray[np.float64]  # (K,) position error, NaN before the track starts
+    decision_s: NDArray[np.float64]  # (K,) planner solve time, NaN when it did not run
+    vehicle_xy: NDArray[np.float64]  # (K, V, 2)
+    target_xy: NDArray[np.float64]  # (K, 2)
+    estimate_xy: NDArray[np.float64]  # (K, 2)
+
+    @property
+    def seen_any(self) -> int:
+        """Steps at which at least one UAV saw the target."""
+        return int(self.seen.any(axis=1).sum())
+
+    @property
+    def seen_per_uav(self) -> list[int]:
+        """Steps at which each UAV saw the target."""
+        return [int(n) for n in self.seen.sum(axis=0)]
+
+    @property
+    def rmse_m(self) -> float:
+        """Fused position RMSE over the steps with a track."""
+        valid = np.isfinite(self.errors_m)
+        return float(np.sqrt(np.mean(self.errors_m[valid] ** 2))) if valid.any() else float("nan")
+
+
+def sensor_models(scenario: Scenario) -> tuple[tuple[SensorModel, ...], tuple[TargetSensor, ...]]:
+    """The filter's sensor model and the truth sensor of every vehicle, from the scenario."""
+    models, truths = [], []
+    for vehicle in scenario.vehicles:
+        cfg = scenario.sensor_for(vehicle)
+        kw = {"distance_dependent": cfg.noise == "distance_dependent", "reference_range_m": cfg.reference_range_m}
+        if cfg.kind == "range_bearing":
+            components = ("range", "azimuth", "elevation")
+            std = (cfg.range_std_m, cfg.azimuth_std_rad, cfg.elevation_std_rad)
+        else:
+            components = ("azimuth",) if cfg.elevation_std_rad is None else ("azimuth", "elevation")
+            std = (cfg.azimuth_std_rad,) if cfg.elevation_std_rad is None else (cfg.azimuth_std_rad, cfg.elevation_std_rad)
+        models.append(SensorModel(components, std, **kw))
+        truths.append(TargetSensor(components, std, cfg.max_range_m, **kw))
+    return tuple(models), tuple(truths)
+
+
+def _planner(name: str, scenario: Scenario, generations: int | None, stall: int | None):
+    cfg = scenario.planner
+    if name in ("ga_k5", "ga_k0"):
+        return GeneticPlanner(population=cfg.population, generations=generations or cfg.generations,
+                              deadline_s=cfg.deadline_s, stall=stall)
+    if name == "orbit":
+        return OrbitPlanner()
+    if name == "pursuit":
+        return PursuitPlanner()
+    raise ValueError(f"unknown planner {name!r}; expected one of {', '.join(PLANNERS)}")
+
+
+def tracker_config(scenario: Scenario, world: World, planner: str, generations: int | None = None,
+                   stall: int | None = None) -> TrackerConfig:
+    """The tracker for a scenario and one of :data:`PLANNERS`."""
+    cfg = scenario.planner
+    sensors, _ = sensor_models(scenario)
+    altitude = min(v.altitude_m for v in scenario.vehicles)  # wang2012: visibility at the lowest UAV's height
+    max_range = min(scenario.sensor_for(v).max_range_m for v in scenario.vehicles)
+    weights = RhcWeights(w_vis=cfg.w_vis, u_max_rad_s=cfg.u_max_rad_s, w_u=cfg.w_u, w_res=cfg.w_res,
+                         standoff_m=cfg.standoff_m, control_weight=cfg.control_weight,
+                         standoff_weight=cfg.standoff_weight)
+    return TrackerConfig(
+        uif=UnscentedInformationFilter(motion_model(scenario.estimator.model, scenario.estimator.accel_psd_m2_s3)),
+        sensors=sensors,
+        planner=_planner(planner, scenario, generations, stall),
+        max_turn_rate=np.array([v.max_turn_rate_rad_s for v in scenario.vehicles]),
+        step_s=scenario.time.step_s,
+        horizon_steps=cfg.horizon_steps,
+        weights=weights,
+        predict_ahead=planner != "ga_k0",
+        visibility=lambda points: VisibilityMaps(world.visibility_maps(points, altitude, max_range)),
+        restricted=world.in_restricted if len(world.airspace) else None,
+        initial_position_std_m=scenario.estimator.initial_position_std_m,
+        initial_velocity_std_mps=scenario.estimator.initial_velocity_std_mps,
+    )
+
+
+def _target_model(scenario: Scenario, world: World, motion: str):
+    width, height = world.size_m
+
+    def blocked(xy: NDArray[np.float64]) -> NDArray[np.bool_]:
+        outside = (xy[..., 0] < 0) | (xy[..., 0] > width) | (xy[..., 1] < 0) | (xy[..., 1] > height)
+        return outside | world.buildings.contains_xy(xy)
+
+    if motion == "streets":
+        if world.streets is None:
+            raise ValueError("a street-following target needs a generated city with streets")
+        return StreetTarget(world.streets.xs, world.streets.ys, speed_mps=min(10.0, scenario.target.max_speed_mps))
+    return WhiteNoiseTarget(scenario.target.accel_psd_m2_s3, scenario.target.max_speed_mps, blocked)
+
+
+def run_closed_loop(
+    scenario: Scenario,
+    world: World,
+    planner: str,
+    seed: int,
+    duration_s: float | None = None,
+    motion: str | None = None,
+    generations: int | None = None,
+    stall: int | None = None,
+    clock: Callable[[], float] | None = time.perf_counter,
+) -> RunRecord:
+    """One closed-loop run. ``clock`` times the planner (and enables its deadline); None for pure runs."""
+    motion = motion or scenario.target.motion
+    dt = scenario.time.step_s
+    steps = int(round((duration_s or scenario.time.duration_s) / dt))
+    truth_rng = np.random.default_rng([seed, 1])
+    sensor_rng = np.random.default_rng([seed, 2])
+    plan_rng = np.random.default_rng([seed, 3])
+    config = tracker_config(scenario, world, planner, generations, stall)
+    _, truth_sensors = sensor_models(scenario)
+    target_model = _target_model(scenario, world, motion)
+    start = np.asarray(scenario.target.start_enu_m, dtype=np.float64)
+    if isinstance(target_model, StreetTarget):
+        target = target_model.start(start, truth_rng)
+    else:
+        target = TargetState(start, np.asarray(scenario.target.start_velocity_mps, dtype=np.float64))
+    vehicles = VehicleState(
+        np.array([v.start_enu_m for v in scenario.vehicles], dtype=np.float64),
+        np.array([v.start_heading_rad for v in scenario.vehicles]),
+        np.array([v.speed_mps for v in scenario.vehicles]),
+        np.array([v.altitude_m for v in scenario.vehicles]),
+    )
+    state = TrackerState.start(len(vehicles))
+    count = len(vehicles)
+    seen = np.zeros((steps, count), dtype=bool)
+    errors, decisions = np.full(steps, np.nan), np.full(steps, np.nan)
+    vehicle_xy, target_xy, estimate_xy = np.zeros((steps, count, 2)), np.zeros((steps, 2)), np.full((steps, 2), np.nan)
+    for k in range(steps):
+        if k > 0:
+            target = target_model.step(target, dt, truth_rng)
+            vehicles = step_vehicles(vehicles, state.turn_rate, dt, config.max_turn_rate)
+        target_xyz = np.array([target.position[0], target.position[1], 0.0])
+        detections = []
+        for i, sensor in enumerate(truth_sensors):
+            obs = sensor.observe(target_xyz, vehicles.xyz[i : i + 1], world.line_of_sight, sensor_rng)
+            if obs.detected[0]:
+                detections.append(Detection(i, vehicles.xyz[i], obs.values[0]))
+                seen[k, i] = True
+        inputs = StepInputs(int(round(k * dt * NS_PER_S)), vehicles, tuple(detections))
+        state, _, diagnostics = step(config, state, inputs, plan_rng, now=clock)
+        if diagnostics.plan is not None and clock is not None:
+            decisions[k] = diagnostics.plan.elapsed_s
+        if state.estimate is not None:
+            estimate_xy[k] = state.estimate.mean[:2]
+            errors[k] = float(np.hypot(*(state.estimate.mean[:2] - target.position)))
+        vehicle_xy[k], target_xy[k] = vehicles.xy, target.position
+    return RunRecord(planner, seed, seen, errors, decisions, vehicle_xy, target_xy, estimate_xy)
+
+
+def with_vehicles(scenario: Scenario, count: int) -> Scenario:
+    """The scenario with ``count`` UAVs: the originals, then more spread on a ring around the target's start."""
+    vehicles = list(scenario.vehicles[:count])
+    cx, cy = scenario.target.start_enu_m
+    base = vehicles[0]
+    for i in range(len(vehicles), count):
+        angle = 2.0 * np.pi * i / count
+        vehicles.append(msgspec.structs.replace(base, id=f"uav{i + 1}", sysid=i + 1, altitude_m=base.altitude_m + 10.0 * i,
+                                start_enu_m=(cx + 400.0 * np.cos(angle), cy + 400.0 * np.sin(angle)),
+                                start_heading_rad=float(np.remainder(angle + np.pi, 2 * np.pi) - np.pi)))
+    return msgspec.structs.replace(scenario, vehicles=vehicles)

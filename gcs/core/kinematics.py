@@ -1,0 +1,99 @@
+"""Fixed-wing UAV kinematics of wang2012 eq. (1), rolled out for whole populations.
+
+At constant speed ``v`` and altitude, with heading ``psi`` (ENU, from east,
+counter-clockwise) and a turn-rate command ``u`` bounded by ``|u| <= eta_max``
+(eq. 1 with ``u^steer eta_max = u``; the paper fixes ``u^accel = 0``):
+
+.. math::
+    \\dot x = v \\cos\\psi, \\quad \\dot y = v \\sin\\psi, \\quad \\dot\\psi = u
+
+A command is held over a step of ``T`` seconds, so each step is an exact
+circular arc, whose chord has length ``v T sinc(u T / 2)`` along the mean
+heading ``psi + u T / 2``:
+
+.. math::
+    (x^+, y^+) = (x, y) + v T \\,\\frac{\\sin(uT/2)}{uT/2}
+        \\big(\\cos(\\psi + uT/2), \\sin(\\psi + uT/2)\\big), \\quad
+    \\psi^+ = \\psi + uT
+
+(equal to ``x + (v/u)(sin psi+ - sin psi)``, and to the straight line when
+``u = 0``, with no special case). Everything is vectorised over leading axes: a GA population
+x vehicles x horizon is one call.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from gcs.core.geometry import wrap_angle
+
+__all__ = ["VehicleState", "rollout", "step_vehicles"]
+
+
+@dataclass(frozen=True)
+class VehicleState:
+    """Planar states of V vehicles: ENU position (V, 2), heading (V,), speed (V,), altitude (V,)."""
+
+    xy: NDArray[np.float64]
+    heading: NDArray[np.float64]
+    speed: NDArray[np.float64]
+    altitude: NDArray[np.float64]
+
+    @property
+    def xyz(self) -> NDArray[np.float64]:
+        """ENU positions (V, 3)."""
+        return np.column_stack([self.xy, self.altitude])
+
+    def __len__(self) -> int:
+        return self.heading.shape[0]
+
+
+def rollout(
+    state: VehicleState,
+    turn_rates: NDArray[np.float64],
+    dt: float,
+    max_turn_rate: NDArray[np.float64] | float,
+    headings: bool = True,
+) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+    """Positions and headings after each of T held turn-rate commands.
+
+    Parameters
+    ----------
+    state : VehicleState
+        V vehicles now.
+    turn_rates : ndarray, shape (..., V, T)
+        Commanded turn rates, rad/s (leading axes: e.g. a GA population).
+        Clipped to ``+-max_turn_rate`` (eq. 27's bound).
+    dt : float
+        Step length, seconds.
+    max_turn_rate : float or ndarray (V,)
+        ``eta_max`` per vehicle, rad/s.
+    headings : bool
+        Also return the headings (planners that need only positions skip them).
+
+    Returns
+    -------
+    xy : ndarray, shape (..., V, T, 2)
+        ENU positions at the end of steps 1..T.
+    heading : ndarray, shape (..., V, T), or None
+        Headings at the end of steps 1..T, wrapped to (-pi, pi].
+    """
+    limit = np.asarray(max_turn_rate, dtype=np.float64)
+    if limit.ndim:
+        limit = limit[:, None]
+    turn = np.clip(turn_rates, -limit, limit) * dt
+    psi_end = state.heading[:, None] + np.cumsum(turn, axis=-1)  # (..., V, T)
+    psi_mid = psi_end - 0.5 * turn
+    # The arc's chord: length v T sinc(u T / 2), direction psi + u T / 2 (np.sinc(x) = sin(pi x)/(pi x)).
+    chord = (state.speed[:, None] * dt) * np.sinc(turn / (2.0 * np.pi))
+    xy = np.stack([np.cumsum(chord * np.cos(psi_mid), axis=-1), np.cumsum(chord * np.sin(psi_mid), axis=-1)], axis=-1)
+    return xy + state.xy[:, None, :], (wrap_angle(psi_end) if headings else None)
+
+
+def step_vehicles(state: VehicleState, turn_rates: NDArray[np.float64], dt: float, max_turn_rate) -> VehicleState:
+    """Fly every vehicle one step with its turn-rate command (V,)."""
+    xy, heading = rollout(state, np.asarray(turn_rates, dtype=np.float64)[:, None], dt, max_turn_rate)
+    return VehicleState(xy[:, 0], heading[:, 0], state.speed, state.altitude)

@@ -1,0 +1,72 @@
+"""Baseline planners on the same Problem -> solve -> Result interface.
+
+* :class:`OrbitPlanner`: each vehicle flies a stand-off circle of radius ``d_r``
+  around the current target estimate, vehicles spread evenly in phase; a
+  guidance law steers toward the circle's tangent with a radial correction.
+* :class:`PursuitPlanner`: each vehicle turns as hard as allowed toward the
+  current estimate and flies straight at it.
+
+The paper's own comparison, "k+0" (plan on the current estimate instead of the
+k+n prediction), is the GA on a problem whose predicted target points are all
+the current estimate; see :func:`gcs.core.tracker.planning_problem`.
+
+Both baselines hold their command over the horizon; only the first is flown.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from gcs.core.geometry import wrap_angle
+from gcs.core.planners.problem import PlanningProblem, PlanResult, evaluate
+
+__all__ = ["OrbitPlanner", "PursuitPlanner"]
+
+
+def _hold(problem: PlanningProblem, desired_heading: NDArray[np.float64], gain: float) -> NDArray[np.float64]:
+    error = wrap_angle(desired_heading - problem.vehicles.heading)
+    rate = np.clip(gain * error, -problem.max_turn_rate, problem.max_turn_rate)
+    return np.repeat(rate[:, None], problem.horizon, axis=1)
+
+
+def _result(problem: PlanningProblem, controls: NDArray[np.float64], name: str) -> PlanResult:
+    scored = evaluate(problem, controls[None])
+    return PlanResult(True, controls, float(scored.j_rhc[0]), float(scored.fitness[0]), 1, 0, 0.0,
+                      f"{name} guidance", int(scored.visible[0].sum()))
+
+
+@dataclass(frozen=True)
+class OrbitPlanner:
+    """Stand-off orbit of radius ``radius_m`` (default: the problem's ``d_r``), counter-clockwise."""
+
+    radius_m: float | None = None
+    gain: float = 1.0
+
+    def solve(self, problem: PlanningProblem, rng: np.random.Generator | None = None,
+              warm_start: NDArray[np.float64] | None = None, now: Callable[[], float] | None = None) -> PlanResult:
+        radius = self.radius_m or problem.weights.standoff_m
+        target = problem.target_means[0, :2]
+        offset = problem.vehicles.xy - target
+        distance = np.hypot(offset[:, 0], offset[:, 1])
+        bearing_from_target = np.arctan2(offset[:, 1], offset[:, 0])
+        # Tangent of a counter-clockwise circle, tilted inward when outside and outward when inside.
+        correction = np.arctan((distance - radius) / radius)
+        desired = bearing_from_target + np.pi / 2 + correction
+        return _result(problem, _hold(problem, desired, self.gain), "orbit")
+
+
+@dataclass(frozen=True)
+class PursuitPlanner:
+    """Straight-line pursuit of the current estimate."""
+
+    gain: float = 1.0
+
+    def solve(self, problem: PlanningProblem, rng: np.random.Generator | None = None,
+              warm_start: NDArray[np.float64] | None = None, now: Callable[[], float] | None = None) -> PlanResult:
+        to_target = problem.target_means[0, :2] - problem.vehicles.xy
+        desired = np.arctan2(to_target[:, 1], to_target[:, 0])
+        return _result(problem, _hold(problem, desired, self.gain), "pursuit")

@@ -1,0 +1,177 @@
+"""One decision step of the tracking loop (wang2012's ASRTP algorithm, section 4.3), pure.
+
+``step(config, state, inputs, rng, now)`` -> ``(new_state, turn_rates, diagnostics)``:
+
+1. fuse this step's detections into the target estimate with the DUIF
+   (eq. 14-15; Step 2 of ASRTP), initialising the track from the first
+   range-bearing detection when there is none yet;
+2. predict the target k+1..k+n (eq. 16-17; Step 3), or hold the current
+   estimate for the paper's "k+0" comparison;
+3. build the planning problem with the visibility regions of the predicted
+   points and solve it (Step 4);
+4. return the first command of the plan for every vehicle (Step 5), and the
+   plan itself to warm-start the next step.
+
+The daemon, replay and the benchmarks all call this function; only the source
+of the inputs differs (design.md section 2).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from gcs.core.filters.prediction import HorizonPrediction, predict_horizon
+from gcs.core.filters.uif import NS_PER_S, GaussianEstimate, UnscentedInformationFilter
+from gcs.core.kinematics import VehicleState
+from gcs.core.models.sensor import AZIMUTH, ELEVATION, RANGE, SensorModel
+from gcs.core.planners.problem import PlanningProblem, PlanResult, RhcWeights, Visibility
+
+__all__ = ["Detection", "TrackerConfig", "TrackerState", "StepInputs", "StepDiagnostics", "step", "initial_estimate"]
+
+
+@dataclass(frozen=True)
+class Detection:
+    """One vehicle's detection: its index in the roster, its position (3,) and the measurement (m,)."""
+
+    vehicle: int
+    vehicle_xyz: NDArray[np.float64]
+    values: NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class StepInputs:
+    """What one decision step sees: the time, the vehicles now, and this step's detections."""
+
+    stamp_ns: int
+    vehicles: VehicleState
+    detections: Sequence[Detection] = ()
+
+
+@dataclass(frozen=True)
+class TrackerConfig:
+    """Parameters of the loop; holds no estimate.
+
+    ``visibility`` builds the visibility regions of the predicted target
+    points (T, 2) (None: open field); ``restricted`` tests restricted airspace.
+    ``predict_ahead = False`` plans on the current estimate (the paper's k+0).
+    """
+
+    uif: UnscentedInformationFilter
+    sensors: tuple[SensorModel, ...]
+    planner: object
+    max_turn_rate: NDArray[np.float64]
+    step_s: float = 1.0
+    horizon_steps: int = 5
+    weights: RhcWeights = RhcWeights()
+    predict_ahead: bool = True
+    visibility: Callable[[NDArray[np.float64]], Visibility] | None = None
+    restricted: Callable[[NDArray[np.float64]], NDArray[np.bool_]] | None = None
+    initial_position_std_m: float = 50.0
+    initial_velocity_std_mps: float = 10.0
+
+
+@dataclass(frozen=True)
+class TrackerState:
+    """The loop's memory: the target estimate, the last plan (V, T) and the commands being flown."""
+
+    estimate: GaussianEstimate | None
+    plan: NDArray[np.float64] | None
+    turn_rate: NDArray[np.float64]
+
+    @classmethod
+    def start(cls, vehicles: int) -> TrackerState:
+        """No track yet, every vehicle flying straight."""
+        return cls(None, None, np.zeros(vehicles))
+
+
+@dataclass(frozen=True)
+class StepDiagnostics:
+    """What happened in a step, for status, plots and benchmarks."""
+
+    estimate: GaussianEstimate | None
+    prediction: HorizonPrediction | None
+    plan: PlanResult | None
+    detections: int
+    extras: dict = field(default_factory=dict)
+
+
+def initial_estimate(detection: Detection, sensor: SensorModel, stamp_ns: int, position_std_m: float,
+                     velocity_std_mps: float, state_dim: int) -> GaussianEstimate:
+    """A track from one range/azimuth detection: the inverted measurement, velocity unknown (zero)."""
+    if RANGE not in sensor.components:
+        raise ValueError("initialising from a single detection needs a range measurement")
+    values = dict(zip(sensor.components, detection.values))
+    elevation = values.get(ELEVATION)
+    if elevation is not None:
+        ground = values[RANGE] * np.cos(elevation)
+    else:
+        ground = np.sqrt(max(values[RANGE] ** 2 - (detection.vehicle_xyz[2] - sensor.target_height_m) ** 2, 0.0))
+    azimuth = values[AZIMUTH]
+    mean = np.zeros(state_dim)
+    mean[:2] = detection.vehicle_xyz[:2] + ground * np.array([np.cos(azimuth), np.sin(azimuth)])
+    variances = np.full(state_dim, velocity_std_mps**2)
+    variances[:2] = position_std_m**2
+    return GaussianEstimate(mean, np.diag(variances), stamp_ns)
+
+
+def _fuse(config: TrackerConfig, estimate: GaussianEstimate | None, inputs: StepInputs) -> GaussianEstimate | None:
+    if estimate is None:
+        if not inputs.detections:
+            return None
+        first = inputs.detections[0]
+        estimate = initial_estimate(first, config.sensors[first.vehicle], inputs.stamp_ns,
+                                    config.initial_position_std_m, config.initial_velocity_std_mps,
+                                    config.uif.motion.dim)
+    prior = config.uif.predict(estimate, inputs.stamp_ns)
+    groups: dict[SensorModel, list[Detection]] = {}
+    for detection in inputs.detections:
+        groups.setdefault(config.sensors[detection.vehicle], []).append(detection)
+    contributions = [
+        config.uif.contribution(prior, sensor, np.stack([d.values for d in group]), np.stack([d.vehicle_xyz for d in group]))
+        for sensor, group in groups.items()
+    ]
+    return config.uif.update(prior, contributions)
+
+
+def _prediction(config: TrackerConfig, estimate: GaussianEstimate) -> HorizonPrediction:
+    if config.predict_ahead:
+        return predict_horizon(config.uif, estimate, config.step_s, config.horizon_steps)
+    step_ns = int(round(config.step_s * NS_PER_S))
+    stamps = tuple(estimate.stamp_ns + (j + 1) * step_ns for j in range(config.horizon_steps))
+    held = GaussianEstimate(np.tile(estimate.mean, (config.horizon_steps, 1)),
+                            np.tile(estimate.cov, (config.horizon_steps, 1, 1)), stamps[0])
+    return HorizonPrediction(stamps, held)
+
+
+def step(
+    config: TrackerConfig,
+    state: TrackerState,
+    inputs: StepInputs,
+    rng: np.random.Generator,
+    now: Callable[[], float] | None = None,
+) -> tuple[TrackerState, NDArray[np.float64], StepDiagnostics]:
+    """One ASRTP step; see the module docstring. Returns the turn rates (V,) to fly now."""
+    estimate = _fuse(config, state.estimate, inputs)
+    if estimate is None:  # nothing seen yet: hold course
+        return replace(state, estimate=None), state.turn_rate, StepDiagnostics(None, None, None, 0)
+    prediction = _prediction(config, estimate)
+    problem = PlanningProblem(
+        vehicles=inputs.vehicles,
+        current_turn_rate=state.turn_rate,
+        max_turn_rate=config.max_turn_rate,
+        step_s=config.step_s,
+        target_means=prediction.states.mean,
+        target_covs=prediction.states.cov,
+        sensors=config.sensors,
+        visibility=None if config.visibility is None else config.visibility(prediction.positions),
+        restricted=config.restricted,
+        weights=config.weights,
+    )
+    plan = config.planner.solve(problem, rng, warm_start=state.plan, now=now)
+    turn_rate = plan.controls[:, 0].copy()
+    new_state = TrackerState(estimate, plan.controls, turn_rate)
+    return new_state, turn_rate, StepDiagnostics(estimate, prediction, plan, len(inputs.detections))

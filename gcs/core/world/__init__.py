@@ -1,0 +1,95 @@
+"""The city: box buildings, line of sight, visibility regions and restricted airspace.
+
+wang2012 section 2.5 (environment model) and section 5 (the 3 km x 3 km,
+400-building city). Frames: local ENU metres, x east, y north, z up, the
+ground at z = 0, a generated city's south-west corner at (0, 0).
+
+* :class:`Buildings`, :func:`generate_city`, :func:`buildings_from_geojson`,
+  :class:`StreetGrid` -- :mod:`gcs.core.world.buildings`
+* :func:`line_of_sight` (exact), :class:`VisibilityMap` / :func:`visibility_maps`
+  (X^{hV}, fast and identical), :class:`VisibilityMaps` (several at once) --
+  :mod:`gcs.core.world.los`
+* :class:`RestrictedAirspace` (eq. 5) -- :mod:`gcs.core.world.airspace`
+* :class:`World` bundles them; ``gcs.world_loader.build_world`` makes one
+  from a scenario.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from gcs.core.world.airspace import RestrictedAirspace
+from gcs.core.world.buildings import Buildings, StreetGrid, buildings_from_geojson, generate_city
+from gcs.core.world.los import (
+    DEFAULT_BINS,
+    VisibilityMap,
+    VisibilityMaps,
+    line_of_sight,
+    visibility_map,
+    visibility_maps,
+)
+
+__all__ = [
+    "World",
+    "Buildings",
+    "StreetGrid",
+    "RestrictedAirspace",
+    "VisibilityMap",
+    "VisibilityMaps",
+    "DEFAULT_BINS",
+    "generate_city",
+    "buildings_from_geojson",
+    "line_of_sight",
+    "visibility_map",
+    "visibility_maps",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class World:
+    """Everything the planner and the simulator know about the environment.
+
+    Attributes
+    ----------
+    buildings : Buildings
+    airspace : RestrictedAirspace
+    streets : StreetGrid or None
+        The street grid of a generated city; None for GeoJSON or empty cities.
+    size_m : tuple of float
+        Width (east) and depth (north) of the city rectangle, metres, from (0, 0).
+    """
+
+    buildings: Buildings
+    airspace: RestrictedAirspace
+    streets: StreetGrid | None
+    size_m: tuple[float, float]
+
+    @classmethod
+    def empty(cls, size_m: tuple[float, float] = (3000.0, 3000.0)) -> World:
+        """Open ground: no buildings, no restricted airspace."""
+        return cls(Buildings.empty(), RestrictedAirspace.empty(), None, (float(size_m[0]), float(size_m[1])))
+
+    def line_of_sight(self, a_xyz: ArrayLike, b_xyz: ArrayLike) -> NDArray[np.bool_]:
+        """:func:`line_of_sight` against this world's buildings; (..., 3) x (..., 3) -> (...)."""
+        return line_of_sight(self.buildings, a_xyz, b_xyz)
+
+    def visibility_map(
+        self, target_xy: ArrayLike, altitude_m: float, max_range_m: float,
+        target_height_m: float = 0.0, bins: int = DEFAULT_BINS,
+    ) -> VisibilityMap:
+        """:func:`visibility_map` of one target point at one altitude."""
+        return visibility_map(self.buildings, target_xy, altitude_m, max_range_m, target_height_m, bins)
+
+    def visibility_maps(
+        self, target_xys: ArrayLike, altitude_m: float, max_range_m: float,
+        target_height_m: float = 0.0, bins: int = DEFAULT_BINS,
+    ) -> tuple[VisibilityMap, ...]:
+        """One :class:`VisibilityMap` per predicted target point ``(n, 2)``."""
+        return visibility_maps(self.buildings, target_xys, altitude_m, max_range_m, target_height_m, bins)
+
+    def in_restricted(self, xyz: ArrayLike) -> NDArray[np.bool_]:
+        """Whether points (..., 3) are in restricted airspace (wang2012 eq. 5, 26)."""
+        return self.airspace.inside(xyz)

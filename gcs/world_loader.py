@@ -1,0 +1,129 @@
+"""Build the :class:`gcs.core.world.World` a scenario describes (reads files; not part of the core).
+
+``[city]``
+    ``kind = "generated"``: :func:`gcs.core.world.generate_city` with
+    ``numpy.random.default_rng(city.seed)`` and the table's size, count, street
+    width and height range. ``kind = "geojson"``: footprints from
+    ``city.geojson`` (a path relative to ``base_dir``, normally the scenario
+    file's folder), roof heights from the ``city.height_property`` property.
+    ``kind = "empty"``: no buildings.
+
+GeoJSON coordinates
+    By default (RFC 7946) coordinates are WGS84 ``[lon_deg, lat_deg]`` and are
+    converted to the scenario's local ENU frame
+    (:class:`gcs.core.geometry.LocalFrame` at ``[origin]``). A FeatureCollection
+    with the top-level member ``"gcs_frame": "enu"`` instead holds ENU metres
+    ``[x_east, y_north]`` directly (``"gcs_frame": "wgs84"`` states the default).
+    Only outer rings are used; holes are ignored (see
+    :func:`gcs.core.world.buildings_from_geojson`).
+
+``[[restricted]]``
+    Each zone becomes one polygon prism of :class:`gcs.core.world.RestrictedAirspace`.
+
+Every problem raises :class:`gcs.config.ScenarioError` naming the file.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from gcs.config import CityConfig, Origin, RestrictedAirspace as AirspaceConfig, Scenario, ScenarioError
+from gcs.core.geometry import LocalFrame
+from gcs.core.world import Buildings, RestrictedAirspace, World, buildings_from_geojson, generate_city
+
+__all__ = ["build_world", "load_city_geojson", "airspace_from_config"]
+
+ToEnu = Callable[[NDArray[np.float64], NDArray[np.float64]], tuple[NDArray[np.float64], NDArray[np.float64]]]
+"""``to_enu(lon_deg, lat_deg) -> (x_m, y_m)`` on arrays."""
+
+GCS_FRAME_KEY = "gcs_frame"
+"""Top-level FeatureCollection member naming the coordinate frame: "enu" or "wgs84"."""
+
+
+def build_world(scenario: Scenario, base_dir: Path | None = None) -> World:
+    """The buildings, streets and restricted airspace of a scenario.
+
+    Parameters
+    ----------
+    scenario : gcs.config.Scenario
+    base_dir : pathlib.Path, optional
+        Folder that relative paths in the scenario (``city.geojson``) are
+        resolved against; the current directory when omitted.
+
+    Raises
+    ------
+    gcs.config.ScenarioError
+        Unreadable or invalid GeoJSON, impossible city parameters or bad zones.
+    """
+    city = scenario.city
+    streets = None
+    if city.kind == "generated":
+        try:
+            buildings, streets = generate_city(
+                np.random.default_rng(city.seed), size_m=city.size_m, buildings=city.buildings,
+                street_width_m=city.street_width_m, min_height_m=city.min_height_m, max_height_m=city.max_height_m,
+            )
+        except ValueError as exc:
+            raise ScenarioError(f"{scenario.name}: $.city: {exc}") from None
+    elif city.kind == "geojson":
+        buildings = load_city_geojson(city, scenario.origin, base_dir)
+    else:
+        buildings = Buildings.empty()
+    airspace = airspace_from_config(scenario.restricted, source=scenario.name)
+    return World(buildings, airspace, streets, (float(city.size_m[0]), float(city.size_m[1])))
+
+
+def load_city_geojson(city: CityConfig, origin: Origin, base_dir: Path | None = None) -> Buildings:
+    """Read ``city.geojson`` (see the module docstring for the coordinate convention)."""
+    if not city.geojson:
+        raise ScenarioError("$.city.geojson: required when kind = 'geojson'")
+    path = Path(city.geojson)
+    if not path.is_absolute():
+        path = (base_dir if base_dir is not None else Path.cwd()) / path
+    try:
+        with path.open("rb") as handle:
+            document = json.load(handle)
+    except OSError as exc:
+        raise ScenarioError(f"{path}: cannot read GeoJSON city: {exc.strerror or exc}") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ScenarioError(f"{path}: not valid JSON: {exc}") from None
+    try:
+        to_enu = _converter(document, origin)
+        return buildings_from_geojson(document, height_property=city.height_property, to_enu=to_enu)
+    except ValueError as exc:
+        raise ScenarioError(f"{path}: {exc}") from None
+
+
+def _converter(document: Any, origin: Origin) -> ToEnu | None:
+    """None for ENU files, else a lon/lat -> ENU function about the scenario origin."""
+    frame = document.get(GCS_FRAME_KEY, "wgs84") if isinstance(document, dict) else "wgs84"
+    if frame == "enu":
+        return None
+    if frame != "wgs84":
+        raise ValueError(f"{GCS_FRAME_KEY!r} must be \"enu\" or \"wgs84\", got {frame!r}")
+    local = LocalFrame(origin.lat_deg, origin.lon_deg, origin.height_m)
+
+    def to_enu(lon_deg: NDArray[np.float64], lat_deg: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        if np.any(np.abs(lat_deg) > 90.0) or np.any(np.abs(lon_deg) > 180.0):
+            raise ValueError(f"coordinates are not [lon, lat] degrees (set \"{GCS_FRAME_KEY}\": \"enu\" for metres)")
+        enu = local.to_enu(lat_deg, lon_deg, origin.height_m)
+        return enu[..., 0], enu[..., 1]
+
+    return to_enu
+
+
+def airspace_from_config(zones: Sequence[AirspaceConfig], source: str = "scenario") -> RestrictedAirspace:
+    """Core airspace arrays from the scenario's ``[[restricted]]`` tables."""
+    try:
+        return RestrictedAirspace.from_zones(
+            [(zone.polygon_enu_m, zone.floor_m, zone.ceiling_m) for zone in zones],
+            names=[zone.name for zone in zones],
+        )
+    except ValueError as exc:
+        raise ScenarioError(f"{source}: $.restricted: {exc}") from None

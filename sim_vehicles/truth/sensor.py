@@ -1,0 +1,65 @@
+"""The vehicles' target sensor: range/azimuth/elevation with noise, range limit and occlusion.
+
+Measurement formulas are this module's own (design.md: the simulator never uses
+the filters' ``h(x)``). A detection needs the target within ``max_range_m`` and
+an unobstructed line of sight (``line_of_sight`` is the world's exact test);
+otherwise ``detected`` is False and no values are produced, exactly like a real
+gimballed sensor that loses the target behind a building (wang2012 section 2.4).
+
+Noise: constant standard deviations, or zuo2021 eq. (2), where every standard
+deviation grows in proportion to the range beyond ``reference_range_m``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["TargetSensor", "Observation"]
+
+
+@dataclass(frozen=True)
+class Observation:
+    """One step of sensing by V vehicles: ``detected`` (V,), ``values`` (V, m) (NaN where not detected)."""
+
+    detected: NDArray[np.bool_]
+    values: NDArray[np.float64]
+    components: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class TargetSensor:
+    """Truth sensor. ``std`` per component in ``components`` (range m, angles rad)."""
+
+    components: tuple[str, ...]
+    std: tuple[float, ...]
+    max_range_m: float
+    distance_dependent: bool = False
+    reference_range_m: float = 1500.0
+
+    def observe(
+        self,
+        target_xyz: NDArray[np.float64],
+        vehicle_xyz: NDArray[np.float64],
+        line_of_sight: Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.bool_]] | None,
+        rng: np.random.Generator,
+    ) -> Observation:
+        """Sense the target (3,) from each vehicle (V, 3)."""
+        east, north, up = (target_xyz - vehicle_xyz).T
+        ground = np.sqrt(east * east + north * north)
+        slant = np.sqrt(ground * ground + up * up)
+        exact = {"range": slant, "azimuth": np.arctan2(north, east), "elevation": np.arctan2(up, ground)}
+        clear = np.ones(len(vehicle_xyz), dtype=bool) if line_of_sight is None else line_of_sight(
+            np.broadcast_to(target_xyz, vehicle_xyz.shape), vehicle_xyz)
+        detected = clear & (slant <= self.max_range_m)
+        scale = np.maximum(slant / self.reference_range_m, 1.0) if self.distance_dependent else np.ones_like(slant)
+        noise = rng.standard_normal((len(vehicle_xyz), len(self.components))) * np.asarray(self.std) * scale[:, None]
+        values = np.column_stack([exact[c] for c in self.components]) + noise
+        if "azimuth" in self.components:
+            a = self.components.index("azimuth")
+            values[:, a] = np.mod(values[:, a] + np.pi, 2.0 * np.pi) - np.pi
+        values[~detected] = np.nan
+        return Observation(detected, values, self.components)

@@ -1,0 +1,29 @@
+"""`gcs bench urban` runs as a process, writes the documented JSON keys and PNG plots."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+
+def test_bench_urban_writes_json_and_plots(tmp_path: Path) -> None:
+    out, plots = tmp_path / "urban.json", tmp_path / "plots"
+    done = subprocess.run(
+        [sys.executable, "-m", "gcs.cli", "bench", "urban", "--runs", "1", "--duration", "8",
+         "--planner", "ga_k5", "--planner", "orbit", "--no-scaling", "--seed", "3",
+         "--json", str(out), "--plots", str(plots)],
+        capture_output=True, text=True, timeout=600,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "seen by any" in done.stdout
+    report = json.loads(out.read_text())
+    assert set(report["planners"]) == {"ga_k5", "orbit"}
+    for metrics in report["planners"].values():
+        assert {"seen_any_mean", "seen_per_uav_mean", "rmse_m", "decision_ms_median", "decision_ms_p99"} <= set(metrics)
+        assert 0 <= metrics["seen_any_mean"] <= 8 and len(metrics["seen_per_uav_mean"]) == 3
+    assert report["planners"]["ga_k5"]["decision_ms_median"] > 0
+    for name in ("urban_trajectories.png", "urban_rmse.png", "urban_observations.png"):
+        png = plots / name
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
