@@ -16,11 +16,13 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	@touch $(STAMP)
 
-# Until the daemon lands (`gcs demo`), the demo checks the default scenario and runs a
-# short target-estimation benchmark (DUIF vs FilterPy's UKF against the PCRLB).
+# Until the daemon lands (`gcs demo`), the demo checks the default scenario, runs a short
+# target-estimation benchmark (DUIF vs FilterPy's UKF against the PCRLB) and one minute of
+# the wang2012 closed loop in one process (GA-RHC and a stand-off orbit, same seed).
 demo: $(STAMP)
 	$(BIN)/gcs scenario check
 	$(BIN)/gcs bench estimation --runs 20 --table-runs 2
+	$(BIN)/gcs bench urban --runs 1 --duration 60 --planner ga_k5 --planner orbit --no-scaling
 
 test: $(STAMP)
 	$(BIN)/python -m pytest

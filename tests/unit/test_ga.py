@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+from dataclasses import replace
 
 import numpy as np
 
@@ -22,8 +23,7 @@ class HalfPlane:
 
 
 def test_ga_turns_toward_the_side_from_which_the_target_is_visible() -> None:
-    problem = _problem()
-    object.__setattr__(problem, "visibility", HalfPlane(1510.0))
+    problem = replace(_problem(), visibility=HalfPlane(1510.0))
     result = GeneticPlanner(population=30, generations=60, deadline_s=None).solve(problem, np.random.default_rng(0))
     # Both vehicles fly along y = 1500 (east and west); seeing the target needs y > 1510, i.e. a left
     # turn for the east-bound vehicle (positive rate) and a right turn for the west-bound one.
@@ -75,9 +75,7 @@ def _fly(planner, steps: int = 200, start=((1200.0, 1500.0), (1800.0, 1500.0))) 
     target = problem.target_means[0, :2]
     distances = []
     for _ in range(steps):
-        current = type(problem)(vehicles, *[getattr(problem, f) for f in (
-            "current_turn_rate", "max_turn_rate", "step_s")], np.tile(np.r_[target, 0.0, 0.0], (5, 1)),
-            problem.target_covs, problem.sensors, None, None, problem.weights)
+        current = replace(problem, vehicles=vehicles, target_means=np.tile(np.r_[target, 0.0, 0.0], (5, 1)))
         result = planner.solve(current)
         vehicles = step_vehicles(vehicles, result.controls[:, 0], 1.0, problem.max_turn_rate)
         distances.append(np.hypot(*(vehicles.xy - target).T))

@@ -33,9 +33,11 @@ def _hold(problem: PlanningProblem, desired_heading: NDArray[np.float64], gain: 
     return np.repeat(rate[:, None], problem.horizon, axis=1)
 
 
-def _result(problem: PlanningProblem, controls: NDArray[np.float64], name: str) -> PlanResult:
+def _result(problem: PlanningProblem, controls: NDArray[np.float64], name: str,
+            now: Callable[[], float] | None, start: float) -> PlanResult:
     scored = evaluate(problem, controls[None])
-    return PlanResult(True, controls, float(scored.j_rhc[0]), float(scored.fitness[0]), 1, 0, 0.0,
+    elapsed = now() - start if now is not None else 0.0
+    return PlanResult(True, controls, float(scored.j_rhc[0]), float(scored.fitness[0]), 1, 0, elapsed,
                       f"{name} guidance", int(scored.visible[0].sum()))
 
 
@@ -48,6 +50,7 @@ class OrbitPlanner:
 
     def solve(self, problem: PlanningProblem, rng: np.random.Generator | None = None,
               warm_start: NDArray[np.float64] | None = None, now: Callable[[], float] | None = None) -> PlanResult:
+        start = now() if now is not None else 0.0
         radius = self.radius_m or problem.weights.standoff_m
         target = problem.target_means[0, :2]
         offset = problem.vehicles.xy - target
@@ -56,7 +59,7 @@ class OrbitPlanner:
         # Tangent of a counter-clockwise circle, tilted inward when outside and outward when inside.
         correction = np.arctan((distance - radius) / radius)
         desired = bearing_from_target + np.pi / 2 + correction
-        return _result(problem, _hold(problem, desired, self.gain), "orbit")
+        return _result(problem, _hold(problem, desired, self.gain), "orbit", now, start)
 
 
 @dataclass(frozen=True)
@@ -67,6 +70,7 @@ class PursuitPlanner:
 
     def solve(self, problem: PlanningProblem, rng: np.random.Generator | None = None,
               warm_start: NDArray[np.float64] | None = None, now: Callable[[], float] | None = None) -> PlanResult:
+        start = now() if now is not None else 0.0
         to_target = problem.target_means[0, :2] - problem.vehicles.xy
         desired = np.arctan2(to_target[:, 1], to_target[:, 0])
-        return _result(problem, _hold(problem, desired, self.gain), "pursuit")
+        return _result(problem, _hold(problem, desired, self.gain), "pursuit", now, start)
