@@ -98,3 +98,14 @@ def test_standoff_term_prefers_plans_near_the_standoff_distance() -> None:
     away = _problem(radius=10.0, weights=weights, vehicles_xy=start, headings=(np.pi, 0.0))
     plan = np.zeros((1, 2, 5))
     assert evaluate(toward, plan).f_dis[0] > 2 * evaluate(away, plan).f_dis[0]
+
+
+def test_w_vis_credits_each_hidden_vehicle_step_with_w_vis_times_identity() -> None:
+    plan = np.zeros((1, 2, 5))
+    blind = evaluate(_problem(radius=100.0), plan)
+    credited = evaluate(_problem(radius=100.0, weights=RhcWeights(w_vis=0.01)), plan)
+    prior = _problem().prior_information
+    # 2 vehicles x 5 steps hidden: the information is the prior plus 10 * 0.01 * I_2 (eq. 22).
+    expected = np.trace(np.linalg.inv(prior + 10 * 0.01 * np.eye(2)))
+    assert credited.j_in[0] == pytest.approx(expected)
+    assert credited.j_in[0] < blind.j_in[0]

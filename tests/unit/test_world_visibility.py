@@ -16,18 +16,9 @@ from gcs.core.world import (
     visibility_maps,
 )
 
+from tests.unit.test_world_los import _star_city
+
 CITY, STREETS = generate_city(np.random.default_rng(2012))
-
-
-def _star_city(rng: np.random.Generator, count: int) -> Buildings:
-    """Random star-shaped (mostly non-convex) footprints, overlapping freely, in 1 km x 1 km."""
-    polygons = []
-    for _ in range(count):
-        k = int(rng.integers(5, 13))
-        theta = np.sort(rng.uniform(0.0, 2 * np.pi, k))
-        radius = rng.uniform(8.0, 60.0) * rng.uniform(0.3, 1.0, k)
-        polygons.append(rng.uniform(0.0, 1000.0, 2) + np.c_[radius * np.cos(theta), radius * np.sin(theta)])
-    return Buildings.from_polygons(polygons, rng.uniform(5.0, 80.0, count))
 
 
 STARS = _star_city(np.random.default_rng(8), 120)

@@ -198,7 +198,7 @@ def _information(problem: PlanningProblem, xyz: NDArray[np.float64], visible: ND
         yy = yy + (i_yy * weight).sum(axis=(-1, -2))
     w_vis = problem.weights.w_vis
     if w_vis:  # ... and W_vis I_2 where it does not
-        hidden = visible.size / visible.shape[0] - seen.sum(axis=(-1, -2))
+        hidden = (1.0 - seen).sum(axis=(-1, -2))
         xx, yy = xx + w_vis * hidden, yy + w_vis * hidden
     prior = problem.prior_information
     a, b, c = xx + prior[0, 0], xy + prior[0, 1], yy + prior[1, 1]
