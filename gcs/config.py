@@ -160,6 +160,8 @@ class PlannerConfig(_Config):
     horizon_steps: Annotated[int, msgspec.Meta(ge=1, le=100)] = 5
     population: Annotated[int, msgspec.Meta(ge=2, le=10_000)] = 50
     generations: Annotated[int, msgspec.Meta(ge=1, le=100_000)] = 200
+    stall_generations: Annotated[int, msgspec.Meta(ge=1, le=100_000)] | None = None
+    """Stop the GA after this many generations without improvement (None: run them all)."""
     deadline_s: Positive = 1.0
     standoff_m: Positive = 300.0
     w_vis: NonNegative = 0.0

@@ -93,11 +93,16 @@ def sensor_models(scenario: Scenario) -> tuple[tuple[SensorModel, ...], tuple[Ta
     return tuple(models), tuple(truths)
 
 
-def _planner(name: str, scenario: Scenario, generations: int | None, stall: int | None):
+FROM_SCENARIO = "scenario"
+"""Default of ``stall``: take ``planner.stall_generations`` from the scenario."""
+
+
+def _planner(name: str, scenario: Scenario, generations: int | None, stall: int | None | str):
     cfg = scenario.planner
     if name in ("ga_k5", "ga_k0"):
         return GeneticPlanner(population=cfg.population, generations=generations or cfg.generations,
-                              deadline_s=cfg.deadline_s, stall=stall)
+                              deadline_s=cfg.deadline_s,
+                              stall=cfg.stall_generations if stall == FROM_SCENARIO else stall)
     if name == "orbit":
         return OrbitPlanner()
     if name == "pursuit":
@@ -106,7 +111,7 @@ def _planner(name: str, scenario: Scenario, generations: int | None, stall: int 
 
 
 def tracker_config(scenario: Scenario, world: World, planner: str, generations: int | None = None,
-                   stall: int | None = None) -> TrackerConfig:
+                   stall: int | None | str = FROM_SCENARIO) -> TrackerConfig:
     """The tracker for a scenario and one of :data:`PLANNERS`."""
     cfg = scenario.planner
     sensors, _ = sensor_models(scenario)
@@ -153,10 +158,13 @@ def run_closed_loop(
     duration_s: float | None = None,
     motion: str | None = None,
     generations: int | None = None,
-    stall: int | None = None,
+    stall: int | None | str = FROM_SCENARIO,
     clock: Callable[[], float] | None = time.perf_counter,
 ) -> RunRecord:
-    """One closed-loop run. ``clock`` times the planner (and enables its deadline); None for pure runs."""
+    """One closed-loop run. ``clock`` times the planner (and enables its deadline); None for pure runs.
+
+    ``generations`` and ``stall`` override the scenario's GA budget (``stall=None``: no early stop).
+    """
     motion = motion or scenario.target.motion
     dt = scenario.time.step_s
     steps = int(round((duration_s or scenario.time.duration_s) / dt))

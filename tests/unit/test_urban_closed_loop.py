@@ -67,3 +67,15 @@ def test_more_vehicles_are_added_on_a_ring() -> None:
     assert len({v.sysid for v in bigger.vehicles}) == 6
     record = run_closed_loop(bigger, WORLD, "orbit", 3, duration_s=10.0, clock=None)
     assert record.seen.shape == (10, 6)
+
+
+def test_scenario_stall_setting_reaches_the_ga_and_can_be_overridden() -> None:
+    import msgspec
+
+    from gcs.bench.urban import tracker_config
+
+    stalling = msgspec.structs.replace(SCENARIO, planner=msgspec.structs.replace(SCENARIO.planner, stall_generations=7))
+    assert tracker_config(stalling, WORLD, "ga_k5").planner.stall == 7
+    assert tracker_config(stalling, WORLD, "ga_k5", stall=None).planner.stall is None
+    assert tracker_config(SCENARIO, WORLD, "ga_k0").planner.stall is None
+    assert tracker_config(SCENARIO, WORLD, "ga_k0").predict_ahead is False
