@@ -94,8 +94,10 @@ def format_report(report: dict) -> str:
         per_uav = "/".join(f"{x:.0f}" for x in p["seen_per_uav_mean"])
         lines.append(f"{name:<9}{p['seen_any_mean']:>9.1f}/{p['steps']:<3}{p['seen_any_min']:>7}{per_uav:>26}"
                      f"{p['rmse_m']:>9.2f}{p['decision_ms_median']:>13.1f}{p['decision_ms_p99']:>8.1f}")
-    lines += ["", "GA 50 x 200, every generation run:",
-              f"{'UAVs':>5}{'GA decision ms (median)':>25}{'p99':>8}{'seen by any':>14}"]
+    if report["scaling"]:
+        ga = report["ga"]
+        lines += ["", f"GA {ga['population']} x {ga['generations']}, every generation run:",
+                  f"{'UAVs':>5}{'GA decision ms (median)':>25}{'p99':>8}{'seen by any':>14}"]
     for row in report["scaling"]:
         lines.append(f"{row['uavs']:>5}{row['decision_ms_median']:>25.1f}{row['decision_ms_p99']:>8.1f}"
                      f"{row['seen_any']:>9}/{row['steps']}")
