@@ -84,12 +84,15 @@ def rollout(
     limit = np.asarray(max_turn_rate, dtype=np.float64)
     if limit.ndim:
         limit = limit[:, None]
-    turn = np.clip(turn_rates, -limit, limit) * dt
-    psi_end = state.heading[:, None] + np.cumsum(turn, axis=-1)  # (..., V, T)
-    psi_mid = psi_end - 0.5 * turn
-    # The arc's chord: length v T sinc(u T / 2), direction psi + u T / 2 (np.sinc(x) = sin(pi x)/(pi x)).
-    chord = (state.speed[:, None] * dt) * np.sinc(turn / (2.0 * np.pi))
-    xy = np.stack([np.cumsum(chord * np.cos(psi_mid), axis=-1), np.cumsum(chord * np.sin(psi_mid), axis=-1)], axis=-1)
+    turn = np.minimum(np.maximum(turn_rates, -limit), limit) * dt
+    psi_end = np.cumsum(turn, axis=-1)
+    psi_end += state.heading[:, None]  # (..., V, T)
+    half = 0.5 * turn
+    # Each arc's chord as a complex number: length v T sinc(u T / 2) along psi + u T / 2
+    # (np.sinc(x) = sin(pi x) / (pi x)); positions are the running sums of the chords.
+    chord = np.sinc(half / np.pi) * (state.speed[:, None] * dt)
+    chords = chord * np.exp(1j * (psi_end - half))
+    xy = np.cumsum(chords, axis=-1).view(np.float64).reshape(chords.shape + (2,))
     return xy + state.xy[:, None, :], (wrap_angle(psi_end) if headings else None)
 
 
