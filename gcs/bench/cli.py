@@ -33,10 +33,12 @@ def _cmd_estimation(args: argparse.Namespace) -> int:
 def _cmd_urban(args: argparse.Namespace) -> int:
     from gcs.bench import urban_report
     from gcs.scenarios import load_scenario
+    from gcs.world_loader import build_world
 
     scenario = load_scenario(args.scenario)
+    world = build_world(scenario)
     report, records = urban_report.run_benchmark(
-        scenario, runs=args.runs, seed=args.seed, planners=args.planner or PLANNERS, duration_s=args.duration,
+        scenario, world, runs=args.runs, seed=args.seed, planners=args.planner or PLANNERS, duration_s=args.duration,
         motion=args.motion, scaling=() if args.no_scaling else (3, 6, 10, 20), progress=_progress,
     )
     print(urban_report.format_report(report))
@@ -44,7 +46,7 @@ def _cmd_urban(args: argparse.Namespace) -> int:
         urban_report.write_json(report, args.json)
         print(f"wrote {args.json}")
     if args.plots:
-        for path in urban_report.write_plots(report, records, scenario, args.plots):
+        for path in urban_report.write_plots(report, records, world, args.plots):
             print(f"wrote {path}")
     return 0
 

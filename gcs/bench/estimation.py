@@ -4,8 +4,9 @@ The data set is wang2012's sensor set-up: the target follows the
 white-noise-acceleration model (eq. 2) and V UAVs loiter around it on a
 300 m circle at 25 m/s, at 200, 210, 220, ... m, each measuring range,
 azimuth and elevation (eq. 4) with 10 m / 0.05 rad / 0.05 rad noise.
-Measurements are generated here with this module's own formulas, not with the
-filters' sensor model, so that one bug cannot hide in both.
+Measurements are generated with the simulator's formulas
+(:func:`sim_vehicles.truth.sensor.exact_measurements`), not with the filters'
+sensor model, so that one bug cannot hide in both.
 
 Both filters start from the same prior, drawn around the truth from
 ``N(x_0, P_0)`` so that the PCRLB applies, and see the same measurements:
@@ -42,6 +43,7 @@ from gcs.core.filters.uif import GaussianEstimate, UnscentedInformationFilter
 from gcs.core.models.motion import constant_velocity
 from gcs.core.models.sensor import SensorModel
 from gcs.core.pcrlb import pcrlb
+from sim_vehicles.truth.sensor import exact_measurements
 
 __all__ = ["EstimationDataset", "generate_dataset", "run_duif", "run_filterpy_ukf", "evaluate", "run_benchmark"]
 
@@ -72,12 +74,9 @@ class EstimationDataset:
 
 
 def _observe(target_xy: NDArray[np.float64], vehicle_xyz: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Range, azimuth and elevation of a ground target seen from each vehicle (own formulas)."""
-    east = target_xy[..., 0] - vehicle_xyz[..., 0]
-    north = target_xy[..., 1] - vehicle_xyz[..., 1]
-    down = vehicle_xyz[..., 2]
-    ground = np.sqrt(east**2 + north**2)
-    return np.stack([np.sqrt(ground**2 + down**2), np.arctan2(north, east), -np.arctan2(down, ground)], axis=-1)
+    """Range, azimuth and elevation of a ground target seen from each vehicle (the simulator's formulas)."""
+    target_xyz = np.concatenate([target_xy, np.zeros(target_xy.shape[:-1] + (1,))], axis=-1)
+    return exact_measurements(target_xyz, vehicle_xyz)
 
 
 def generate_dataset(runs: int, steps: int, vehicles: int, seed: int, step_s: float = 1.0) -> EstimationDataset:

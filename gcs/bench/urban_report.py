@@ -17,7 +17,7 @@ import numpy as np
 
 from gcs.bench.urban import PLANNERS, RunRecord, run_closed_loop, with_vehicles
 from gcs.config import Scenario
-from gcs.world_loader import build_world
+from gcs.core.world import World
 
 __all__ = ["run_benchmark", "summarise", "format_report", "write_plots"]
 
@@ -42,6 +42,7 @@ def summarise(records: Sequence[RunRecord]) -> dict:
 
 def run_benchmark(
     scenario: Scenario,
+    world: World,
     runs: int,
     seed: int,
     planners: Sequence[str] = PLANNERS,
@@ -51,9 +52,12 @@ def run_benchmark(
     scaling_duration_s: float = 20.0,
     progress: Callable[[str], None] | None = None,
 ) -> tuple[dict, dict[str, list[RunRecord]]]:
-    """Paired runs of every planner, and the GA timing table; returns (report, records)."""
+    """Paired runs of every planner, and the GA timing table; returns (report, records).
+
+    ``world`` is the scenario's (:func:`gcs.world_loader.build_world`); the timing
+    table reuses it, since adding UAVs does not change the city.
+    """
     say = progress or (lambda _msg: None)
-    world = build_world(scenario)
     records: dict[str, list[RunRecord]] = {name: [] for name in planners}
     for run in range(runs):
         for name in planners:
@@ -64,7 +68,7 @@ def run_benchmark(
     table = []
     for count in scaling:  # the full GA budget, no early stop: the paper's 50 x 200
         bigger = with_vehicles(scenario, count)
-        record = run_closed_loop(bigger, build_world(bigger), "ga_k5", seed, duration_s=scaling_duration_s,
+        record = run_closed_loop(bigger, world, "ga_k5", seed, duration_s=scaling_duration_s,
                                  motion=motion, stall=None)
         row = summarise([record])
         table.append({"uavs": count, "decision_ms_median": row["decision_ms_median"],
@@ -109,7 +113,7 @@ def write_json(report: dict, path: Path) -> None:
     path.write_text(json.dumps(report, indent=2) + "\n")
 
 
-def write_plots(report: dict, records: dict[str, list[RunRecord]], scenario: Scenario, directory: Path) -> list[Path]:
+def write_plots(report: dict, records: dict[str, list[RunRecord]], world: World, directory: Path) -> list[Path]:
     """PNG plots: city with trajectories (Fig. 4), RMSE over time (Figs. 6, 8), observations (Fig. 7)."""
     import matplotlib
 
@@ -119,7 +123,12 @@ def write_plots(report: dict, records: dict[str, list[RunRecord]], scenario: Sce
 
     directory.mkdir(parents=True, exist_ok=True)
     written = []
-    world = build_world(scenario)
+
+    def save(fig, name: str) -> None:
+        written.append(directory / name)
+        fig.savefig(written[-1], dpi=120, bbox_inches="tight")
+        plt.close(fig)
+
     first = next(iter(records.values()))[0]
     fig, ax = plt.subplots(figsize=(8, 8))
     for footprint in world.buildings.footprints:
@@ -135,9 +144,7 @@ def write_plots(report: dict, records: dict[str, list[RunRecord]], scenario: Sce
     ax.set_ylabel("north (m)")
     ax.set_title(f"{first.planner}, seed {first.seed}: trajectories")
     ax.legend(loc="upper right", fontsize=8)
-    written.append(directory / "urban_trajectories.png")
-    fig.savefig(written[-1], dpi=120, bbox_inches="tight")
-    plt.close(fig)
+    save(fig, "urban_trajectories.png")
 
     fig, ax = plt.subplots(figsize=(9, 4))
     for name, recs in records.items():
@@ -149,9 +156,7 @@ def write_plots(report: dict, records: dict[str, list[RunRecord]], scenario: Sce
     ax.set_yscale("log")
     ax.legend(fontsize=8)
     ax.set_title("Fused target position error (wang2012 Figs. 6 and 8)")
-    written.append(directory / "urban_rmse.png")
-    fig.savefig(written[-1], dpi=120, bbox_inches="tight")
-    plt.close(fig)
+    save(fig, "urban_rmse.png")
 
     fig, ax = plt.subplots(figsize=(9, 4))
     names = list(report["planners"])
@@ -165,7 +170,5 @@ def write_plots(report: dict, records: dict[str, list[RunRecord]], scenario: Sce
     ax.set_ylabel("steps with the target observed (mean over runs)")
     ax.legend(fontsize=8)
     ax.set_title("Observations (wang2012 Table 1, Fig. 7)")
-    written.append(directory / "urban_observations.png")
-    fig.savefig(written[-1], dpi=120, bbox_inches="tight")
-    plt.close(fig)
+    save(fig, "urban_observations.png")
     return written

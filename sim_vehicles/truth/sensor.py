@@ -18,7 +18,22 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["TargetSensor", "Observation"]
+__all__ = ["TargetSensor", "Observation", "exact_measurements"]
+
+COMPONENTS = ("range", "azimuth", "elevation")
+
+
+def exact_measurements(target_xyz: NDArray[np.float64], vehicle_xyz: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Noise-free range, azimuth, elevation of targets (..., 3) seen from vehicles (..., 3), shape (..., 3).
+
+    Range is the 3-D distance, azimuth ``atan2(north, east)`` of target minus
+    vehicle, elevation ``atan2(up, ground distance)`` (negative below).
+    """
+    east = target_xyz[..., 0] - vehicle_xyz[..., 0]
+    north = target_xyz[..., 1] - vehicle_xyz[..., 1]
+    up = target_xyz[..., 2] - vehicle_xyz[..., 2]
+    ground = np.sqrt(east * east + north * north)
+    return np.stack([np.sqrt(ground * ground + up * up), np.arctan2(north, east), np.arctan2(up, ground)], axis=-1)
 
 
 @dataclass(frozen=True)
@@ -48,16 +63,14 @@ class TargetSensor:
         rng: np.random.Generator,
     ) -> Observation:
         """Sense the target (3,) from each vehicle (V, 3)."""
-        east, north, up = (target_xyz - vehicle_xyz).T
-        ground = np.sqrt(east * east + north * north)
-        slant = np.sqrt(ground * ground + up * up)
-        exact = {"range": slant, "azimuth": np.arctan2(north, east), "elevation": np.arctan2(up, ground)}
+        exact = exact_measurements(target_xyz, vehicle_xyz)
+        slant = exact[:, 0]
         clear = np.ones(len(vehicle_xyz), dtype=bool) if line_of_sight is None else line_of_sight(
             np.broadcast_to(target_xyz, vehicle_xyz.shape), vehicle_xyz)
         detected = clear & (slant <= self.max_range_m)
         scale = np.maximum(slant / self.reference_range_m, 1.0) if self.distance_dependent else np.ones_like(slant)
         noise = rng.standard_normal((len(vehicle_xyz), len(self.components))) * np.asarray(self.std) * scale[:, None]
-        values = np.column_stack([exact[c] for c in self.components]) + noise
+        values = exact[:, [COMPONENTS.index(c) for c in self.components]] + noise
         if "azimuth" in self.components:
             a = self.components.index("azimuth")
             values[:, a] = np.mod(values[:, a] + np.pi, 2.0 * np.pi) - np.pi

@@ -144,11 +144,6 @@ class GaussianEstimate:
         inv = _triangular_inverse(_cholesky(self.cov))
         return np.swapaxes(inv, -1, -2) @ inv
 
-    @property
-    def information_vector(self) -> NDArray[np.float64]:
-        """``y = P^-1 x`` (eq. 7)."""
-        return np.einsum("...nk,...k->...n", self.information_matrix, self.mean)
-
 
 @dataclass(frozen=True)
 class InformationContribution:
