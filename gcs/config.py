@@ -28,6 +28,11 @@ __all__ = [
     "TargetConfig",
     "EstimatorConfig",
     "PlannerConfig",
+    "AirframeConfig",
+    "GpsConfig",
+    "InsConfig",
+    "GpsDeniedZone",
+    "SimulationConfig",
     "Scenario",
     "validate_scenario",
 ]
@@ -174,6 +179,76 @@ class PlannerConfig(_Config):
     """Numerator of the stand-off fitness f_dis of eq. (29) (ours)."""
 
 
+class AirframeConfig(_Config):
+    """Autopilot-driven fixed-wing response used by the simulated vehicles (``sim_vehicles``).
+
+    Bank follows its command as a first-order lag of ``roll_time_constant_s``;
+    the turn rate is ``g tan(bank) / airspeed``, capped by ``max_bank_rad`` and
+    by the vehicle's ``max_turn_rate_rad_s``. Airspeed follows its command as a
+    first-order lag; altitude is held with a climb rate of at most ``max_climb_rate_mps``.
+    """
+
+    max_bank_rad: Annotated[float, msgspec.Meta(gt=0.0, lt=1.5)] = 0.6
+    roll_time_constant_s: Positive = 0.5
+    heading_gain_per_s: Positive = 1.0
+    """Turn rate commanded per radian of course error (then capped), 1/s."""
+    airspeed_time_constant_s: Positive = 3.0
+    altitude_time_constant_s: Positive = 5.0
+    max_climb_rate_mps: Positive = 5.0
+    min_airspeed_mps: Positive = 12.0
+    max_airspeed_mps: Positive = 40.0
+    loiter_radius_m: Positive = 150.0
+
+
+class GpsConfig(_Config):
+    """Simulated GPS: white noise plus a slowly varying (first-order Gauss-Markov) bias, per axis."""
+
+    horizontal_std_m: Positive = 2.0
+    vertical_std_m: Positive = 3.0
+    bias_std_m: NonNegative = 1.0
+    bias_time_constant_s: Positive = 300.0
+    satellites: Annotated[int, msgspec.Meta(ge=0, le=255)] = 12
+
+
+class InsConfig(_Config):
+    """Simulated INS/odometry increments (feng2019 eq. 1): distance and heading change per interval.
+
+    Distance gets a scale-factor error and white noise; the heading change gets a
+    constant gyro drift and white noise, so dead reckoning drifts as in the paper.
+    """
+
+    distance_scale_error: Annotated[float, msgspec.Meta(ge=-0.5, le=0.5)] = 0.01
+    distance_std_m: NonNegative = 0.5
+    heading_drift_rad_s: Annotated[float, msgspec.Meta(ge=-1.0, le=1.0)] = 0.0005
+    heading_std_rad: NonNegative = 0.002
+
+
+class GpsDeniedZone(_Config):
+    """A horizontal polygon (ENU metres) inside which simulated vehicles have no GPS fix."""
+
+    name: Identifier
+    polygon_enu_m: Annotated[list[Point2], msgspec.Meta(min_length=3)]
+
+
+class SimulationConfig(_Config):
+    """How ``sim-vehicles`` simulates the scenario: airframe, navigation sensors, wind and rates.
+
+    Rates are in simulation time; ``sim-vehicles run --rate R`` scales them all.
+    """
+
+    physics_step_s: Annotated[float, msgspec.Meta(gt=0.0, le=0.5)] = 0.05
+    report_rate_hz: Annotated[float, msgspec.Meta(gt=0.0, le=1000.0)] = 1.0
+    """SensorReport rate per vehicle (the paper's 1 s step)."""
+    nav_rate_hz: Annotated[float, msgspec.Meta(gt=0.0, le=1000.0)] = 5.0
+    """NavReport rate per vehicle."""
+    telemetry_rate_hz: Annotated[float, msgspec.Meta(gt=0.0, le=50.0)] = 4.0
+    """MAVLink position/attitude stream rate (HEARTBEAT and SYS_STATUS are 1 Hz)."""
+    wind_enu_mps: tuple[Annotated[float, msgspec.Meta(ge=-50.0, le=50.0)], Annotated[float, msgspec.Meta(ge=-50.0, le=50.0)]] = (0.0, 0.0)
+    airframe: AirframeConfig = AirframeConfig()
+    gps: GpsConfig = GpsConfig()
+    ins: InsConfig = InsConfig()
+
+
 class Scenario(_Config, kw_only=True):
     """A whole experiment; the default is wang2012 section 5."""
 
@@ -188,6 +263,8 @@ class Scenario(_Config, kw_only=True):
     target: TargetConfig = TargetConfig()
     estimator: EstimatorConfig = EstimatorConfig()
     planner: PlannerConfig = PlannerConfig()
+    simulation: SimulationConfig = SimulationConfig()
+    gps_denied: list[GpsDeniedZone] = []
 
     def sensor_for(self, vehicle: VehicleConfig) -> SensorConfig:
         """The sensor a vehicle carries: its own override, else the scenario's."""
@@ -236,6 +313,13 @@ def validate_scenario(scenario: Scenario) -> Scenario:
         problems.append("$.city.min_height_m: greater than max_height_m")
     if scenario.city.kind == "geojson" and not scenario.city.geojson:
         problems.append("$.city.geojson: required when kind = 'geojson'")
+    airframe = scenario.simulation.airframe
+    if airframe.min_airspeed_mps >= airframe.max_airspeed_mps:
+        problems.append("$.simulation.airframe.min_airspeed_mps: must be below max_airspeed_mps")
+    for index, vehicle in enumerate(scenario.vehicles):
+        if not airframe.min_airspeed_mps <= vehicle.speed_mps <= airframe.max_airspeed_mps:
+            problems.append(f"$.vehicles[{index}].speed_mps: {vehicle.speed_mps} is outside the airframe's "
+                            f"[{airframe.min_airspeed_mps}, {airframe.max_airspeed_mps}] m/s")
     for index, zone in enumerate(scenario.restricted):
         if zone.floor_m >= zone.ceiling_m:
             problems.append(f"$.restricted[{index}].floor_m: must be below ceiling_m")

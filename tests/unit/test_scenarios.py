@@ -7,7 +7,7 @@ from pathlib import Path
 import msgspec
 import pytest
 
-from gcs.config import Scenario, ScenarioError
+from gcs.config import AirframeConfig, Scenario, ScenarioError, SimulationConfig, validate_scenario
 from gcs.scenarios import DEFAULT_SCENARIO, list_scenarios, load_scenario, parse_scenario
 
 MINIMAL = b"""
@@ -99,3 +99,11 @@ def test_load_from_path_round_trips(tmp_path: Path) -> None:
     s = load_scenario(path)
     assert s.name == "tiny"
     assert msgspec.json.decode(msgspec.json.encode(s), type=Scenario) == s
+
+
+def test_simulation_section_defaults_and_airspeed_band_checked():
+    scenario = load_scenario("wang2012_urban")
+    assert scenario.simulation.report_rate_hz == 1.0 and scenario.gps_denied == []
+    slow = msgspec.structs.replace(scenario, simulation=SimulationConfig(airframe=AirframeConfig(min_airspeed_mps=30.0)))
+    with pytest.raises(ScenarioError, match=r"\$\.vehicles\[0\]\.speed_mps"):
+        validate_scenario(slow)
