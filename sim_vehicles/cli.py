@@ -1,7 +1,7 @@
 """The ``sim-vehicles`` command line.
 
 Only subcommands that exist are registered, so ``sim-vehicles --help`` lists
-exactly what works (``run`` arrives with the simulated vehicles).
+exactly what works.
 """
 
 from __future__ import annotations
@@ -12,8 +12,9 @@ import sys
 from collections.abc import Callable, Sequence
 
 from sim_vehicles import __version__
+from sim_vehicles.run_command import add_run
 
-SUBCOMMANDS: tuple[Callable[[argparse._SubParsersAction], None], ...] = ()
+SUBCOMMANDS: tuple[Callable[[argparse._SubParsersAction], None], ...] = (add_run,)
 """Registration functions, one per subcommand, in the order ``--help`` lists them."""
 
 

@@ -41,7 +41,7 @@ from gcs.core.planners import GeneticPlanner, OrbitPlanner, PursuitPlanner, RhcW
 from gcs.core.tracker import Detection, StepInputs, TrackerConfig, TrackerState, step
 from gcs.core.world import VisibilityMaps, World
 from sim_vehicles.truth.sensor import TargetSensor
-from sim_vehicles.truth.target import StreetTarget, TargetState, WhiteNoiseTarget
+from sim_vehicles.truth.target import start_state, target_model
 
 __all__ = ["PLANNERS", "RunRecord", "run_closed_loop", "sensor_models", "tracker_config", "with_vehicles"]
 
@@ -80,16 +80,10 @@ def sensor_models(scenario: Scenario) -> tuple[tuple[SensorModel, ...], tuple[Ta
     """The filter's sensor model and the truth sensor of every vehicle, from the scenario."""
     models, truths = [], []
     for vehicle in scenario.vehicles:
-        cfg = scenario.sensor_for(vehicle)
-        kw = {"distance_dependent": cfg.noise == "distance_dependent", "reference_range_m": cfg.reference_range_m}
-        if cfg.kind == "range_bearing":
-            components = ("range", "azimuth", "elevation")
-            std = (cfg.range_std_m, cfg.azimuth_std_rad, cfg.elevation_std_rad)
-        else:
-            components = ("azimuth",) if cfg.elevation_std_rad is None else ("azimuth", "elevation")
-            std = (cfg.azimuth_std_rad,) if cfg.elevation_std_rad is None else (cfg.azimuth_std_rad, cfg.elevation_std_rad)
-        models.append(SensorModel(components, std, **kw))
-        truths.append(TargetSensor(components, std, cfg.max_range_m, **kw))
+        truth = TargetSensor.from_config(scenario.sensor_for(vehicle))
+        models.append(SensorModel(truth.components, truth.std, distance_dependent=truth.distance_dependent,
+                                  reference_range_m=truth.reference_range_m))
+        truths.append(truth)
     return tuple(models), tuple(truths)
 
 
@@ -136,20 +130,6 @@ def tracker_config(scenario: Scenario, world: World, planner: str, generations: 
     )
 
 
-def _target_model(scenario: Scenario, world: World, motion: str):
-    width, height = world.size_m
-
-    def blocked(xy: NDArray[np.float64]) -> NDArray[np.bool_]:
-        outside = (xy[..., 0] < 0) | (xy[..., 0] > width) | (xy[..., 1] < 0) | (xy[..., 1] > height)
-        return outside | world.buildings.contains_xy(xy)
-
-    if motion == "streets":
-        if world.streets is None:
-            raise ValueError("a street-following target needs a generated city with streets")
-        return StreetTarget(world.streets.xs, world.streets.ys, speed_mps=min(10.0, scenario.target.max_speed_mps))
-    return WhiteNoiseTarget(scenario.target.accel_psd_m2_s3, scenario.target.max_speed_mps, blocked)
-
-
 def run_closed_loop(
     scenario: Scenario,
     world: World,
@@ -165,7 +145,6 @@ def run_closed_loop(
 
     ``generations`` and ``stall`` override the scenario's GA budget (``stall=None``: no early stop).
     """
-    motion = motion or scenario.target.motion
     dt = scenario.time.step_s
     steps = int(round((duration_s or scenario.time.duration_s) / dt))
     truth_rng = np.random.default_rng([seed, 1])
@@ -173,12 +152,8 @@ def run_closed_loop(
     plan_rng = np.random.default_rng([seed, 3])
     config = tracker_config(scenario, world, planner, generations, stall)
     _, truth_sensors = sensor_models(scenario)
-    target_model = _target_model(scenario, world, motion)
-    start = np.asarray(scenario.target.start_enu_m, dtype=np.float64)
-    if isinstance(target_model, StreetTarget):
-        target = target_model.start(start, truth_rng)
-    else:
-        target = TargetState(start, np.asarray(scenario.target.start_velocity_mps, dtype=np.float64))
+    model = target_model(scenario, world, motion)
+    target = start_state(model, scenario, truth_rng)
     vehicles = VehicleState(
         np.array([v.start_enu_m for v in scenario.vehicles], dtype=np.float64),
         np.array([v.start_heading_rad for v in scenario.vehicles]),
@@ -192,7 +167,7 @@ def run_closed_loop(
     vehicle_xy, target_xy, estimate_xy = np.zeros((steps, count, 2)), np.zeros((steps, 2)), np.full((steps, 2), np.nan)
     for k in range(steps):
         if k > 0:
-            target = target_model.step(target, dt, truth_rng)
+            target = model.step(target, dt, truth_rng)
             vehicles = step_vehicles(vehicles, state.turn_rate, dt, config.max_turn_rate)
         target_xyz = np.array([target.position[0], target.position[1], 0.0])
         detections = []

@@ -15,7 +15,7 @@ import msgspec
 
 from gcs.config import Scenario, ScenarioError, validate_scenario
 
-__all__ = ["DEFAULT_SCENARIO", "list_scenarios", "load_scenario", "parse_scenario"]
+__all__ = ["DEFAULT_SCENARIO", "list_scenarios", "load_scenario", "parse_scenario", "scenario_base_dir"]
 
 DEFAULT_SCENARIO = "wang2012_urban"
 
@@ -54,6 +54,14 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
         known = ", ".join(list_scenarios())
         raise ScenarioError(f"unknown scenario {text!r}: give a .toml path or one of: {known}")
     return parse_scenario(shipped.read_bytes(), source=f"{text}.toml")
+
+
+def scenario_base_dir(name_or_path: str | Path) -> Path | None:
+    """Folder that a scenario file's relative paths are resolved against (None for a shipped name)."""
+    candidate = Path(str(name_or_path))
+    if candidate.suffix == ".toml" or candidate.exists():
+        return candidate.resolve().parent
+    return None
 
 
 def _path_first(message: str) -> str:

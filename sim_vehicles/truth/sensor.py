@@ -7,7 +7,10 @@ otherwise ``detected`` is False and no values are produced, exactly like a real
 gimballed sensor that loses the target behind a building (wang2012 section 2.4).
 
 Noise: constant standard deviations, or zuo2021 eq. (2), where every standard
-deviation grows in proportion to the range beyond ``reference_range_m``.
+deviation grows in proportion to the range beyond ``reference_range_m``:
+``sigma(r) = sigma0 * max(r / r0, 1)`` (:meth:`TargetSensor.std_at`), evaluated
+at the TRUE slant range, which is also what a simulated vehicle reports as the
+measurement's standard deviation (the noisy range would bias it).
 """
 
 from __future__ import annotations
@@ -16,7 +19,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
+
+from gcs.config import SensorConfig
 
 __all__ = ["TargetSensor", "Observation", "exact_measurements"]
 
@@ -55,6 +60,45 @@ class TargetSensor:
     distance_dependent: bool = False
     reference_range_m: float = 1500.0
 
+    @classmethod
+    def from_config(cls, cfg: SensorConfig) -> TargetSensor:
+        """The sensor a ``[sensor]`` table describes.
+
+        ``range_bearing``: range, azimuth, elevation; ``bearing_only``: azimuth,
+        plus elevation when ``elevation_std_rad`` is set. ``noise =
+        "distance_dependent"`` selects zuo2021 eq. (2) about ``reference_range_m``.
+
+        Raises
+        ------
+        ValueError
+            ``range_bearing`` without ``range_std_m`` or ``elevation_std_rad``.
+        """
+        if cfg.kind == "range_bearing":
+            if cfg.range_std_m is None or cfg.elevation_std_rad is None:
+                raise ValueError("a range_bearing sensor needs range_std_m and elevation_std_rad")
+            components, std = COMPONENTS, (cfg.range_std_m, cfg.azimuth_std_rad, cfg.elevation_std_rad)
+        elif cfg.elevation_std_rad is None:
+            components, std = ("azimuth",), (cfg.azimuth_std_rad,)
+        else:
+            components, std = ("azimuth", "elevation"), (cfg.azimuth_std_rad, cfg.elevation_std_rad)
+        return cls(components, std, cfg.max_range_m, distance_dependent=cfg.noise == "distance_dependent",
+                   reference_range_m=cfg.reference_range_m)
+
+    def _scale(self, slant_range_m: NDArray[np.float64]) -> NDArray[np.float64]:
+        """zuo2021 eq. (2) factor ``max(r / r0, 1)`` (ones for constant noise), same shape as the range."""
+        if self.distance_dependent:
+            return np.maximum(slant_range_m / self.reference_range_m, 1.0)
+        return np.ones_like(slant_range_m)
+
+    def std_at(self, slant_range_m: ArrayLike) -> NDArray[np.float64]:
+        """Standard deviation of each component (..., m) at the true slant range (...), metres / radians.
+
+        Constant noise: ``std`` everywhere. Distance-dependent (zuo2021 eq. 2):
+        ``std * max(r / reference_range_m, 1)``.
+        """
+        r = np.asarray(slant_range_m, dtype=np.float64)
+        return np.asarray(self.std, dtype=np.float64) * self._scale(r)[..., None]
+
     def observe(
         self,
         target_xyz: NDArray[np.float64],
@@ -68,7 +112,7 @@ class TargetSensor:
         clear = np.ones(len(vehicle_xyz), dtype=bool) if line_of_sight is None else line_of_sight(
             np.broadcast_to(target_xyz, vehicle_xyz.shape), vehicle_xyz)
         detected = clear & (slant <= self.max_range_m)
-        scale = np.maximum(slant / self.reference_range_m, 1.0) if self.distance_dependent else np.ones_like(slant)
+        scale = self._scale(slant)
         noise = rng.standard_normal((len(vehicle_xyz), len(self.components))) * np.asarray(self.std) * scale[:, None]
         values = exact[:, [COMPONENTS.index(c) for c in self.components]] + noise
         if "azimuth" in self.components:

@@ -10,26 +10,45 @@
   cruising speed and picks a new direction at each intersection (straight on,
   left or right; never a U-turn unless it is a dead end at the city's edge).
 
-Both are pure: state in, ``numpy.random.Generator`` in, new state out.
+* :class:`ScriptedTarget`: follows a time-stamped path (``t_s,x_m,y_m`` CSV),
+  linearly interpolated, holding the last point after the end.
+
+All are pure: state in, ``numpy.random.Generator`` in, new state out; every
+``step`` advances :attr:`TargetState.elapsed_s` by ``dt``. :func:`target_model`
+and :func:`start_state` build the model and the initial state a scenario's
+``[target]`` table describes.
 """
 
 from __future__ import annotations
 
+import csv
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["TargetState", "WhiteNoiseTarget", "StreetTarget"]
+if TYPE_CHECKING:
+    from gcs.config import Scenario
+    from gcs.core.world import World
+
+__all__ = ["TargetState", "WhiteNoiseTarget", "StreetTarget", "ScriptedTarget", "TargetModel",
+           "target_model", "start_state", "CSV_HEADER"]
+
+CSV_HEADER = ("t_s", "x_m", "y_m")
+"""Columns of a scripted target's path file: time (s), ENU east and north (m)."""
 
 
 @dataclass(frozen=True)
 class TargetState:
-    """Ground-truth target: ENU position (2,) and velocity (2,)."""
+    """Ground-truth target: ENU position (2,), velocity (2,) and the time since the start, seconds."""
 
     position: NDArray[np.float64]
     velocity: NDArray[np.float64]
+    elapsed_s: float = 0.0
 
     @property
     def vector(self) -> NDArray[np.float64]:
@@ -70,7 +89,7 @@ class WhiteNoiseTarget:
             if self.blocked(position[None])[0]:
                 position = state.position.copy()
                 velocity = -velocity
-        return TargetState(position, velocity)
+        return TargetState(position, velocity, state.elapsed_s + dt)
 
 
 @dataclass(frozen=True)
@@ -124,4 +143,168 @@ class StreetTarget:
             position[axis] += sign * gap
             remaining -= gap
             heading = self._choose(position, heading, rng)
-        return TargetState(position, heading * self.speed_mps)
+        return TargetState(position, heading * self.speed_mps, state.elapsed_s + dt)
+
+
+@dataclass(frozen=True, eq=False)
+class ScriptedTarget:
+    """Follows a time-stamped path: ``times_s`` (N,) strictly increasing, ``xy`` (N, 2) ENU metres.
+
+    The path's times are the scenario's (seconds since the start): at elapsed
+    time ``t`` the target is at the linear interpolation of the path, with the
+    slope of the segment containing ``t`` as its velocity (the later segment at
+    a vertex). Before the first time it waits at the first point and after the
+    last it holds the last point, both with zero velocity. The path is the
+    whole truth: ``step`` draws no random numbers.
+    """
+
+    times_s: NDArray[np.float64]
+    xy: NDArray[np.float64]
+
+    def __post_init__(self) -> None:
+        times = np.array(self.times_s, dtype=np.float64)
+        xy = np.array(self.xy, dtype=np.float64)
+        if times.ndim != 1 or len(times) == 0 or xy.shape != (len(times), 2):
+            raise ValueError(f"a scripted path needs times (N,) and xy (N, 2) with N >= 1, got {times.shape} and {xy.shape}")
+        if not (np.all(np.isfinite(times)) and np.all(np.isfinite(xy))):
+            raise ValueError("a scripted path must be finite")
+        if np.any(np.diff(times) <= 0.0):
+            raise ValueError("a scripted path's times must be strictly increasing")
+        object.__setattr__(self, "times_s", times)
+        object.__setattr__(self, "xy", xy)
+
+    @classmethod
+    def from_csv(cls, path: str | Path) -> ScriptedTarget:
+        """Read a path file: header ``t_s,x_m,y_m``, then one row per point (blank lines skipped).
+
+        Raises
+        ------
+        ValueError
+            Naming the file (and the line, 1-based): unreadable file, wrong
+            header, wrong column count, a value that is not a finite number,
+            times not strictly increasing, or no points.
+        """
+        path = Path(path)
+        times: list[float] = []
+        points: list[tuple[float, float]] = []
+        try:
+            with path.open(newline="", encoding="utf-8") as handle:
+                reader = csv.reader(handle)
+                header = None
+                for row in reader:
+                    cells = [cell.strip() for cell in row]
+                    if not any(cells):
+                        continue
+                    where = f"{path}:{reader.line_num}"
+                    if header is None:
+                        header = tuple(cells)
+                        if header != CSV_HEADER:
+                            raise ValueError(f"{where}: header must be {','.join(CSV_HEADER)}, got {','.join(cells)}")
+                        continue
+                    t, x, y = _csv_row(cells, where)
+                    if times and t <= times[-1]:
+                        raise ValueError(f"{where}: t_s = {t} is not after the previous row's {times[-1]}")
+                    times.append(t)
+                    points.append((x, y))
+        except (OSError, UnicodeDecodeError) as exc:
+            raise ValueError(f"{path}: cannot read the target path: {exc}") from None
+        if not times:
+            raise ValueError(f"{path}: no points (expected the header {','.join(CSV_HEADER)} and at least one row)")
+        return cls(np.array(times), np.array(points))
+
+    def position_at(self, t_s: float) -> NDArray[np.float64]:
+        """Interpolated position (2,) at elapsed time ``t_s``, held before the start and after the end."""
+        return np.array([np.interp(t_s, self.times_s, self.xy[:, 0]), np.interp(t_s, self.times_s, self.xy[:, 1])])
+
+    def velocity_at(self, t_s: float) -> NDArray[np.float64]:
+        """Slope (2,) of the segment containing ``t_s``; zero before the start and from the last point on."""
+        i = int(np.searchsorted(self.times_s, t_s, side="right")) - 1
+        if 0 <= i < len(self.times_s) - 1:
+            return (self.xy[i + 1] - self.xy[i]) / (self.times_s[i + 1] - self.times_s[i])
+        return np.zeros(2)
+
+    def start(self, rng: np.random.Generator | None = None) -> TargetState:
+        """The target at elapsed time 0 (the first point when the path starts at or after 0)."""
+        return TargetState(self.position_at(0.0), self.velocity_at(0.0), 0.0)
+
+    def step(self, state: TargetState, dt: float, rng: np.random.Generator | None = None) -> TargetState:
+        """The target ``dt`` seconds after ``state`` (interpolated at ``state.elapsed_s + dt``)."""
+        t = state.elapsed_s + dt
+        return TargetState(self.position_at(t), self.velocity_at(t), t)
+
+
+def _csv_row(cells: list[str], where: str) -> tuple[float, float, float]:
+    if len(cells) != len(CSV_HEADER):
+        raise ValueError(f"{where}: expected {len(CSV_HEADER)} values ({','.join(CSV_HEADER)}), got {len(cells)}")
+    values = []
+    for name, cell in zip(CSV_HEADER, cells):
+        try:
+            value = float(cell)
+        except ValueError:
+            raise ValueError(f"{where}: {name} = {cell!r} is not a number") from None
+        if not math.isfinite(value):
+            raise ValueError(f"{where}: {name} = {cell!r} is not finite")
+        values.append(value)
+    return values[0], values[1], values[2]
+
+
+TargetModel = WhiteNoiseTarget | StreetTarget | ScriptedTarget
+"""Any ground-target truth model: ``step(state, dt, rng) -> TargetState``."""
+
+STREET_SPEED_MPS = 10.0
+"""Cruising speed of the street-following target (capped by ``target.max_speed_mps``)."""
+
+
+def target_model(scenario: Scenario, world: World, motion: str | None = None,
+                 base_dir: Path | None = None) -> TargetModel:
+    """The truth model of ``scenario.target`` (``motion`` overrides ``target.motion``).
+
+    * ``white_noise_acceleration``: :class:`WhiteNoiseTarget`, blocked outside the
+      city rectangle ``[0, width] x [0, depth]`` and inside buildings;
+    * ``streets``: :class:`StreetTarget` on the world's street grid (a generated
+      city), at ``min(10, max_speed_mps)`` m/s;
+    * ``scripted``: :class:`ScriptedTarget` from ``target.path_file``, relative to
+      ``base_dir`` (the current directory when None) unless absolute.
+
+    Raises
+    ------
+    ValueError
+        Unknown motion, no street grid, no ``path_file``, or a bad path file.
+    """
+    cfg = scenario.target
+    motion = motion or cfg.motion
+    if motion == "white_noise_acceleration":
+        width, height = world.size_m
+
+        def blocked(xy: NDArray[np.float64]) -> NDArray[np.bool_]:
+            outside = (xy[..., 0] < 0) | (xy[..., 0] > width) | (xy[..., 1] < 0) | (xy[..., 1] > height)
+            return outside | world.buildings.contains_xy(xy)
+
+        return WhiteNoiseTarget(cfg.accel_psd_m2_s3, cfg.max_speed_mps, blocked)
+    if motion == "streets":
+        if world.streets is None:
+            raise ValueError("a street-following target needs a generated city with streets")
+        return StreetTarget(world.streets.xs, world.streets.ys, speed_mps=min(STREET_SPEED_MPS, cfg.max_speed_mps))
+    if motion == "scripted":
+        if not cfg.path_file:
+            raise ValueError("$.target.path_file: required when motion = 'scripted'")
+        path = Path(cfg.path_file)
+        if not path.is_absolute():
+            path = (base_dir if base_dir is not None else Path.cwd()) / path
+        return ScriptedTarget.from_csv(path)
+    raise ValueError(f"unknown target motion {motion!r}; expected white_noise_acceleration, streets or scripted")
+
+
+def start_state(model: TargetModel, scenario: Scenario, rng: np.random.Generator) -> TargetState:
+    """The target's state at time 0.
+
+    :class:`StreetTarget`: the street crossing nearest ``target.start_enu_m``, on a
+    random street (draws from ``rng``); :class:`ScriptedTarget`: the path at time
+    0; otherwise ``target.start_enu_m`` moving at ``target.start_velocity_mps``.
+    """
+    start = np.asarray(scenario.target.start_enu_m, dtype=np.float64)
+    if isinstance(model, StreetTarget):
+        return model.start(start, rng)
+    if isinstance(model, ScriptedTarget):
+        return model.start()
+    return TargetState(start, np.asarray(scenario.target.start_velocity_mps, dtype=np.float64))

@@ -38,8 +38,15 @@ def test_sim_vehicles_help_runs(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as info:
         sim_cli.main(["--help"])
     assert info.value.code == 0
-    assert "sim-vehicles" in capsys.readouterr().out
-    assert "run" not in _subcommands(sim_cli.build_parser())
+    out = capsys.readouterr().out
+    assert "sim-vehicles" in out and "run" in out
+    assert set(_subcommands(sim_cli.build_parser())) == {"run"}
+
+
+def test_sim_vehicles_run_rejects_bad_arguments_with_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
+    assert sim_cli.main(["run", "--rate", "0"]) == 2
+    assert sim_cli.main(["run", "--vehicle", "nobody=udpout:127.0.0.1:14999", "--duration", "1"]) == 2
+    assert sim_cli.main(["run", "--scenario", "no_such_scenario"]) == 2
 
 
 def test_scenario_show_prints_the_resolved_scenario(capsys: pytest.CaptureFixture[str]) -> None:

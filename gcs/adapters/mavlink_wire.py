@@ -1,0 +1,128 @@
+"""MAVLink 2 plumbing shared by the daemon and the simulated vehicles.
+
+Importing this module selects MAVLink 2 in pymavlink (``MAVLINK20=1`` must be set
+before ``pymavlink.mavutil`` is first imported; signing needs MAVLink 2) and
+exposes the ``ardupilotmega`` dialect as :data:`mavlink`, which has the
+GUIDED_CHANGE_* commands (reference/mavlink.md).
+
+Conventions at this edge (design.md section 3): latitude and longitude are
+``1e7``-scaled integers, altitudes in metres relative to home, and yaw is NED
+(from north, clockwise); inside the project headings are ENU (from east,
+counter-clockwise). :func:`ned_yaw_from_enu_heading` is the one conversion.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import sys
+from pathlib import Path
+
+if "pymavlink.mavutil" in sys.modules and os.environ.get("MAVLINK20") != "1":  # pragma: no cover
+    raise ImportError("pymavlink.mavutil was imported before MAVLINK20=1 was set; import "
+                      "gcs.adapters.mavlink_wire first so that MAVLink 2 is selected")
+os.environ["MAVLINK20"] = "1"
+
+from pymavlink import mavutil  # noqa: E402
+
+mavlink = mavutil.mavlink
+"""The MAVLink 2 ``ardupilotmega`` dialect module (message classes, enums, ``MAVLink``)."""
+
+__all__ = [
+    "ARDUPLANE_MODES",
+    "ARDUPLANE_MODE_NAMES",
+    "GCS_SYSID",
+    "mavlink",
+    "mavutil",
+    "ned_yaw_from_enu_heading",
+    "normalise_connection",
+    "open_connection",
+    "read_signing_key",
+    "signing_key_from_passphrase",
+    "sign_outgoing",
+]
+
+if mavlink.WIRE_PROTOCOL_VERSION != "2.0":  # pragma: no cover
+    raise ImportError("pymavlink did not load the MAVLink 2 dialect")
+
+GCS_SYSID = 255
+"""System id of a ground station (reference/mavlink.md)."""
+
+ARDUPLANE_MODE_NAMES: dict[int, str] = dict(mavutil.mode_mapping_apm)
+"""ArduPlane custom_mode numbers to names (pymavlink's table: 12 LOITER, 15 GUIDED, ...)."""
+ARDUPLANE_MODES: dict[str, int] = {name: number for number, name in ARDUPLANE_MODE_NAMES.items()}
+
+_MAVSDK_SCHEMES = {"udpin://": "udpin:", "udpout://": "udpout:", "udp://": "udpin:", "tcpout://": "tcp:",
+                   "tcpin://": "tcpin:", "tcp://": "tcp:", "serial://": ""}
+
+
+def normalise_connection(connection: str) -> str:
+    """A pymavlink connection string, also accepting MAVSDK's ``scheme://`` spellings.
+
+    ``udpin://0.0.0.0:14540`` becomes ``udpin:0.0.0.0:14540``, ``tcpout://h:p``
+    becomes ``tcp:h:p``; pymavlink strings (``udpout:127.0.0.1:14550``,
+    ``/dev/ttyUSB0,57600``) pass unchanged.
+    """
+    text = connection.strip()
+    if not text:
+        raise ValueError("empty MAVLink connection string")
+    for scheme, replacement in _MAVSDK_SCHEMES.items():
+        if text.startswith(scheme):
+            return replacement + text[len(scheme):]
+    return text
+
+
+def open_connection(connection: str, source_system: int, source_component: int = 1) -> mavutil.mavfile:
+    """Open a pymavlink connection (MAVLink 2, ``ardupilotmega``) with a clear error on failure."""
+    text = normalise_connection(connection)
+    try:
+        return mavutil.mavlink_connection(text, source_system=source_system, source_component=source_component,
+                                          dialect="ardupilotmega", autoreconnect=True)
+    except (OSError, ValueError) as error:
+        raise ValueError(f"cannot open MAVLink connection {connection!r}: {error}") from error
+
+
+def signing_key_from_passphrase(passphrase: str) -> bytes:
+    """The 32-byte signing key MAVProxy derives from a passphrase (``signing key PASS``): sha256."""
+    if not passphrase:
+        raise ValueError("empty signing passphrase")
+    return hashlib.sha256(passphrase.encode("utf-8")).digest()
+
+
+def read_signing_key(path: str | Path) -> bytes:
+    """A key file: 32 raw bytes, or 64 hexadecimal characters (whitespace ignored)."""
+    data = Path(path).read_bytes()
+    if len(data) == 32:
+        return data
+    text = data.decode("ascii", errors="replace").strip()
+    try:
+        key = bytes.fromhex(text)
+    except ValueError:
+        key = b""
+    if len(key) != 32:
+        raise ValueError(f"{path}: a signing key file holds 32 raw bytes or 64 hex characters")
+    return key
+
+
+def sign_outgoing(mav: mavlink.MAVLink, key: bytes, link_id: int, timestamp_10us: int) -> None:
+    """Sign every message ``mav`` sends with ``key`` (pymavlink's ``setup_signing`` for a bare encoder).
+
+    ``timestamp_10us`` is the MAVLink signing timestamp (10 us units since
+    2015-01-01); it must not go backwards between runs with the same key.
+    """
+    if len(key) != 32:
+        raise ValueError("a MAVLink signing key is 32 bytes")
+    mav.signing.secret_key = key
+    mav.signing.sign_outgoing = True
+    mav.signing.link_id = link_id
+    mav.signing.timestamp = timestamp_10us
+
+
+def ned_yaw_from_enu_heading(angle_rad: float) -> float:
+    """ENU heading (from east, counter-clockwise) <-> NED yaw (from north, clockwise), in (-pi, pi].
+
+    The map ``a -> pi/2 - a`` is its own inverse, so the same function converts both ways.
+    """
+    wrapped = math.remainder(0.5 * math.pi - angle_rad, 2.0 * math.pi)
+    return math.pi if wrapped == -math.pi else wrapped

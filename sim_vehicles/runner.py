@@ -1,0 +1,270 @@
+"""``sim-vehicles run``: the scene in (scaled) real time, on MAVLink and Zenoh.
+
+Each physics step of simulation time ``dt`` the runner
+
+1. hands every received MAVLink message to the vehicle it is addressed to
+   (:class:`~sim_vehicles.autopilot.SimAutopilot`) and sends the replies;
+2. advances the scene under each autopilot's guidance;
+3. fires the timers that are due, all in simulation time: HEARTBEAT and
+   SYS_STATUS at 1 Hz, the position/attitude stream at ``telemetry_rate_hz``,
+   ``SensorReport`` at ``report_rate_hz`` and ``NavReport`` at ``nav_rate_hz``
+   (scenario ``[simulation]``);
+4. sleeps until wall time catches up with ``elapsed / rate``.
+
+So ``--rate R`` scales every timer consistently: at R = 10 a vehicle sends ten
+heartbeats per wall-clock second and 300 s of flight take 30 s. When the
+machine cannot keep up, the runner does not skip steps; it runs late and counts
+the steps that started behind schedule (``late_steps`` in the summary).
+
+Wire stamps are simulation time (``epoch_ns + elapsed``), so a daemon that
+orders data by stamp sees the same data at any rate.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import signal
+import threading
+import time
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from gcs.adapters.zenoh_session import ZenohSettings, declare_publisher, open_session, publish
+from gcs.config import Scenario
+from gcs.core.world import World
+from protocols.keys import alive_key, nav_key, report_key
+from protocols.messages import NavReport, SensorReport
+from sim_vehicles.autopilot import SimAutopilot
+from sim_vehicles.mavlink_endpoint import MavlinkEndpoints
+from sim_vehicles.scene import Scene
+
+__all__ = ["RunOptions", "RunSummary", "Runner", "DEFAULT_MAVLINK"]
+
+log = logging.getLogger(__name__)
+
+DEFAULT_MAVLINK = "udpout:127.0.0.1:14550"
+"""Where every vehicle sends unless told otherwise: one GCS port, demultiplexed by sysid."""
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """How to run the scene.
+
+    Attributes
+    ----------
+    rate : float
+        Simulation seconds per wall-clock second.
+    duration_s : float or None
+        Simulation seconds to run; None runs until stopped.
+    seed : int
+    epoch_ns : int
+        Wire stamp of simulation time zero.
+    mavlink : dict of vehicle id -> connection string, or None
+        Per-vehicle MAVLink endpoints (None: no MAVLink at all).
+    signing_key : bytes or None
+        MAVLink 2 signing key for every link.
+    zenoh : ZenohSettings or None
+        None: publish nothing over Zenoh.
+    prefix : str
+        Zenoh key prefix.
+    """
+
+    rate: float = 1.0
+    duration_s: float | None = None
+    seed: int = 0
+    epoch_ns: int = 0
+    mavlink: dict[str, str] | None = None
+    signing_key: bytes | None = None
+    zenoh: ZenohSettings | None = None
+    prefix: str = "gcs"
+
+
+@dataclass
+class RunSummary:
+    """What a run did, for the closing summary and tests."""
+
+    simulated_s: float = 0.0
+    wall_s: float = 0.0
+    steps: int = 0
+    late_steps: int = 0
+    reports: Counter = field(default_factory=Counter)
+    detections: Counter = field(default_factory=Counter)
+    nav_reports: Counter = field(default_factory=Counter)
+    modes: dict[str, str] = field(default_factory=dict)
+    mavlink: Counter = field(default_factory=Counter)
+
+    def lines(self) -> list[str]:
+        """Human-readable summary."""
+        out = [f"simulated {self.simulated_s:.1f} s in {self.wall_s:.1f} s of wall time "
+               f"({self.steps} steps, {self.late_steps} started late)"]
+        for vehicle_id, mode in self.modes.items():
+            out.append(f"  {vehicle_id}: mode {mode}, {self.reports[vehicle_id]} reports "
+                       f"({self.detections[vehicle_id]} detections), {self.nav_reports[vehicle_id]} nav reports")
+        if self.mavlink:
+            out.append("  MAVLink: " + ", ".join(f"{k} {v}" for k, v in sorted(self.mavlink.items())))
+        return out
+
+
+class _Timer:
+    """A periodic event in simulation time, free of drift (the n-th firing is due at n / rate_hz)."""
+
+    def __init__(self, rate_hz: float) -> None:
+        self.period_s = 1.0 / rate_hz
+        self.count = 0
+
+    def due(self, elapsed_s: float) -> bool:
+        if elapsed_s + 1e-9 >= self.count * self.period_s:
+            self.count = math.floor((elapsed_s + 1e-9) / self.period_s) + 1
+            return True
+        return False
+
+
+class Runner:
+    """Runs a :class:`Scene` with its vehicles' MAVLink peers and Zenoh publishers."""
+
+    def __init__(self, scenario: Scenario, world: World, options: RunOptions, base_dir: Path | None = None,
+                 clock: Callable[[], float] = time.monotonic, sleep: Callable[[float], None] = time.sleep) -> None:
+        if not options.rate > 0:
+            raise ValueError(f"--rate must be > 0, got {options.rate}")
+        self.scenario = scenario
+        self.options = options
+        self.clock, self.sleep = clock, sleep
+        self.scene = Scene(scenario, world, options.seed, options.epoch_ns, base_dir)
+        self.summary = RunSummary()
+        self.stop_event = threading.Event()
+        self.endpoints: MavlinkEndpoints | None = None
+        self.autopilots: dict[str, SimAutopilot] = {}
+        self.session = None
+        self.publishers: dict[tuple[str, str], object] = {}
+        self.tokens: list = []
+
+    # ------------------------------------------------------------- lifecycle
+
+    def _open(self) -> None:
+        sim = self.scenario.simulation
+        by_sysid = {v.sysid: v.id for v in self.scenario.vehicles}
+        if self.options.mavlink is not None:
+            connections = {v.sysid: self.options.mavlink[v.id] for v in self.scenario.vehicles}
+            self.endpoints = MavlinkEndpoints(connections, self.options.signing_key)
+            for vehicle in self.scenario.vehicles:
+                autopilot = SimAutopilot(vehicle.sysid, self.scene.frame, sim.airframe, vehicle.speed_mps,
+                                         vehicle.altitude_m, self.endpoints.encoder(vehicle.sysid))
+                autopilot.start(self.scene.vehicles[vehicle.id].state)
+                self.autopilots[vehicle.id] = autopilot
+            log.info("MAVLink: %s", ", ".join(f"{by_sysid[s]} (sysid {s}) -> {c}" for s, c in connections.items()))
+        if self.options.zenoh is not None:
+            self.session = open_session(self.options.zenoh)
+            prefix = self.options.prefix
+            for vehicle in self.scenario.vehicles:
+                self.publishers[(vehicle.id, "report")] = declare_publisher(
+                    self.session, report_key(vehicle.id, prefix), SensorReport)
+                self.publishers[(vehicle.id, "nav")] = declare_publisher(
+                    self.session, nav_key(vehicle.id, prefix), NavReport)
+                self.tokens.append(self.session.liveliness().declare_token(alive_key(vehicle.id, prefix)))
+            log.info("Zenoh: %s session, prefix %r, %d vehicles", self.options.zenoh.mode, prefix,
+                     len(self.scenario.vehicles))
+
+    def close(self) -> None:
+        """Withdraw liveliness, close the Zenoh session and the MAVLink sockets."""
+        for token in self.tokens:
+            token.undeclare()
+        self.tokens.clear()
+        for publisher in self.publishers.values():
+            publisher.undeclare()
+        self.publishers.clear()
+        if self.session is not None:
+            self.session.close()
+            self.session = None
+        if self.endpoints is not None:
+            self.summary.mavlink.update(self.endpoints.counters())
+            self.endpoints.close()
+            self.endpoints = None
+
+    def stop(self) -> None:
+        """Ask the loop to finish (thread-safe; signal handlers call it)."""
+        self.stop_event.set()
+
+    # ------------------------------------------------------------------ loop
+
+    def run(self) -> RunSummary:
+        """Run until the duration is flown or :meth:`stop` is called; always closes what it opened."""
+        try:
+            self._open()
+            self._loop()
+        finally:
+            self.close()
+        return self.summary
+
+    def _loop(self) -> None:
+        sim = self.scenario.simulation
+        dt = sim.physics_step_s
+        scene = self.scene
+        heartbeat, telemetry = _Timer(1.0), _Timer(sim.telemetry_rate_hz)
+        reports, navs = _Timer(sim.report_rate_hz), _Timer(sim.nav_rate_hz)
+        progress = _Timer(1.0 / 30.0)
+        wall_start = self.clock()
+        steps_total = None if self.options.duration_s is None else round(self.options.duration_s / dt)
+        while not self.stop_event.is_set() and (steps_total is None or self.summary.steps < steps_total):
+            self._receive()
+            guidance = {vid: ap.guidance for vid, ap in self.autopilots.items() if ap.guidance is not None}
+            scene.advance(dt, guidance)
+            self.summary.steps += 1
+            now = scene.elapsed_s
+            if heartbeat.due(now):
+                self._send_all(lambda vid, ap: [ap.heartbeat(), ap.sys_status()])
+            if telemetry.due(now):
+                self._send_all(lambda vid, ap: ap.telemetry(now, scene.vehicles[vid].state, scene.vehicles[vid].gps,
+                                                            scene.wind))
+            if reports.due(now):
+                for vehicle_id in scene.vehicles:
+                    report = scene.sensor_report(vehicle_id)
+                    self.summary.reports[vehicle_id] += 1
+                    self.summary.detections[vehicle_id] += report.detected
+                    self._publish(vehicle_id, "report", report)
+            if navs.due(now):
+                for vehicle_id in scene.vehicles:
+                    self.summary.nav_reports[vehicle_id] += 1
+                    self._publish(vehicle_id, "nav", scene.nav_report(vehicle_id))
+            if progress.due(now):
+                log.info("t = %.0f s: %s", now, ", ".join(
+                    f"{vid} {self.autopilots[vid].mode_name if vid in self.autopilots else 'loiter'} "
+                    f"{self.summary.detections[vid]}/{self.summary.reports[vid]} seen" for vid in scene.vehicles))
+            lag = wall_start + now / self.options.rate - self.clock()
+            if lag > 0:
+                self.sleep(lag)  # at most one physics step of wall time: stop() is seen promptly
+            elif lag < -dt / self.options.rate:
+                self.summary.late_steps += 1
+        self.summary.simulated_s = scene.elapsed_s
+        self.summary.wall_s = self.clock() - wall_start
+        self.summary.modes = {vid: (self.autopilots[vid].mode_name if vid in self.autopilots else "LOITER")
+                              for vid in scene.vehicles}
+
+    def _receive(self) -> None:
+        if self.endpoints is None:
+            return
+        by_sysid = {ap.sysid: (vid, ap) for vid, ap in self.autopilots.items()}
+        for sysid, message in self.endpoints.receive():
+            vehicle_id, autopilot = by_sysid[sysid]
+            for reply in autopilot.handle(message, self.scene.elapsed_s, self.scene.vehicles[vehicle_id].state):
+                self.endpoints.send(sysid, reply)
+
+    def _send_all(self, build) -> None:
+        if self.endpoints is None:
+            return
+        for vehicle_id, autopilot in self.autopilots.items():
+            for message in build(vehicle_id, autopilot):
+                self.endpoints.send(autopilot.sysid, message)
+
+    def _publish(self, vehicle_id: str, kind: str, message) -> None:
+        publisher = self.publishers.get((vehicle_id, kind))
+        if publisher is not None:
+            publish(publisher, message)
+
+
+def install_signal_handlers(runner: Runner) -> None:
+    """SIGINT and SIGTERM stop the loop, which then closes everything and returns normally."""
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: runner.stop())

@@ -1,0 +1,214 @@
+"""The simulated scene: every vehicle's airframe, GPS, INS and sensor, and the ground target.
+
+:class:`Scene` advances the truth by physics steps and produces the wire
+messages the vehicles publish (``SensorReport``, ``NavReport``). It owns no
+sockets and reads no clock: simulation time is its own ``elapsed_s``, and wire
+stamps are ``epoch_ns + elapsed``. Randomness comes from one generator per
+stream (target; each vehicle's GPS, INS and sensor), all spawned from one seed,
+so a stream's draws do not depend on how often another stream is sampled.
+
+A vehicle's own navigation (what ``vehicle_position_enu_m`` reports) is the
+simplest honest one: the GPS fix when there is one; in a GPS-denied zone, dead
+reckoning from the last fix with the INS increments (feng2019 eq. 1, drawn every
+physics step and summed into each ``NavReport``), its
+standard deviation growing by :data:`DEAD_RECKONING_GROWTH` per metre flown.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from gcs.config import Scenario, VehicleConfig
+from gcs.core.geometry import LocalFrame
+from gcs.core.world import World
+from gcs.core.world.los import line_of_sight
+from protocols.messages import GpsFix, InsIncrement, NavReport, SensorReport
+from sim_vehicles.truth.fixed_wing import Airframe, AirframeState, Guidance
+from sim_vehicles.truth.gps import GpsModel, GpsReading, GpsState
+from sim_vehicles.truth.ins import InsModel
+from sim_vehicles.truth.sensor import TargetSensor
+from sim_vehicles.truth.target import TargetState, start_state, target_model
+
+__all__ = ["Scene", "SimVehicle", "DEAD_RECKONING_GROWTH"]
+
+DEAD_RECKONING_GROWTH = 0.05
+"""Growth of the dead-reckoned position's 1-sigma per metre flown without GPS (ours)."""
+
+NS_PER_S = 1_000_000_000
+
+
+@dataclass
+class SimVehicle:
+    """One vehicle's truth and sensor state (mutable: the scene advances it)."""
+
+    config: VehicleConfig
+    airframe: Airframe
+    state: AirframeState
+    gps_model: GpsModel
+    gps_state: GpsState
+    gps: GpsReading
+    ins_model: InsModel
+    sensor: TargetSensor
+    rng_gps: np.random.Generator
+    rng_ins: np.random.Generator
+    rng_sensor: np.random.Generator
+    nav_position_enu_m: np.ndarray
+    nav_heading_rad: float
+    nav_std_m: float
+    ins_distance_m: float = 0.0
+    ins_turn_rad: float = 0.0
+    last_nav_s: float = 0.0
+    report_seq: int = 0
+    nav_seq: int = 0
+
+
+class Scene:
+    """Truth of one scenario, advanced in physics steps.
+
+    Parameters
+    ----------
+    scenario : Scenario
+    world : World
+        The city (for occlusion and the target's streets).
+    seed : int
+        Seed of every random stream.
+    epoch_ns : int
+        Wire stamp of simulation time zero.
+    base_dir : Path or None
+        Where relative files of the scenario (a scripted target path) live.
+    """
+
+    def __init__(self, scenario: Scenario, world: World, seed: int, epoch_ns: int = 0,
+                 base_dir: Path | None = None) -> None:
+        self.scenario = scenario
+        self.world = world
+        self.epoch_ns = int(epoch_ns)
+        self.frame = LocalFrame(scenario.origin.lat_deg, scenario.origin.lon_deg, scenario.origin.height_m)
+        sim = scenario.simulation
+        self.wind = tuple(sim.wind_enu_mps)
+        self.elapsed_ns = 0
+        streams = np.random.SeedSequence(seed).spawn(1 + 3 * len(scenario.vehicles))
+        self.rng_target = np.random.default_rng(streams[0])
+        self.target_model = target_model(scenario, world, base_dir=base_dir)
+        self.target: TargetState = start_state(self.target_model, scenario, self.rng_target)
+        gps_model = GpsModel.from_scenario(scenario)
+        self.vehicles: dict[str, SimVehicle] = {}
+        for index, cfg in enumerate(scenario.vehicles):
+            rng_gps, rng_ins, rng_sensor = (np.random.default_rng(s) for s in streams[1 + 3 * index: 4 + 3 * index])
+            state = AirframeState(np.array([cfg.start_enu_m[0], cfg.start_enu_m[1], cfg.altitude_m]),
+                                  heading_rad=cfg.start_heading_rad, roll_rad=0.0, airspeed_mps=cfg.speed_mps)
+            gps_state = gps_model.start(rng_gps)
+            gps_state, reading = gps_model.read(gps_state, state.position_enu_m, 0.0, rng_gps)
+            self.vehicles[cfg.id] = SimVehicle(
+                config=cfg, airframe=Airframe(sim.airframe, cfg.max_turn_rate_rad_s, self.wind), state=state,
+                gps_model=gps_model, gps_state=gps_state, gps=reading, ins_model=InsModel(sim.ins),
+                sensor=TargetSensor.from_config(scenario.sensor_for(cfg)),
+                rng_gps=rng_gps, rng_ins=rng_ins, rng_sensor=rng_sensor,
+                nav_position_enu_m=state.position_enu_m.copy(), nav_heading_rad=state.heading_rad,
+                nav_std_m=reading.horizontal_std_m)
+
+    # ------------------------------------------------------------------ truth
+
+    @property
+    def elapsed_s(self) -> float:
+        """Simulation time, seconds (kept as integer nanoseconds, so steps never accumulate rounding)."""
+        return self.elapsed_ns / NS_PER_S
+
+    @property
+    def stamp_ns(self) -> int:
+        """Wire stamp of the current simulation time."""
+        return self.epoch_ns + self.elapsed_ns
+
+    def default_guidance(self, vehicle_id: str) -> Guidance:
+        """Loiter about the start point at the scenario's altitude and speed (no autopilot attached)."""
+        cfg = self.vehicles[vehicle_id].config
+        return Guidance(kind="loiter", altitude_m=cfg.altitude_m, airspeed_mps=cfg.speed_mps,
+                        point_enu_m=tuple(cfg.start_enu_m), radius_m=self.scenario.simulation.airframe.loiter_radius_m)
+
+    def advance(self, dt: float, guidance: dict[str, Guidance]) -> None:
+        """Fly every vehicle ``dt`` seconds under its guidance, move the target, sample GPS."""
+        for vehicle_id, vehicle in self.vehicles.items():
+            command = guidance.get(vehicle_id) or self.default_guidance(vehicle_id)
+            before = vehicle.state
+            vehicle.state = vehicle.airframe.step(before, command, dt)
+            vehicle.gps_state, vehicle.gps = vehicle.gps_model.read(vehicle.gps_state, vehicle.state.position_enu_m,
+                                                                    dt, vehicle.rng_gps)
+            self._navigate(vehicle, before, dt)
+        self.target = self.target_model.step(self.target, dt, self.rng_target)
+        self.elapsed_ns += round(dt * NS_PER_S)
+
+    @property
+    def target_xyz(self) -> np.ndarray:
+        """Target truth, ENU metres (on the ground, z = 0)."""
+        return np.array([self.target.position[0], self.target.position[1], 0.0])
+
+    # --------------------------------------------------------------- messages
+
+    def sensor_report(self, vehicle_id: str) -> SensorReport:
+        """The vehicle's sensor looks for the target now (occlusion by the city's buildings)."""
+        vehicle = self.vehicles[vehicle_id]
+        buildings = self.world.buildings
+
+        def clear(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+            return line_of_sight(buildings, a, b)
+
+        observation = vehicle.sensor.observe(self.target_xyz, vehicle.state.position_enu_m[None], clear,
+                                             vehicle.rng_sensor)
+        values: dict[str, float | None] = {}
+        if observation.detected[0]:
+            stds = vehicle.sensor.std_at(float(np.linalg.norm(self.target_xyz - vehicle.state.position_enu_m)))
+            for name, value, std in zip(observation.components, observation.values[0], stds):
+                unit = "_m" if name == "range" else "_rad"
+                values[f"{name}{unit}"] = float(value)
+                values[f"{name}_std{unit}"] = float(std)
+        vehicle.report_seq += 1
+        return SensorReport(
+            vehicle_id=vehicle_id, seq=vehicle.report_seq, stamp_ns=self.stamp_ns, target_id=self.scenario.target.id,
+            vehicle_position_enu_m=tuple(float(v) for v in vehicle.nav_position_enu_m),
+            vehicle_position_std_m=float(vehicle.nav_std_m), detected=bool(observation.detected[0]), **values)
+
+    def nav_report(self, vehicle_id: str) -> NavReport:
+        """GPS fix (when there is one) and the INS increments accumulated since the previous nav report."""
+        vehicle = self.vehicles[vehicle_id]
+        ins = None
+        dt = self.elapsed_s - vehicle.last_nav_s
+        if dt > 0.0:
+            ins = InsIncrement(dt_s=dt, distance_m=max(vehicle.ins_distance_m, 0.0),
+                               heading_change_rad=vehicle.ins_turn_rad)
+        vehicle.last_nav_s, vehicle.ins_distance_m, vehicle.ins_turn_rad = self.elapsed_s, 0.0, 0.0
+        gps = None
+        if vehicle.gps.position_enu_m is not None:
+            lat, lon, _ = self.frame.to_geodetic(vehicle.gps.position_enu_m)
+            gps = GpsFix(lat_deg=float(lat), lon_deg=float(lon),
+                         alt_m=self.frame.height_m + float(vehicle.gps.position_enu_m[2]),
+                         fix_type=vehicle.gps.fix_type, h_acc_m=vehicle.gps.horizontal_std_m,
+                         v_acc_m=vehicle.gps.vertical_std_m, satellites=vehicle.gps.satellites)
+        vehicle.nav_seq += 1
+        velocity = None if ins is not None or gps is not None else tuple(
+            float(v) for v in vehicle.state.ground_velocity(self.wind))
+        return NavReport(vehicle_id=vehicle_id, seq=vehicle.nav_seq, stamp_ns=self.stamp_ns, gps=gps, ins=ins,
+                         velocity_enu_mps=velocity)
+
+    def _navigate(self, vehicle: SimVehicle, before: AirframeState, dt: float) -> None:
+        """One physics step of the vehicle's own navigation: INS increments (feng2019 eq. 1), then
+        the GPS fix when there is one, else dead reckoning from the last fix."""
+        true_distance = vehicle.state.distance_m - before.distance_m
+        true_turn = math.remainder(vehicle.state.heading_rad - before.heading_rad, 2.0 * math.pi)
+        distance, turn = vehicle.ins_model.increment(true_distance, true_turn, dt, vehicle.rng_ins)
+        vehicle.ins_distance_m += distance
+        vehicle.ins_turn_rad += turn
+        if vehicle.gps.position_enu_m is not None:
+            vehicle.nav_position_enu_m = vehicle.gps.position_enu_m.copy()
+            vehicle.nav_heading_rad = vehicle.state.heading_rad  # the compass re-anchors the heading
+            vehicle.nav_std_m = vehicle.gps.horizontal_std_m
+            return
+        mid = vehicle.nav_heading_rad + 0.5 * turn
+        position = vehicle.nav_position_enu_m + np.array([distance * math.cos(mid), distance * math.sin(mid), 0.0])
+        position[2] = vehicle.state.position_enu_m[2]  # the barometer holds altitude
+        vehicle.nav_position_enu_m = position
+        vehicle.nav_heading_rad += turn
+        vehicle.nav_std_m += DEAD_RECKONING_GROWTH * distance

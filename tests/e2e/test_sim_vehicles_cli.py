@@ -1,0 +1,46 @@
+"""`sim-vehicles run` as a process: a timed run with a summary, and a clean stop on SIGINT."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+
+from gcs.adapters.mavlink_wire import GCS_SYSID, open_connection
+from tests.e2e.processes import script
+from tests.loopback import free_udp_port
+
+
+def test_timed_run_loiters_and_writes_its_summary(tmp_path) -> None:
+    out = tmp_path / "summary.json"
+    done = subprocess.run(
+        [script("sim-vehicles"), "run", "--duration", "20", "--rate", "20", "--seed", "4", "--zenoh-mode", "none",
+         "--mavlink", f"udpout:127.0.0.1:{free_udp_port()}", "--json", str(out)],
+        capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert "simulated 20.0 s" in done.stdout
+    summary = json.loads(out.read_text())
+    assert summary["steps"] == 400 and summary["simulated_s"] == 20.0
+    assert summary["modes"] == {"uav1": "LOITER", "uav2": "LOITER", "uav3": "LOITER"}
+    assert all(count == 21 for count in summary["reports"].values())  # t = 0.05 s, then every second to 20 s
+    assert summary["mavlink"]["sent"] > 0
+
+
+def test_sigint_stops_the_vehicles_cleanly_with_a_summary() -> None:
+    port = free_udp_port()
+    gcs = open_connection(f"udpin:127.0.0.1:{port}", source_system=GCS_SYSID)
+    process = subprocess.Popen(
+        [script("sim-vehicles"), "run", "--rate", "5", "--zenoh-mode", "peer", "--zenoh-connect",
+         f"tcp/127.0.0.1:{free_udp_port()}", "--mavlink", f"udpout:127.0.0.1:{port}"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert gcs.recv_match(type="HEARTBEAT", blocking=True, timeout=30) is not None
+        process.send_signal(signal.SIGINT)
+        stdout, stderr = process.communicate(timeout=15)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.communicate()
+        gcs.close()
+    assert process.returncode == 0, stderr
+    assert "simulated" in stdout and "uav3: mode LOITER" in stdout

@@ -1,0 +1,101 @@
+"""Run simulated vehicles in a background thread and talk to them as a pymavlink ground station."""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import replace
+
+from gcs.adapters.mavlink_wire import GCS_SYSID, mavlink, open_connection
+from gcs.scenarios import load_scenario
+from gcs.world_loader import build_world
+from sim_vehicles.runner import Runner, RunOptions
+
+SCENARIO = load_scenario("wang2012_urban")
+WORLD = build_world(SCENARIO)
+
+
+@contextmanager
+def running_vehicles(options: RunOptions) -> Iterator[Runner]:
+    """The default scenario's vehicles flying in a thread; stopped and joined on exit."""
+    runner = Runner(SCENARIO, WORLD, options)
+    errors: list[BaseException] = []
+
+    def target() -> None:
+        try:
+            runner.run()
+        except BaseException as error:  # surfaced in the test thread below
+            errors.append(error)
+
+    thread = threading.Thread(target=target, name="sim-vehicles", daemon=True)
+    thread.start()
+    try:
+        yield runner
+    finally:
+        runner.stop()
+        thread.join(timeout=10)
+        assert not thread.is_alive(), "the simulated vehicles did not stop"
+        if errors:
+            raise errors[0]
+
+
+class GroundStation:
+    """A minimal pymavlink GCS on ``udpin:127.0.0.1:<port>`` (sysid 255)."""
+
+    def __init__(self, port: int, signing_key: bytes | None = None) -> None:
+        self.conn = open_connection(f"udpin:127.0.0.1:{port}", source_system=GCS_SYSID, source_component=190)
+        if signing_key is not None:
+            self.conn.setup_signing(signing_key, sign_outgoing=True)
+
+    def close(self) -> None:
+        self.conn.close()
+
+    def wait(self, msg_type: str, sysid: int | None = None, timeout: float = 10.0,
+             condition: Callable[[object], bool] | None = None):
+        """The next message of a type (from a sysid, meeting a condition); AssertionError on timeout."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            message = self.conn.recv_match(type=msg_type, blocking=True, timeout=0.1)
+            if message is None:
+                continue
+            if sysid is not None and message.get_srcSystem() != sysid:
+                continue
+            if condition is None or condition(message):
+                return message
+        raise AssertionError(f"no {msg_type} from {sysid} meeting the condition within {timeout} s")
+
+    def command_long(self, sysid: int, command: int, *params: float) -> None:
+        p = list(params) + [0.0] * (7 - len(params))
+        self.conn.mav.command_long_send(sysid, 1, command, 0, *p)
+
+    def command_int(self, sysid: int, command: int, frame: int, params: tuple, x: int = 0, y: int = 0,
+                    z: float = 0.0) -> None:
+        p = list(params) + [0.0] * (4 - len(params))
+        self.conn.mav.command_int_send(sysid, 1, frame, command, 0, 0, *p, x, y, z)
+
+    def ack(self, sysid: int, command: int, timeout: float = 5.0) -> int:
+        """Result of the COMMAND_ACK for ``command`` from ``sysid``."""
+        return self.wait("COMMAND_ACK", sysid, timeout, lambda m: m.command == command).result
+
+    def set_mode(self, sysid: int, custom_mode: int) -> int:
+        self.command_long(sysid, mavlink.MAV_CMD_DO_SET_MODE, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, custom_mode)
+        return self.ack(sysid, mavlink.MAV_CMD_DO_SET_MODE)
+
+    def course_deg(self, sysid: int, timeout: float = 5.0) -> float:
+        """Course over the ground from GLOBAL_POSITION_INT's NED velocity, degrees in [0, 360)."""
+        message = self.wait("GLOBAL_POSITION_INT", sysid, timeout)
+        return math.degrees(math.atan2(message.vy, message.vx)) % 360.0
+
+
+def angle_error_deg(a: float, b: float) -> float:
+    """|a - b| on the circle, degrees."""
+    return abs((a - b + 180.0) % 360.0 - 180.0)
+
+
+def options(port: int, **changes) -> RunOptions:
+    """Every vehicle to ``udpout:127.0.0.1:<port>``, no zenoh, 10x real time."""
+    base = RunOptions(rate=10.0, seed=1, mavlink={v.id: f"udpout:127.0.0.1:{port}" for v in SCENARIO.vehicles})
+    return replace(base, **changes)

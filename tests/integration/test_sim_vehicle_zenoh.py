@@ -1,0 +1,77 @@
+"""Simulated vehicles publish SensorReport and NavReport over Zenoh, with liveliness, on loopback."""
+
+from __future__ import annotations
+
+import queue
+import time
+
+import zenoh
+
+from gcs.adapters.zenoh_session import ZenohSettings, open_session
+from protocols.codec import decode
+from protocols.keys import alive_key, alive_selector, navs_selector, parse_key, reports_selector
+from protocols.messages import NavReport, SensorReport
+from tests.integration.sim_harness import SCENARIO, running_vehicles
+from sim_vehicles.runner import RunOptions
+from tests.loopback import free_tcp_port
+
+RATE = 20.0
+EPOCH_NS = 1_700_000_000_000_000_000
+
+
+def _collect(samples: queue.Queue, seconds: float) -> list:
+    out, deadline = [], time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        try:
+            out.append(samples.get(timeout=0.05))
+        except queue.Empty:
+            pass
+    return out
+
+
+def test_reports_nav_and_liveliness_in_simulation_time() -> None:
+    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
+    vehicles_side = ZenohSettings(mode="peer", listen=(endpoint,), connect=())
+    options = RunOptions(rate=RATE, seed=3, epoch_ns=EPOCH_NS, zenoh=vehicles_side)
+    ids = {v.id for v in SCENARIO.vehicles}
+    samples: queue.Queue = queue.Queue()
+    alive: queue.Queue = queue.Queue()
+    with open_session(ZenohSettings(mode="peer", connect=(endpoint,))) as session:
+        session.declare_subscriber(reports_selector(), lambda s: samples.put((str(s.key_expr), s.payload.to_bytes(),
+                                                                             str(s.encoding))))
+        session.declare_subscriber(navs_selector(), lambda s: samples.put((str(s.key_expr), s.payload.to_bytes(),
+                                                                          str(s.encoding))))
+        session.liveliness().declare_subscriber(alive_selector(), lambda s: alive.put((str(s.key_expr), s.kind)),
+                                                history=True)
+        with running_vehicles(options):
+            received = _collect(samples, 3.0)
+            tokens = {str(reply.ok.key_expr) for reply in session.liveliness().get(alive_selector(), timeout=2.0)
+                      if reply.ok is not None}
+        departures = _collect(alive, 2.0)
+    assert tokens == {alive_key(v) for v in ids}, tokens
+    gone = {key for key, kind in departures if kind == zenoh.SampleKind.DELETE}
+    assert gone == tokens, f"liveliness withdrawn for {gone} only"
+
+    reports: dict[str, list[SensorReport]] = {v: [] for v in ids}
+    navs: dict[str, list[NavReport]] = {v: [] for v in ids}
+    for key, payload, encoding in received:
+        parsed = parse_key(key)
+        if parsed.kind == "report":
+            message = decode(payload, encoding, SensorReport)
+            reports[parsed.ident].append(message)
+        else:
+            message = decode(payload, encoding, NavReport)
+            navs[parsed.ident].append(message)
+        assert message.vehicle_id == parsed.ident and message.stamp_ns >= EPOCH_NS
+    for vehicle in ids:
+        stamps = [r.stamp_ns for r in reports[vehicle]]
+        assert len(stamps) >= 10, f"{vehicle}: {len(stamps)} reports"  # about 60 at 20x; a busy machine lags
+        assert all(b - a == 1_000_000_000 for a, b in zip(stamps, stamps[1:]))  # simulation time, 1 Hz
+        assert [r.seq for r in reports[vehicle]] == list(range(reports[vehicle][0].seq, reports[vehicle][0].seq
+                                                                + len(stamps)))
+        nav_stamps = [n.stamp_ns for n in navs[vehicle]]
+        assert all(b - a == 200_000_000 for a, b in zip(nav_stamps, nav_stamps[1:]))  # 5 Hz
+        assert all(n.gps is not None and n.gps.fix_type >= 3 and n.ins is not None for n in navs[vehicle])
+    detected = [r for rs in reports.values() for r in rs if r.detected]
+    assert detected and all(r.range_m is not None and r.range_std_m == 10.0 for r in detected)
+    assert any(not r.detected and r.range_m is None for rs in reports.values() for r in rs)
