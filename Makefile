@@ -5,15 +5,21 @@ PYTHON ?= python3
 VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
+# MAVProxy, the real GCS the integration tests drive (tests/integration/mavproxy_harness.py).
+# Installed without its dependencies: its wheel pulls vtk, opencv and matplotlib (about
+# 1 GB) for the map and 3D views; the console needs only pymavlink, defusedxml, pyserial,
+# numpy and pynmeagps, which the project and its `test` extra already bring.
+MAVPROXY := MAVProxy==1.8.75
 
 .PHONY: demo test venv clean
 
 venv: $(STAMP)
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml Makefile
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[test]'
+	$(BIN)/python -m pip install --quiet --no-deps '$(MAVPROXY)'
 	@touch $(STAMP)
 
 # Until the daemon lands (`gcs demo`), the demo checks the default scenario, runs a short
