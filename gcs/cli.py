@@ -17,6 +17,8 @@ import msgspec
 
 from gcs import __version__
 from gcs.bench.cli import add_bench
+from gcs.daemon.cli import add_run, add_status
+from gcs.demo import add_demo
 from gcs.config import ScenarioError
 from gcs.scenarios import DEFAULT_SCENARIO, list_scenarios, load_scenario
 
@@ -54,7 +56,7 @@ def _add_scenario(sub: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=_cmd_scenario)
 
 
-SUBCOMMANDS: tuple[Callable[[argparse._SubParsersAction], None], ...] = (_add_scenario, add_bench)
+SUBCOMMANDS: tuple[Callable[[argparse._SubParsersAction], None], ...] = (add_demo, add_run, add_status, _add_scenario, add_bench)
 """Registration functions, one per subcommand, in the order ``--help`` lists them."""
 
 

@@ -115,6 +115,25 @@ class SensorConfig(_Config):
     noise: Literal["constant", "distance_dependent"] = "constant"
     reference_range_m: Positive = 1500.0
 
+    def layout(self) -> tuple[tuple[str, ...], tuple[float, ...]]:
+        """Measured components and their standard deviations, in measurement-vector order.
+
+        ``range_bearing``: range, azimuth, elevation; ``bearing_only``: azimuth,
+        plus elevation when ``elevation_std_rad`` is set.
+
+        Raises
+        ------
+        ValueError
+            ``range_bearing`` without ``range_std_m`` or ``elevation_std_rad``.
+        """
+        if self.kind == "range_bearing":
+            if self.range_std_m is None or self.elevation_std_rad is None:
+                raise ValueError("a range_bearing sensor needs range_std_m and elevation_std_rad")
+            return ("range", "azimuth", "elevation"), (self.range_std_m, self.azimuth_std_rad, self.elevation_std_rad)
+        if self.elevation_std_rad is None:
+            return ("azimuth",), (self.azimuth_std_rad,)
+        return ("azimuth", "elevation"), (self.azimuth_std_rad, self.elevation_std_rad)
+
 
 class VehicleConfig(_Config):
     """One fixed-wing UAV (wang2012 eq. 1: constant speed and altitude, bounded turn rate)."""

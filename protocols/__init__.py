@@ -35,6 +35,8 @@ from protocols.keys import (
     status_key,
     track_key,
     tracks_selector,
+    truth_key,
+    truth_selector,
     validate_id,
     validate_prefix,
 )
@@ -49,6 +51,7 @@ from protocols.messages import (
     PlanCommand,
     PredictedPoint,
     SensorReport,
+    TargetTruth,
     TrackEstimate,
     VehicleStatus,
 )
@@ -71,6 +74,7 @@ __all__ = [
     "PredictedPoint",
     "ProtocolError",
     "SensorReport",
+    "TargetTruth",
     "TrackEstimate",
     "VehicleStatus",
     "alive_key",
@@ -90,6 +94,8 @@ __all__ = [
     "status_key",
     "track_key",
     "tracks_selector",
+    "truth_key",
+    "truth_selector",
     "validate_id",
     "validate_prefix",
 ]

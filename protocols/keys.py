@@ -8,6 +8,7 @@ Key space (``<prefix>`` defaults to ``gcs``)::
     <prefix>/track/<target_id>             TrackEstimate     daemon, published and queryable
     <prefix>/plan/<vehicle_id>             PlanCommand       daemon
     <prefix>/daemon/status                 DaemonStatus      daemon, published and queryable
+    <prefix>/sim/truth/<target_id>         TargetTruth       simulator only (scoring, display)
 
 A prefix is one or more ``/``-separated chunks, each matching ``[A-Za-z0-9_-]+``
 (``"replay/run1"`` is valid), so replayed data can run beside live data. Ids match
@@ -32,6 +33,7 @@ from protocols.messages import (
     NavReport,
     PlanCommand,
     SensorReport,
+    TargetTruth,
     TrackEstimate,
 )
 
@@ -53,14 +55,16 @@ __all__ = [
     "status_key",
     "track_key",
     "tracks_selector",
+    "truth_key",
+    "truth_selector",
     "validate_id",
     "validate_prefix",
 ]
 
 DEFAULT_PREFIX = "gcs"
 
-KeyKind = Literal["report", "nav", "alive", "track", "plan", "status"]
-KEY_KINDS: tuple[str, ...] = ("report", "nav", "alive", "track", "plan", "status")
+KeyKind = Literal["report", "nav", "alive", "track", "plan", "status", "truth"]
+KEY_KINDS: tuple[str, ...] = ("report", "nav", "alive", "track", "plan", "status", "truth")
 
 #: Message type carried on each kind of key (``alive`` is a liveliness token: no payload).
 MESSAGE_TYPE_BY_KIND: Mapping[str, type[Message]] = MappingProxyType(
@@ -70,6 +74,7 @@ MESSAGE_TYPE_BY_KIND: Mapping[str, type[Message]] = MappingProxyType(
         "track": TrackEstimate,
         "plan": PlanCommand,
         "status": DaemonStatus,
+        "truth": TargetTruth,
     }
 )
 
@@ -85,9 +90,9 @@ class ParsedKey:
     Attributes
     ----------
     kind : str
-        One of ``"report"``, ``"nav"``, ``"alive"``, ``"track"``, ``"plan"``, ``"status"``.
+        One of ``"report"``, ``"nav"``, ``"alive"``, ``"track"``, ``"plan"``, ``"status"``, ``"truth"``.
     ident : str or None
-        The vehicle id (report, nav, alive, plan), the target id (track), or None
+        The vehicle id (report, nav, alive, plan), the target id (track, truth), or None
         (status).
     """
 
@@ -169,6 +174,16 @@ def status_key(prefix: str = DEFAULT_PREFIX) -> str:
     return f"{validate_prefix(prefix)}/daemon/status"
 
 
+def truth_key(target_id: str, prefix: str = DEFAULT_PREFIX) -> str:
+    """Key of a simulated target's truth: ``<prefix>/sim/truth/<target_id>``."""
+    return f"{validate_prefix(prefix)}/sim/truth/{validate_id(target_id, 'target_id')}"
+
+
+def truth_selector(prefix: str = DEFAULT_PREFIX) -> str:
+    """Selector for every simulated target's truth: ``<prefix>/sim/truth/*``."""
+    return f"{validate_prefix(prefix)}/sim/truth/*"
+
+
 def reports_selector(prefix: str = DEFAULT_PREFIX) -> str:
     """Selector for every vehicle's sensor reports: ``<prefix>/vehicle/*/report``."""
     return f"{validate_prefix(prefix)}/vehicle/*/report"
@@ -230,8 +245,10 @@ def parse_key(key: str, prefix: str = DEFAULT_PREFIX) -> ParsedKey:
         return ParsedKey(kind="plan", ident=validate_id(parts[1], "vehicle_id"))
     if parts == ["daemon", "status"]:
         return ParsedKey(kind="status", ident=None)
+    if len(parts) == 3 and parts[:2] == ["sim", "truth"]:
+        return ParsedKey(kind="truth", ident=validate_id(parts[2], "target_id"))
     raise ProtocolError(
         f"key {key!r} is not in the key space under prefix {prefix!r} (expected "
-        "vehicle/<id>/report|nav|alive, track/<id>, plan/<id> or daemon/status)",
+        "vehicle/<id>/report|nav|alive, track/<id>, plan/<id>, daemon/status or sim/truth/<id>)",
         reason="key",
     )

@@ -78,6 +78,7 @@ __all__ = [
     "PlanCommand",
     "PredictedPoint",
     "SensorReport",
+    "TargetTruth",
     "TrackEstimate",
     "VehicleStatus",
 ]
@@ -337,6 +338,29 @@ class PlanCommand(Message, frozen=True, forbid_unknown_fields=True, kw_only=True
     planner: Ident
 
 
+class TargetTruth(Message, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """Ground truth of a simulated target, published by ``sim-vehicles`` only.
+
+    Lets the daemon, the live page and ``gcs demo`` score the track against the
+    truth; nothing in the estimator reads it.
+
+    Attributes
+    ----------
+    target_id, seq, stamp_ns
+        Target, the simulator's sequence number and the simulation time.
+    position_enu_m : tuple of 2 float
+        True (x, y), metres ENU.
+    velocity_enu_mps : tuple of 2 float
+        True ground velocity, m/s ENU.
+    """
+
+    target_id: Ident
+    seq: Seq
+    stamp_ns: StampNs
+    position_enu_m: tuple[PositionM, PositionM]
+    velocity_enu_mps: tuple[VelocityMps, VelocityMps]
+
+
 class VehicleStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """The daemon's view of one vehicle, part of :class:`DaemonStatus`.
 
@@ -392,5 +416,5 @@ class DaemonStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=Tru
 #: Every message type the codec knows, top-level and nested.
 MESSAGE_TYPES: tuple[type[Message], ...] = (
     SensorReport, GpsFix, InsIncrement, NavReport, PredictedPoint,
-    TrackEstimate, PlanCommand, VehicleStatus, DaemonStatus,
+    TrackEstimate, PlanCommand, VehicleStatus, DaemonStatus, TargetTruth,
 )

@@ -8,8 +8,8 @@ import logging
 import time
 from pathlib import Path
 
-from gcs.adapters.mavlink_wire import normalise_connection, read_signing_key, signing_key_from_passphrase
-from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, ZenohSettings
+from gcs.adapters.mavlink_cli import add_mavlink_arguments, connections_from_arguments, signing_key_from_arguments
+from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, settings_from_arguments
 from gcs.config import ScenarioError
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
 from gcs.world_loader import build_world
@@ -19,13 +19,6 @@ from sim_vehicles.runner import DEFAULT_MAVLINK, Runner, RunOptions, install_sig
 __all__ = ["add_run"]
 
 log = logging.getLogger(__name__)
-
-
-def _vehicle_connection(text: str) -> tuple[str, str]:
-    vehicle_id, sep, connection = text.partition("=")
-    if not sep or not vehicle_id or not connection:
-        raise argparse.ArgumentTypeError(f"expected ID=CONNECTION, got {text!r}")
-    return vehicle_id, normalise_connection(connection)
 
 
 def add_run(sub: argparse._SubParsersAction) -> None:
@@ -43,48 +36,16 @@ def add_run(sub: argparse._SubParsersAction) -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of every random stream (default 0)")
     parser.add_argument("--epoch-ns", type=int, default=None,
                         help="wire stamp of simulation time zero (default: now, whole seconds)")
-    parser.add_argument("--mavlink", default=DEFAULT_MAVLINK, metavar="CONNECTION",
-                        help=f"pymavlink connection string every vehicle uses (default {DEFAULT_MAVLINK}); "
-                             "'none' disables MAVLink")
-    parser.add_argument("--vehicle", action="append", type=_vehicle_connection, default=[], metavar="ID=CONNECTION",
-                        help="a vehicle's own MAVLink endpoint (repeatable), e.g. uav2=udpin:127.0.0.1:14561")
-    signing = parser.add_mutually_exclusive_group()
-    signing.add_argument("--signing-passphrase", metavar="PASS",
-                         help="sign MAVLink 2 with sha256(PASS), as MAVProxy's 'signing key PASS'")
-    signing.add_argument("--signing-key-file", type=Path, metavar="FILE",
-                         help="sign MAVLink 2 with a 32-byte key (raw or 64 hex characters)")
-    parser.add_argument("--zenoh-mode", choices=["peer", "client", "none"], default="peer",
-                        help="zenoh session mode; 'none' publishes nothing (default peer)")
-    parser.add_argument("--zenoh-connect", action="append", default=None, metavar="ENDPOINT",
-                        help=f"endpoint to connect to, repeatable (default {DEFAULT_ENDPOINT}, where gcs listens)")
-    parser.add_argument("--zenoh-listen", action="append", default=[], metavar="ENDPOINT",
-                        help="endpoint to listen on, repeatable (default none)")
-    parser.add_argument("--prefix", default="gcs", help="zenoh key prefix (default gcs)")
+    add_mavlink_arguments(parser, DEFAULT_MAVLINK, "every vehicle")
+    add_zenoh_arguments(parser, listen=(), connect=(DEFAULT_ENDPOINT,))
     parser.add_argument("--json", type=Path, metavar="FILE", help="write the closing summary as JSON")
     parser.set_defaults(handler=_cmd_run)
 
 
 def _options(args: argparse.Namespace, vehicle_ids: list[str]) -> RunOptions:
-    mavlink = None
-    if args.mavlink.lower() != "none" or args.vehicle:
-        default = None if args.mavlink.lower() == "none" else normalise_connection(args.mavlink)
-        overrides = dict(args.vehicle)
-        unknown = sorted(set(overrides) - set(vehicle_ids))
-        if unknown:
-            raise ValueError(f"--vehicle names unknown vehicles {unknown}; the scenario has {vehicle_ids}")
-        missing = [v for v in vehicle_ids if v not in overrides and default is None]
-        if missing:
-            raise ValueError(f"--mavlink none leaves {missing} without an endpoint; give --vehicle for each")
-        mavlink = {v: overrides.get(v, default) for v in vehicle_ids}
-    key = None
-    if args.signing_passphrase is not None:
-        key = signing_key_from_passphrase(args.signing_passphrase)
-    elif args.signing_key_file is not None:
-        key = read_signing_key(args.signing_key_file)
-    zenoh = None
-    if args.zenoh_mode != "none":
-        connect = tuple(args.zenoh_connect) if args.zenoh_connect is not None else (DEFAULT_ENDPOINT,)
-        zenoh = ZenohSettings(mode=args.zenoh_mode, listen=tuple(args.zenoh_listen), connect=connect)
+    mavlink = connections_from_arguments(args, vehicle_ids)
+    key = signing_key_from_arguments(args)
+    zenoh = settings_from_arguments(args)
     validate_prefix(args.prefix)
     epoch = args.epoch_ns if args.epoch_ns is not None else (time.time_ns() // 1_000_000_000) * 1_000_000_000
     return RunOptions(rate=args.rate, duration_s=args.duration, seed=args.seed, epoch_ns=epoch, mavlink=mavlink,

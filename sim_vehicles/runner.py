@@ -4,11 +4,12 @@ Each physics step of simulation time ``dt`` the runner
 
 1. hands every received MAVLink message to the vehicle it is addressed to
    (:class:`~sim_vehicles.autopilot.SimAutopilot`) and sends the replies;
-2. advances the scene under each autopilot's guidance;
-3. fires the timers that are due, all in simulation time: HEARTBEAT and
+2. fires the timers that are due, all in simulation time (the first at time
+   zero, so reports fall on whole decision steps): HEARTBEAT and
    SYS_STATUS at 1 Hz, the position/attitude stream at ``telemetry_rate_hz``,
-   ``SensorReport`` at ``report_rate_hz`` and ``NavReport`` at ``nav_rate_hz``
-   (scenario ``[simulation]``);
+   ``SensorReport`` (and the target's ``TargetTruth``) at ``report_rate_hz`` and
+   ``NavReport`` at ``nav_rate_hz`` (scenario ``[simulation]``);
+3. advances the scene under each autopilot's guidance;
 4. sleeps until wall time catches up with ``elapsed / rate``.
 
 So ``--rate R`` scales every timer consistently: at R = 10 a vehicle sends ten
@@ -35,8 +36,9 @@ from pathlib import Path
 from gcs.adapters.zenoh_session import ZenohSettings, declare_publisher, open_session, publish
 from gcs.config import Scenario
 from gcs.core.world import World
-from protocols.keys import alive_key, nav_key, report_key
-from protocols.messages import NavReport, SensorReport
+from protocols.errors import ProtocolError
+from protocols.keys import alive_key, nav_key, report_key, truth_key
+from protocols.messages import NavReport, SensorReport, TargetTruth
 from sim_vehicles.autopilot import SimAutopilot
 from sim_vehicles.mavlink_endpoint import MavlinkEndpoints
 from sim_vehicles.scene import Scene
@@ -95,6 +97,7 @@ class RunSummary:
     nav_reports: Counter = field(default_factory=Counter)
     modes: dict[str, str] = field(default_factory=dict)
     mavlink: Counter = field(default_factory=Counter)
+    unpublishable: Counter = field(default_factory=Counter)
 
     def lines(self) -> list[str]:
         """Human-readable summary."""
@@ -164,6 +167,8 @@ class Runner:
                 self.publishers[(vehicle.id, "nav")] = declare_publisher(
                     self.session, nav_key(vehicle.id, prefix), NavReport)
                 self.tokens.append(self.session.liveliness().declare_token(alive_key(vehicle.id, prefix)))
+            target = self.scenario.target.id
+            self.publishers[(target, "truth")] = declare_publisher(self.session, truth_key(target, prefix), TargetTruth)
             log.info("Zenoh: %s session, prefix %r, %d vehicles", self.options.zenoh.mode, prefix,
                      len(self.scenario.vehicles))
 
@@ -209,9 +214,6 @@ class Runner:
         steps_total = None if self.options.duration_s is None else round(self.options.duration_s / dt)
         while not self.stop_event.is_set() and (steps_total is None or self.summary.steps < steps_total):
             self._receive()
-            guidance = {vid: ap.guidance for vid, ap in self.autopilots.items() if ap.guidance is not None}
-            scene.advance(dt, guidance)
-            self.summary.steps += 1
             now = scene.elapsed_s
             if heartbeat.due(now):
                 self._send_all(lambda vid, ap: [ap.heartbeat(), ap.sys_status()])
@@ -224,6 +226,7 @@ class Runner:
                     self.summary.reports[vehicle_id] += 1
                     self.summary.detections[vehicle_id] += report.detected
                     self._publish(vehicle_id, "report", report)
+                self._publish(self.scenario.target.id, "truth", scene.truth())
             if navs.due(now):
                 for vehicle_id in scene.vehicles:
                     self.summary.nav_reports[vehicle_id] += 1
@@ -232,7 +235,10 @@ class Runner:
                 log.info("t = %.0f s: %s", now, ", ".join(
                     f"{vid} {self.autopilots[vid].mode_name if vid in self.autopilots else 'loiter'} "
                     f"{self.summary.detections[vid]}/{self.summary.reports[vid]} seen" for vid in scene.vehicles))
-            lag = wall_start + now / self.options.rate - self.clock()
+            guidance = {vid: ap.guidance for vid, ap in self.autopilots.items() if ap.guidance is not None}
+            scene.advance(dt, guidance)
+            self.summary.steps += 1
+            lag = wall_start + scene.elapsed_s / self.options.rate - self.clock()
             if lag > 0:
                 self.sleep(lag)  # at most one physics step of wall time: stop() is seen promptly
             elif lag < -dt / self.options.rate:
@@ -260,8 +266,13 @@ class Runner:
 
     def _publish(self, vehicle_id: str, kind: str, message) -> None:
         publisher = self.publishers.get((vehicle_id, kind))
-        if publisher is not None:
+        if publisher is None:
+            return
+        try:
             publish(publisher, message)
+        except ProtocolError as error:  # a bug in a truth model must not stop the vehicles
+            self.summary.unpublishable[kind] += 1
+            log.error("%s %s not published: %s", vehicle_id, kind, error)
 
 
 def install_signal_handlers(runner: Runner) -> None:

@@ -23,10 +23,10 @@ from pathlib import Path
 import numpy as np
 
 from gcs.config import Scenario, VehicleConfig
-from gcs.core.geometry import LocalFrame
+from gcs.core.geometry import LocalFrame, wrap_angle
 from gcs.core.world import World
 from gcs.core.world.los import line_of_sight
-from protocols.messages import GpsFix, InsIncrement, NavReport, SensorReport
+from protocols.messages import GpsFix, InsIncrement, NavReport, SensorReport, TargetTruth
 from sim_vehicles.truth.fixed_wing import Airframe, AirframeState, Guidance
 from sim_vehicles.truth.gps import GpsModel, GpsReading, GpsState
 from sim_vehicles.truth.ins import InsModel
@@ -61,7 +61,7 @@ class SimVehicle:
     nav_std_m: float
     ins_distance_m: float = 0.0
     ins_turn_rad: float = 0.0
-    last_nav_s: float = 0.0
+    last_nav_ns: int = 0
     report_seq: int = 0
     nav_seq: int = 0
 
@@ -91,6 +91,7 @@ class Scene:
         sim = scenario.simulation
         self.wind = tuple(sim.wind_enu_mps)
         self.elapsed_ns = 0
+        self.truth_seq = 0
         streams = np.random.SeedSequence(seed).spawn(1 + 3 * len(scenario.vehicles))
         self.rng_target = np.random.default_rng(streams[0])
         self.target_model = target_model(scenario, world, base_dir=base_dir)
@@ -175,11 +176,11 @@ class Scene:
         """GPS fix (when there is one) and the INS increments accumulated since the previous nav report."""
         vehicle = self.vehicles[vehicle_id]
         ins = None
-        dt = self.elapsed_s - vehicle.last_nav_s
+        dt = (self.elapsed_ns - vehicle.last_nav_ns) / NS_PER_S
         if dt > 0.0:
             ins = InsIncrement(dt_s=dt, distance_m=max(vehicle.ins_distance_m, 0.0),
                                heading_change_rad=vehicle.ins_turn_rad)
-        vehicle.last_nav_s, vehicle.ins_distance_m, vehicle.ins_turn_rad = self.elapsed_s, 0.0, 0.0
+        vehicle.last_nav_ns, vehicle.ins_distance_m, vehicle.ins_turn_rad = self.elapsed_ns, 0.0, 0.0
         gps = None
         if vehicle.gps.position_enu_m is not None:
             lat, lon, _ = self.frame.to_geodetic(vehicle.gps.position_enu_m)
@@ -188,10 +189,19 @@ class Scene:
                          fix_type=vehicle.gps.fix_type, h_acc_m=vehicle.gps.horizontal_std_m,
                          v_acc_m=vehicle.gps.vertical_std_m, satellites=vehicle.gps.satellites)
         vehicle.nav_seq += 1
-        velocity = None if ins is not None or gps is not None else tuple(
-            float(v) for v in vehicle.state.ground_velocity(self.wind))
+        velocity = None
+        if gps is not None or ins is None:  # GNSS velocity (accurate to centimetres per second: truth)
+            velocity = tuple(float(v) for v in vehicle.state.ground_velocity(self.wind))
         return NavReport(vehicle_id=vehicle_id, seq=vehicle.nav_seq, stamp_ns=self.stamp_ns, gps=gps, ins=ins,
-                         velocity_enu_mps=velocity)
+                         velocity_enu_mps=velocity, heading_rad=wrap_angle(vehicle.nav_heading_rad),
+                         turn_rate_rad_s=float(vehicle.state.turn_rate_rad_s))
+
+    def truth(self) -> TargetTruth:
+        """The target's truth now (published by the simulator for scoring and display only)."""
+        self.truth_seq += 1
+        return TargetTruth(target_id=self.scenario.target.id, seq=self.truth_seq, stamp_ns=self.stamp_ns,
+                           position_enu_m=(float(self.target.position[0]), float(self.target.position[1])),
+                           velocity_enu_mps=(float(self.target.velocity[0]), float(self.target.velocity[1])))
 
     def _navigate(self, vehicle: SimVehicle, before: AirframeState, dt: float) -> None:
         """One physics step of the vehicle's own navigation: INS increments (feng2019 eq. 1), then

@@ -22,7 +22,8 @@ import zenoh
 from protocols.codec import encode, encoding_for
 from protocols.messages import Message
 
-__all__ = ["DEFAULT_ENDPOINT", "ZenohSettings", "open_session", "declare_publisher", "publish"]
+__all__ = ["DEFAULT_ENDPOINT", "ZenohSettings", "open_session", "declare_publisher", "publish", "add_zenoh_arguments",
+           "settings_from_arguments"]
 
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 """Where the daemon listens and the vehicles connect unless told otherwise."""
@@ -82,3 +83,24 @@ def publish(publisher: zenoh.Publisher, message: Message) -> int:
     payload, encoding = encode(message)
     publisher.put(payload, encoding=zenoh.Encoding(encoding))
     return len(payload)
+
+
+def add_zenoh_arguments(parser, listen: Sequence[str], connect: Sequence[str]) -> None:
+    """``--zenoh-mode``, ``--zenoh-listen``, ``--zenoh-connect`` and ``--prefix`` with these defaults."""
+    parser.add_argument("--zenoh-mode", choices=["peer", "client", "none"], default="peer",
+                        help="zenoh session mode; 'none' opens no session (default peer)")
+    parser.add_argument("--zenoh-listen", action="append", default=None, metavar="ENDPOINT",
+                        help=f"endpoint to listen on, repeatable (default {', '.join(listen) or 'none'})")
+    parser.add_argument("--zenoh-connect", action="append", default=None, metavar="ENDPOINT",
+                        help=f"endpoint to connect to, repeatable (default {', '.join(connect) or 'none'})")
+    parser.add_argument("--prefix", default="gcs", help="zenoh key prefix (default gcs)")
+    parser.set_defaults(zenoh_default_listen=tuple(listen), zenoh_default_connect=tuple(connect))
+
+
+def settings_from_arguments(args) -> ZenohSettings | None:
+    """The settings :func:`add_zenoh_arguments` parsed (None for ``--zenoh-mode none``)."""
+    if args.zenoh_mode == "none":
+        return None
+    listen = tuple(args.zenoh_listen) if args.zenoh_listen is not None else args.zenoh_default_listen
+    connect = tuple(args.zenoh_connect) if args.zenoh_connect is not None else args.zenoh_default_connect
+    return ZenohSettings(mode=args.zenoh_mode, listen=listen, connect=connect)

@@ -31,15 +31,13 @@ import msgspec
 import numpy as np
 from numpy.typing import NDArray
 
-from gcs.bench import PLANNERS
 from gcs.config import Scenario
-from gcs.core.filters.uif import NS_PER_S, UnscentedInformationFilter
+from gcs.core.filters.uif import NS_PER_S
 from gcs.core.kinematics import VehicleState, step_vehicles
-from gcs.core.models.motion import motion_model
 from gcs.core.models.sensor import SensorModel
-from gcs.core.planners import GeneticPlanner, OrbitPlanner, PursuitPlanner, RhcWeights
-from gcs.core.tracker import Detection, StepInputs, TrackerConfig, TrackerState, step
-from gcs.core.world import VisibilityMaps, World
+from gcs.core.tracker import Detection, StepInputs, TrackerState, step
+from gcs.core.world import World
+from gcs.tracking import FROM_SCENARIO, PLANNERS, filter_sensor_models, tracker_config
 from sim_vehicles.truth.sensor import TargetSensor
 from sim_vehicles.truth.target import start_state, target_model
 
@@ -78,56 +76,8 @@ class RunRecord:
 
 def sensor_models(scenario: Scenario) -> tuple[tuple[SensorModel, ...], tuple[TargetSensor, ...]]:
     """The filter's sensor model and the truth sensor of every vehicle, from the scenario."""
-    models, truths = [], []
-    for vehicle in scenario.vehicles:
-        truth = TargetSensor.from_config(scenario.sensor_for(vehicle))
-        models.append(SensorModel(truth.components, truth.std, distance_dependent=truth.distance_dependent,
-                                  reference_range_m=truth.reference_range_m))
-        truths.append(truth)
-    return tuple(models), tuple(truths)
-
-
-FROM_SCENARIO = "scenario"
-"""Default of ``stall``: take ``planner.stall_generations`` from the scenario."""
-
-
-def _planner(name: str, scenario: Scenario, generations: int | None, stall: int | None | str):
-    cfg = scenario.planner
-    if name in ("ga_k5", "ga_k0"):
-        return GeneticPlanner(population=cfg.population, generations=generations or cfg.generations,
-                              deadline_s=cfg.deadline_s,
-                              stall=cfg.stall_generations if stall == FROM_SCENARIO else stall)
-    if name == "orbit":
-        return OrbitPlanner()
-    if name == "pursuit":
-        return PursuitPlanner()
-    raise ValueError(f"unknown planner {name!r}; expected one of {', '.join(PLANNERS)}")
-
-
-def tracker_config(scenario: Scenario, world: World, planner: str, generations: int | None = None,
-                   stall: int | None | str = FROM_SCENARIO) -> TrackerConfig:
-    """The tracker for a scenario and one of :data:`PLANNERS`."""
-    cfg = scenario.planner
-    sensors, _ = sensor_models(scenario)
-    altitude = min(v.altitude_m for v in scenario.vehicles)  # wang2012: visibility at the lowest UAV's height
-    max_range = min(scenario.sensor_for(v).max_range_m for v in scenario.vehicles)
-    weights = RhcWeights(w_vis=cfg.w_vis, u_max_rad_s=cfg.u_max_rad_s, w_u=cfg.w_u, w_res=cfg.w_res,
-                         standoff_m=cfg.standoff_m, control_weight=cfg.control_weight,
-                         standoff_weight=cfg.standoff_weight)
-    return TrackerConfig(
-        uif=UnscentedInformationFilter(motion_model(scenario.estimator.model, scenario.estimator.accel_psd_m2_s3)),
-        sensors=sensors,
-        planner=_planner(planner, scenario, generations, stall),
-        max_turn_rate=np.array([v.max_turn_rate_rad_s for v in scenario.vehicles]),
-        step_s=scenario.time.step_s,
-        horizon_steps=cfg.horizon_steps,
-        weights=weights,
-        predict_ahead=planner != "ga_k0",
-        visibility=lambda points: VisibilityMaps(world.visibility_maps(points, altitude, max_range)),
-        restricted=world.in_restricted if len(world.airspace) else None,
-        initial_position_std_m=scenario.estimator.initial_position_std_m,
-        initial_velocity_std_mps=scenario.estimator.initial_velocity_std_mps,
-    )
+    truths = tuple(TargetSensor.from_config(scenario.sensor_for(v)) for v in scenario.vehicles)
+    return filter_sensor_models(scenario), truths
 
 
 def run_closed_loop(

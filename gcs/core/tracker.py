@@ -153,11 +153,20 @@ def step(
     inputs: StepInputs,
     rng: np.random.Generator,
     now: Callable[[], float] | None = None,
+    plan: bool = True,
 ) -> tuple[TrackerState, NDArray[np.float64], StepDiagnostics]:
-    """One ASRTP step; see the module docstring. Returns the turn rates (V,) to fly now."""
+    """One ASRTP step; see the module docstring. Returns the turn rates (V,) to fly now.
+
+    ``plan=False`` fuses only (Step 2) and keeps flying the current commands: a
+    daemon that has fallen behind fuses every step it missed but plans only for
+    the newest.
+    """
     estimate = _fuse(config, state.estimate, inputs)
     if estimate is None:  # nothing seen yet: hold course
         return replace(state, estimate=None), state.turn_rate, StepDiagnostics(None, None, None, 0)
+    if not plan:
+        return replace(state, estimate=estimate), state.turn_rate, StepDiagnostics(
+            estimate, None, None, len(inputs.detections))
     prediction = _prediction(config, estimate)
     problem = PlanningProblem(
         vehicles=inputs.vehicles,

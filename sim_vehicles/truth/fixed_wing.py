@@ -42,18 +42,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gcs.config import AirframeConfig
+from gcs.core.geometry import wrap_angle
 
 __all__ = ["GRAVITY_MPS2", "Airframe", "AirframeState", "Guidance", "LOITER_GAIN"]
 
 GRAVITY_MPS2 = 9.80665
 LOITER_GAIN = 1.5
 """``k_l`` of the loiter law: how sharply a radial error turns the course toward the circle."""
-
-
-def _wrap(angle: float) -> float:
-    """Angle wrapped to (-pi, pi]."""
-    wrapped = math.remainder(angle, 2.0 * math.pi)
-    return math.pi if wrapped == -math.pi else wrapped
 
 
 @dataclass(frozen=True)
@@ -179,7 +174,7 @@ class Airframe:
         limit = self.turn_rate_limit(airspeed)
         if guidance.max_turn_rate_rad_s is not None:
             limit = min(limit, guidance.max_turn_rate_rad_s)
-        omega_c = min(max(feedforward + cfg.heading_gain_per_s * _wrap(direction - current), -limit), limit)
+        omega_c = min(max(feedforward + cfg.heading_gain_per_s * wrap_angle(direction - current), -limit), limit)
         roll_c = math.atan(omega_c * airspeed / GRAVITY_MPS2)
         roll = roll_c + (state.roll_rad - roll_c) * math.exp(-dt / cfg.roll_time_constant_s)
         turn_rate = GRAVITY_MPS2 * math.tan(roll) / airspeed
@@ -198,7 +193,7 @@ class Airframe:
         return replace(
             state,
             position_enu_m=position,
-            heading_rad=_wrap(state.heading_rad + turn_rate * dt),
+            heading_rad=wrap_angle(state.heading_rad + turn_rate * dt),
             roll_rad=roll,
             airspeed_mps=command + (airspeed - command) * math.exp(-dt / cfg.airspeed_time_constant_s),
             climb_rate_mps=climb,

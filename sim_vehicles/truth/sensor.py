@@ -62,25 +62,9 @@ class TargetSensor:
 
     @classmethod
     def from_config(cls, cfg: SensorConfig) -> TargetSensor:
-        """The sensor a ``[sensor]`` table describes.
-
-        ``range_bearing``: range, azimuth, elevation; ``bearing_only``: azimuth,
-        plus elevation when ``elevation_std_rad`` is set. ``noise =
-        "distance_dependent"`` selects zuo2021 eq. (2) about ``reference_range_m``.
-
-        Raises
-        ------
-        ValueError
-            ``range_bearing`` without ``range_std_m`` or ``elevation_std_rad``.
-        """
-        if cfg.kind == "range_bearing":
-            if cfg.range_std_m is None or cfg.elevation_std_rad is None:
-                raise ValueError("a range_bearing sensor needs range_std_m and elevation_std_rad")
-            components, std = COMPONENTS, (cfg.range_std_m, cfg.azimuth_std_rad, cfg.elevation_std_rad)
-        elif cfg.elevation_std_rad is None:
-            components, std = ("azimuth",), (cfg.azimuth_std_rad,)
-        else:
-            components, std = ("azimuth", "elevation"), (cfg.azimuth_std_rad, cfg.elevation_std_rad)
+        """The sensor a ``[sensor]`` table describes (components: :meth:`SensorConfig.layout`);
+        ``noise = "distance_dependent"`` selects zuo2021 eq. (2) about ``reference_range_m``."""
+        components, std = cfg.layout()
         return cls(components, std, cfg.max_range_m, distance_dependent=cfg.noise == "distance_dependent",
                    reference_range_m=cfg.reference_range_m)
 
@@ -118,5 +102,11 @@ class TargetSensor:
         if "azimuth" in self.components:
             a = self.components.index("azimuth")
             values[:, a] = np.mod(values[:, a] + np.pi, 2.0 * np.pi) - np.pi
+        if "elevation" in self.components:  # a sensor cannot look past the vertical: noise is clipped there
+            e = self.components.index("elevation")
+            values[:, e] = np.clip(values[:, e], -0.5 * np.pi, 0.5 * np.pi)
+        if "range" in self.components:
+            r = self.components.index("range")
+            values[:, r] = np.maximum(values[:, r], 0.0)
         values[~detected] = np.nan
         return Observation(detected, values, self.components)

@@ -22,7 +22,7 @@ def test_timed_run_loiters_and_writes_its_summary(tmp_path) -> None:
     summary = json.loads(out.read_text())
     assert summary["steps"] == 400 and summary["simulated_s"] == 20.0
     assert summary["modes"] == {"uav1": "LOITER", "uav2": "LOITER", "uav3": "LOITER"}
-    assert all(count == 21 for count in summary["reports"].values())  # t = 0.05 s, then every second to 20 s
+    assert all(count == 20 for count in summary["reports"].values())  # t = 0, 1, ..., 19 s
     assert summary["mavlink"]["sent"] > 0
 
 

@@ -71,7 +71,8 @@ def test_reports_nav_and_liveliness_in_simulation_time() -> None:
                                                                 + len(stamps)))
         nav_stamps = [n.stamp_ns for n in navs[vehicle]]
         assert all(b - a == 200_000_000 for a, b in zip(nav_stamps, nav_stamps[1:]))  # 5 Hz
-        assert all(n.gps is not None and n.gps.fix_type >= 3 and n.ins is not None for n in navs[vehicle])
+        assert all(n.gps is not None and n.gps.fix_type >= 3 for n in navs[vehicle])
+        assert all(n.ins is not None and n.ins.dt_s == 0.2 for n in navs[vehicle] if n.stamp_ns > EPOCH_NS)
     detected = [r for rs in reports.values() for r in rs if r.detected]
     assert detected and all(r.range_m is not None and r.range_std_m == 10.0 for r in detected)
     assert any(not r.detected and r.range_m is None for rs in reports.values() for r in rs)

@@ -18,6 +18,7 @@ from protocols import (
     MAX_PAYLOAD_BYTES,
     MESSAGE_TYPES,
     DaemonStatus,
+    TargetTruth,
     GpsFix,
     InsIncrement,
     NavReport,
@@ -178,6 +179,14 @@ daemon_statuses = st.builds(
     ),
     last_track_stamp_ns=st.none() | stamps,
 )
+target_truths = st.builds(
+    TargetTruth,
+    target_id=ids,
+    seq=stamps,
+    stamp_ns=stamps,
+    position_enu_m=st.tuples(positions, positions),
+    velocity_enu_mps=st.tuples(velocities, velocities),
+)
 
 STRATEGIES = {
     SensorReport: sensor_reports(),
@@ -189,6 +198,7 @@ STRATEGIES = {
     PlanCommand: plan_commands,
     VehicleStatus: vehicle_statuses,
     DaemonStatus: daemon_statuses,
+    TargetTruth: target_truths,
 }
 any_message = st.one_of(*STRATEGIES.values())
 ENCODINGS = [encoding_for(tp) for tp in MESSAGE_TYPES]

@@ -14,6 +14,7 @@ from protocols import (
     KEY_KINDS,
     MESSAGE_TYPE_BY_KIND,
     DaemonStatus,
+    TargetTruth,
     NavReport,
     ParsedKey,
     PlanCommand,
@@ -33,6 +34,8 @@ from protocols import (
     status_key,
     track_key,
     tracks_selector,
+    truth_key,
+    truth_selector,
     validate_id,
     validate_prefix,
 )
@@ -193,8 +196,17 @@ def test_kind_to_message_type() -> None:
         "track": TrackEstimate,
         "plan": PlanCommand,
         "status": DaemonStatus,
+        "truth": TargetTruth,
     }
     with pytest.raises(TypeError):
         MESSAGE_TYPE_BY_KIND["alive"] = SensorReport  # type: ignore[index]
     for tp in MESSAGE_TYPE_BY_KIND.values():
         assert encoding_for(tp).endswith(f"gcs.{tp.__name__}/1")
+
+
+def test_truth_keys_round_trip() -> None:
+    assert truth_key("target") == "gcs/sim/truth/target"
+    assert truth_selector("replay/a") == "replay/a/sim/truth/*"
+    assert parse_key("gcs/sim/truth/target") == ParsedKey(kind="truth", ident="target")
+    with pytest.raises(ProtocolError, match="sim/truth"):
+        parse_key("gcs/sim/other/target")

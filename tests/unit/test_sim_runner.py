@@ -34,8 +34,8 @@ def test_rate_scales_wall_time_and_keeps_simulation_timers(rate: float) -> None:
     assert summary.simulated_s == 10.0 and summary.steps == 200
     assert summary.wall_s == pytest.approx(10.0 / rate)
     assert summary.late_steps == 0
-    assert dict(summary.reports) == {"uav1": 11, "uav2": 11, "uav3": 11}  # 1 Hz in simulation time
-    assert dict(summary.nav_reports) == {"uav1": 51, "uav2": 51, "uav3": 51}  # 5 Hz
+    assert dict(summary.reports) == {"uav1": 10, "uav2": 10, "uav3": 10}  # 1 Hz in simulation time: 0, 1, ..., 9 s
+    assert dict(summary.nav_reports) == {"uav1": 50, "uav2": 50, "uav3": 50}  # 5 Hz
 
 
 def test_timer_fires_on_its_simulation_time_grid_without_drift() -> None:

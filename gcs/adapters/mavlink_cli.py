@@ -1,0 +1,57 @@
+"""Command-line options for MAVLink endpoints and signing, shared by ``gcs`` and ``sim-vehicles``."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from gcs.adapters.mavlink_wire import normalise_connection, read_signing_key, signing_key_from_passphrase
+
+__all__ = ["add_mavlink_arguments", "connections_from_arguments", "signing_key_from_arguments"]
+
+
+def _vehicle_connection(text: str) -> tuple[str, str]:
+    vehicle_id, sep, connection = text.partition("=")
+    if not sep or not vehicle_id or not connection:
+        raise argparse.ArgumentTypeError(f"expected ID=CONNECTION, got {text!r}")
+    return vehicle_id, normalise_connection(connection)
+
+
+def add_mavlink_arguments(parser: argparse.ArgumentParser, default: str, every: str) -> None:
+    """``--mavlink``, ``--vehicle ID=CONNECTION`` and the signing options.
+
+    ``every`` completes "pymavlink connection string <every> uses" in the help.
+    """
+    parser.add_argument("--mavlink", default=default, metavar="CONNECTION",
+                        help=f"pymavlink connection string {every} uses (default {default}); 'none' disables MAVLink")
+    parser.add_argument("--vehicle", action="append", type=_vehicle_connection, default=[], metavar="ID=CONNECTION",
+                        help="a vehicle's own MAVLink endpoint (repeatable), e.g. uav2=udpin:127.0.0.1:14561")
+    signing = parser.add_mutually_exclusive_group()
+    signing.add_argument("--signing-passphrase", metavar="PASS",
+                         help="sign MAVLink 2 with sha256(PASS), as MAVProxy's 'signing key PASS'")
+    signing.add_argument("--signing-key-file", type=Path, metavar="FILE",
+                         help="sign MAVLink 2 with a 32-byte key (raw or 64 hex characters)")
+
+
+def connections_from_arguments(args: argparse.Namespace, vehicle_ids: list[str]) -> dict[str, str] | None:
+    """Each vehicle's connection string, or None when MAVLink is off; ValueError naming a bad vehicle."""
+    if args.mavlink.lower() == "none" and not args.vehicle:
+        return None
+    default = None if args.mavlink.lower() == "none" else normalise_connection(args.mavlink)
+    overrides = dict(args.vehicle)
+    unknown = sorted(set(overrides) - set(vehicle_ids))
+    if unknown:
+        raise ValueError(f"--vehicle names unknown vehicles {unknown}; the scenario has {vehicle_ids}")
+    missing = [v for v in vehicle_ids if v not in overrides and default is None]
+    if missing:
+        raise ValueError(f"--mavlink none leaves {missing} without an endpoint; give --vehicle for each")
+    return {v: overrides.get(v, default) for v in vehicle_ids}
+
+
+def signing_key_from_arguments(args: argparse.Namespace) -> bytes | None:
+    """The signing key the options give, if any."""
+    if args.signing_passphrase is not None:
+        return signing_key_from_passphrase(args.signing_passphrase)
+    if args.signing_key_file is not None:
+        return read_signing_key(args.signing_key_file)
+    return None

@@ -1,0 +1,130 @@
+"""The daemon's Zenoh side: subscriptions that only enqueue, publications, queryables.
+
+Subscriber and liveliness callbacks run on Zenoh's threads; they copy the
+sample into an unbounded :class:`queue.Queue` with its receive time and return
+(reference/zenoh.md: never block or call Zenoh inside a callback). The daemon's
+loop drains the queue, decodes and validates. Queries (``gcs/track/*``,
+``gcs/daemon/status``) are taken from the queryables' channels by the loop too,
+and answered from the latest published payloads.
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Literal
+
+import zenoh
+
+from gcs.adapters.zenoh_session import ZenohSettings, declare_publisher, open_session
+from protocols.codec import encode
+from protocols.keys import alive_selector, navs_selector, plan_key, reports_selector, status_key, track_key, \
+    tracks_selector, truth_selector
+from protocols.messages import DaemonStatus, Message, PlanCommand, TrackEstimate
+
+__all__ = ["Received", "ZenohIO"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Received:
+    """One sample as it arrived: key, exact payload bytes, encoding, receive time (ns, wall clock)."""
+
+    kind: Literal["sample", "alive", "gone"]
+    key: str
+    payload: bytes
+    encoding: str
+    received_ns: int
+
+
+class ZenohIO:
+    """Subscriptions to reports, nav, truth and liveliness; publications of tracks, plans and status."""
+
+    def __init__(self, settings: ZenohSettings, prefix: str = "gcs",
+                 clock_ns: Callable[[], int] = time.time_ns) -> None:
+        self.settings, self.prefix, self.clock_ns = settings, prefix, clock_ns
+        self.inbox: queue.Queue[Received] = queue.Queue()
+        self.session: zenoh.Session | None = None
+        self._entities: list = []
+        self._publishers: dict[str, zenoh.Publisher] = {}
+        self._latest: dict[str, tuple[bytes, str]] = {}
+
+    def open(self) -> None:
+        """Open the session and declare every subscriber and queryable."""
+        self.session = open_session(self.settings)
+        for selector in (reports_selector(self.prefix), navs_selector(self.prefix), truth_selector(self.prefix)):
+            self._entities.append(self.session.declare_subscriber(selector, self._on_sample))
+        self._entities.append(self.session.liveliness().declare_subscriber(
+            alive_selector(self.prefix), self._on_liveliness, history=True))
+        self._tracks = self.session.declare_queryable(tracks_selector(self.prefix))
+        self._status = self.session.declare_queryable(status_key(self.prefix))
+        self._entities += [self._tracks, self._status]
+
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        self.inbox.put(Received("sample", str(sample.key_expr), sample.payload.to_bytes(), str(sample.encoding),
+                                self.clock_ns()))
+
+    def _on_liveliness(self, sample: zenoh.Sample) -> None:
+        kind = "alive" if sample.kind == zenoh.SampleKind.PUT else "gone"
+        self.inbox.put(Received(kind, str(sample.key_expr), b"", "", self.clock_ns()))
+
+    def drain(self, limit: int = 100_000) -> list[Received]:
+        """Everything received so far (up to ``limit``), in arrival order."""
+        out = []
+        while len(out) < limit:
+            try:
+                out.append(self.inbox.get_nowait())
+            except queue.Empty:
+                break
+        return out
+
+    def _put(self, key: str, message: Message) -> None:
+        payload, encoding = encode(message)
+        publisher = self._publishers.get(key)
+        if publisher is None:
+            publisher = self._publishers[key] = declare_publisher(self.session, key, type(message))
+        publisher.put(payload, encoding=zenoh.Encoding(encoding))
+        self._latest[key] = (payload, encoding)
+
+    def publish_track(self, track: TrackEstimate) -> None:
+        """Publish on ``<prefix>/track/<target>`` and keep it for queries."""
+        self._put(track_key(track.target_id, self.prefix), track)
+
+    def publish_plan(self, plan: PlanCommand) -> None:
+        """Publish on ``<prefix>/plan/<vehicle>``."""
+        self._put(plan_key(plan.vehicle_id, self.prefix), plan)
+
+    def publish_status(self, status: DaemonStatus) -> None:
+        """Publish on ``<prefix>/daemon/status`` and keep it for queries."""
+        self._put(status_key(self.prefix), status)
+
+    def answer_queries(self) -> int:
+        """Reply to waiting queries from the latest payloads; returns how many were answered."""
+        answered = 0
+        for queryable in (self._tracks, self._status):
+            while (query := queryable.try_recv()) is not None:
+                wanted = zenoh.KeyExpr(str(query.selector.key_expr))
+                for key, (payload, encoding) in list(self._latest.items()):
+                    if wanted.intersects(zenoh.KeyExpr(key)) and (queryable is self._status) == (
+                            key == status_key(self.prefix)):
+                        query.reply(key, payload, encoding=zenoh.Encoding(encoding))
+                query.drop()
+                answered += 1
+        return answered
+
+    def close(self) -> None:
+        """Undeclare everything and close the session."""
+        for entity in self._entities + list(self._publishers.values()):
+            try:
+                entity.undeclare()
+            except zenoh.ZError as error:  # already gone with a broken session
+                log.debug("undeclare failed: %s", error)
+        self._entities.clear()
+        self._publishers.clear()
+        if self.session is not None:
+            self.session.close()
+            self.session = None

@@ -1,0 +1,440 @@
+"""The ``gcs`` daemon: reports in over Zenoh, the pure tracker step, headings out over MAVLink.
+
+One thread runs the loop (functional core, imperative shell: everything that
+decides is :func:`gcs.core.tracker.step`; this module gathers its inputs and
+applies its outputs):
+
+1. drain the Zenoh inbox (callbacks only enqueued): validate and count
+   (:class:`~gcs.daemon.ingest.Ingest`), file reports into decision steps
+   (:class:`~gcs.daemon.steps.StepAssembler`), update the vehicle registry from
+   reports, nav reports and liveliness tokens;
+2. read MAVLink (heartbeats, telemetry) through the commander;
+3. for every decision step that is ready: fuse, predict and plan for the
+   vehicles alive now (a lost vehicle is planned without; it rejoins when it
+   returns), publish ``TrackEstimate`` and ``PlanCommand`` (heading ``psi + u T``,
+   the heading at the end of the step, and the planned path);
+4. steer every vehicle toward the end of its planned path from its latest
+   MAVLink position (:meth:`Daemon._steer`), and let the commander stream what
+   is due (GCS heartbeat, GUIDED requests, position-target carrots, ArduPilot
+   heading commands on change);
+5. answer queries, publish ``DaemonStatus`` once a second.
+
+Stop with :meth:`Daemon.stop` (SIGINT/SIGTERM in the CLI): the loop returns and
+everything is closed.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from gcs.adapters.mavlink_io import HeadingCommand, MavlinkCommander
+from gcs.adapters.zenoh_io import ZenohIO
+from gcs.adapters.zenoh_session import ZenohSettings
+from gcs.config import Scenario
+from gcs.core.geometry import LocalFrame, wrap_angle
+from gcs.core.kinematics import VehicleState, rollout
+from gcs.core.tracker import Detection, StepInputs, TrackerConfig, TrackerState, step
+from gcs.core.world import World
+from gcs.daemon.ingest import Ingest
+from gcs.daemon.registry import Registry
+from gcs.daemon.steps import ReadyStep, StepAssembler
+from gcs.tracking import scenario_planner, tracker_config
+from protocols.keys import parse_key
+from protocols.messages import (DaemonStatus, NavReport, PlanCommand, PredictedPoint, SensorReport, TargetTruth,
+                                TrackEstimate, VehicleStatus)
+
+__all__ = ["DaemonOptions", "Daemon", "StepRecord"]
+
+log = logging.getLogger(__name__)
+
+NS_PER_S = 1_000_000_000
+AUTOPILOT_NAMES = {3: "ArduPilot", 12: "PX4"}
+
+
+@dataclass(frozen=True)
+class DaemonOptions:
+    """How to run the daemon.
+
+    Attributes
+    ----------
+    zenoh : ZenohSettings
+    prefix : str
+    mavlink : dict of vehicle id -> connection string, or None for no MAVLink
+    signing_key : bytes or None
+    seed : int
+        Seed of the planner's random generator.
+    planner : str or None
+        One of :data:`gcs.tracking.PLANNERS`; None takes the scenario's.
+    max_wait_s : float
+        Wall time a decision step waits for missing vehicles' reports.
+    plan_fraction : float
+        Share of the planner's deadline it may use (the rest of the step is for
+        fusion, visibility maps and I/O).
+    """
+
+    zenoh: ZenohSettings
+    prefix: str = "gcs"
+    mavlink: dict[str, str] | None = None
+    signing_key: bytes | None = None
+    seed: int = 0
+    planner: str | None = None
+    max_wait_s: float = 0.5
+    plan_fraction: float = 0.6
+
+
+@dataclass(frozen=True)
+class StepRecord:
+    """What one decision step did, for the demo's summary and for tests."""
+
+    index: int
+    stamp_ns: int
+    seen: dict[str, bool]
+    estimate_xy: tuple[float, float] | None
+    error_m: float | None
+    decision_s: float | None
+    vehicles: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class _Aim:
+    """Where a vehicle's plan takes it: the end of the planned path, and the plan's first heading."""
+
+    point_enu_m: np.ndarray
+    heading_rad: float
+    altitude_m: float
+    airspeed_mps: float
+    min_distance_m: float
+
+
+@dataclass
+class _Loop:
+    """The daemon's mutable memory between steps (estimate, plan, commands)."""
+
+    state: TrackerState | None = None
+    plan_rows: dict[str, np.ndarray] = field(default_factory=dict)
+    turn_rate: dict[str, float] = field(default_factory=dict)
+    track_seq: int = 0
+    plan_seq: int = 0
+    last_track_stamp_ns: int | None = None
+    truth: dict[int, tuple[float, float]] = field(default_factory=dict)
+    step_times: list[tuple[float, int]] = field(default_factory=list)
+    aims: dict[str, _Aim] = field(default_factory=dict)
+    data_rate: float = 1.0
+
+
+class Daemon:
+    """The ground-station loop for one scenario; see the module docstring."""
+
+    def __init__(self, scenario: Scenario, world: World, options: DaemonOptions,
+                 clock: Callable[[], float] = time.monotonic, on_step: Callable[[StepRecord], None] | None = None
+                 ) -> None:
+        self.scenario, self.world, self.options = scenario, world, options
+        self.clock = clock
+        self.on_step = on_step
+        self.frame = LocalFrame(scenario.origin.lat_deg, scenario.origin.lon_deg, scenario.origin.height_m)
+        self.roster = [v.id for v in scenario.vehicles]
+        self.vehicle_config = {v.id: v for v in scenario.vehicles}
+        self.ingest = Ingest(set(self.roster), options.prefix)
+        self.steps = StepAssembler(round(scenario.time.step_s * NS_PER_S), options.max_wait_s)
+        self.planner_name = options.planner or scenario_planner(scenario)
+        self.tracker: TrackerConfig = tracker_config(scenario, world, self.planner_name)
+        self.rng = np.random.default_rng(options.seed)
+        self.zenoh = ZenohIO(options.zenoh, options.prefix)
+        self.commander: MavlinkCommander | None = None
+        self.registry = Registry(list(scenario.vehicles), self._heartbeat_age)
+        self.loop = _Loop()
+        self.records: list[StepRecord] = []
+        self.counters: Counter = Counter()
+        self._stopping = False
+        self._started_s = clock()
+        self._subset_configs: dict[tuple[int, ...], TrackerConfig] = {}
+
+    # ------------------------------------------------------------- lifecycle
+
+    def stop(self) -> None:
+        """Ask the loop to return (thread- and signal-safe)."""
+        self._stopping = True
+
+    def _heartbeat_age(self, vehicle_id: str, now_s: float) -> float | None:
+        if self.commander is None:
+            return None
+        heard = self.commander.link(vehicle_id).last_heartbeat_s
+        return None if heard is None else now_s - heard
+
+    def open(self) -> None:
+        """Open Zenoh and MAVLink."""
+        self.zenoh.open()
+        if self.options.mavlink is not None:
+            self.commander = MavlinkCommander(
+                self.frame, {v.id: v.sysid for v in self.scenario.vehicles}, self.options.mavlink,
+                signing_key=self.options.signing_key,
+                max_turn_rate_rad_s={v.id: v.max_turn_rate_rad_s for v in self.scenario.vehicles})
+        log.info("daemon up: scenario %s, planner %s, zenoh %s listen %s connect %s, MAVLink %s",
+                 self.scenario.name, self.planner_name, self.options.zenoh.mode, list(self.options.zenoh.listen),
+                 list(self.options.zenoh.connect), sorted(set((self.options.mavlink or {}).values())) or "off")
+
+    def close(self) -> None:
+        """Close MAVLink and Zenoh (idempotent)."""
+        if self.commander is not None:
+            self.commander.close()
+            self.commander = None
+        self.zenoh.close()
+
+    def run(self, until: Callable[[], bool] | None = None, idle_s: float = 0.002) -> None:
+        """Loop until :meth:`stop` (or ``until()`` returns True); always closes what it opened."""
+        try:
+            self.open()
+            next_status = self.clock()
+            while not self._stopping and (until is None or not until()):
+                now = self.clock()
+                busy = self.turn(now)
+                if now >= next_status:
+                    self.zenoh.publish_status(self.status(now))
+                    next_status = now + 1.0
+                if not busy:
+                    time.sleep(idle_s)
+        finally:
+            self.close()
+
+    # ------------------------------------------------------------------ loop
+
+    def turn(self, now: float) -> bool:
+        """One pass of the loop; True when something was received or decided."""
+        received = self.zenoh.drain()
+        for item in received:
+            self._handle(item, now)
+        if self.commander is not None:
+            self.commander.poll(now)
+        expected = {vid for vid in self.roster if self.registry.alive(vid, now)}
+        ready = self.steps.ready(expected, now)
+        for position, step_ in enumerate(ready):
+            try:
+                self._decide(step_, now, plan=position == len(ready) - 1)
+            except Exception:  # a bug in one step must not take the ground station down
+                self.counters["errors.decision"] += 1
+                log.exception("decision step %d failed; continuing", step_.index)
+        if self.commander is not None:
+            self._steer()
+            self.commander.service(now)
+        self.zenoh.answer_queries()
+        return bool(received or ready)
+
+    def _handle(self, item, now: float) -> None:
+        if item.kind in ("alive", "gone"):
+            try:
+                parsed = parse_key(item.key, self.options.prefix)
+            except ValueError:
+                self.ingest.reject("key", f"liveliness key {item.key!r}")
+                return
+            if parsed.kind == "alive" and parsed.ident in self.registry.entries:
+                self.registry.on_liveliness(parsed.ident, item.kind == "alive", now)
+                log.info("vehicle %s %s", parsed.ident, "joined" if item.kind == "alive" else "left")
+            return
+        message = self.ingest.accept(item)
+        if isinstance(message, SensorReport):
+            self.registry.on_report(message)
+            self.steps.add(message, now)
+        elif isinstance(message, NavReport):
+            self.registry.on_nav(message)
+        elif isinstance(message, TargetTruth):
+            self.loop.truth[message.stamp_ns] = message.position_enu_m
+            if len(self.loop.truth) > 4096:
+                del self.loop.truth[min(self.loop.truth)]
+
+    # --------------------------------------------------------------- decision
+
+    def _subset(self, indices: tuple[int, ...]) -> TrackerConfig:
+        """The tracker for a subset of the roster (vehicles lost are planned without)."""
+        config = self._subset_configs.get(indices)
+        if config is None:
+            config = replace(self.tracker, sensors=tuple(self.tracker.sensors[i] for i in indices),
+                             max_turn_rate=self.tracker.max_turn_rate[list(indices)])
+            self._subset_configs[indices] = config
+        return config
+
+    def _decide(self, ready: ReadyStep, now: float, plan: bool = True) -> None:
+        """Fuse one step's reports; plan too unless a newer step is already waiting."""
+        active = self.registry.plannable(now)
+        by_vehicle = {r.vehicle_id: r for r in ready.reports}
+        if not active:
+            self.counters["steps_without_vehicles"] += 1
+            return
+        indices = tuple(self.roster.index(v) for v in active)
+        config = self._subset(indices)
+        cfgs = [self.vehicle_config[v] for v in active]
+        positions = np.array([self.registry.position_at(v, ready.stamp_ns) for v in active])
+        vehicles = VehicleState(positions[:, :2], np.array([self.registry.entries[v].heading_rad for v in active]),
+                                np.array([c.speed_mps for c in cfgs]), np.array([c.altitude_m for c in cfgs]))
+        detections = []
+        for slot, vehicle_id in enumerate(active):
+            report = by_vehicle.get(vehicle_id)
+            if report is None or not report.detected:
+                continue
+            values = _measurement(report, config.sensors[slot].components)
+            if values is not None:
+                detections.append(Detection(slot, np.asarray(report.vehicle_position_enu_m, dtype=np.float64),
+                                            values))
+        state = self._state_for(active)
+        inputs = StepInputs(ready.stamp_ns, vehicles, tuple(detections))
+        state, turn_rates, diagnostics = step(config, state, inputs, self.rng, now=self._data_clock(ready, now),
+                                              plan=plan)
+        self._remember(active, state, turn_rates)
+        self.counters["decisions" if plan else "steps_fused_only"] += 1
+        result = diagnostics.plan
+        if result is not None:
+            self._command(active, vehicles, turn_rates, result.controls, ready.stamp_ns)
+        if state.estimate is not None:
+            self._publish_track(state, diagnostics, ready.stamp_ns, [d.vehicle for d in detections], active)
+        decision_s = None if result is None else result.elapsed_s * self.options.plan_fraction / self.loop.data_rate
+        self._record(ready, active, by_vehicle, state, decision_s)
+
+    def _data_clock(self, ready: ReadyStep, now: float) -> Callable[[], float]:
+        """The planner's clock in data time: wall time multiplied by how fast stamps advance.
+
+        The planner's deadline is a fraction of a decision step of *data* time. Live,
+        stamps advance as fast as the wall clock and this is the wall clock; against
+        vehicles simulated R times faster than real time the GA gets 1/R of the wall
+        time, so that its command still arrives within the step it was planned for.
+        The rate is measured over the last few released steps and never below 1.
+        The planner's deadline is further shrunk to ``plan_fraction`` of itself, leaving
+        the rest of the step for fusion, visibility maps and I/O.
+        """
+        history = self.loop.step_times
+        history.append((now, ready.stamp_ns))
+        del history[:-6]
+        rate = 1.0
+        (wall_0, stamp_0), (wall_1, stamp_1) = history[0], history[-1]
+        if wall_1 - wall_0 > 1e-3:
+            rate = max(1.0, (stamp_1 - stamp_0) / NS_PER_S / (wall_1 - wall_0))
+        self.loop.data_rate = rate
+        clock, scale = self.clock, rate / self.options.plan_fraction
+        return lambda: clock() * scale
+
+    def _state_for(self, active: list[str]) -> TrackerState:
+        estimate = None if self.loop.state is None else self.loop.state.estimate
+        rows = [self.loop.plan_rows.get(v) for v in active]
+        plan = np.stack(rows) if all(r is not None for r in rows) else None
+        turn = np.array([self.loop.turn_rate.get(v, 0.0) for v in active])
+        return TrackerState(estimate, plan, turn)
+
+    def _remember(self, active: list[str], state: TrackerState, turn_rates: np.ndarray) -> None:
+        self.loop.state = state
+        for slot, vehicle_id in enumerate(active):
+            if state.plan is not None:
+                self.loop.plan_rows[vehicle_id] = state.plan[slot]
+            self.loop.turn_rate[vehicle_id] = float(turn_rates[slot])
+
+    def _command(self, active: list[str], vehicles: VehicleState, turn_rates: np.ndarray, controls: np.ndarray,
+                 stamp_ns: int) -> None:
+        dt = self.scenario.time.step_s
+        path, _ = rollout(vehicles, controls, dt, self.tracker.max_turn_rate[[self.roster.index(v) for v in active]])
+        for slot, vehicle_id in enumerate(active):
+            cfg = self.vehicle_config[vehicle_id]
+            heading = wrap_angle(float(vehicles.heading[slot] + turn_rates[slot] * dt))
+            self.loop.aims[vehicle_id] = _Aim(path[slot, -1].copy(), heading, cfg.altitude_m, cfg.speed_mps,
+                                              cfg.speed_mps * dt)
+            self.loop.plan_seq += 1
+            self.zenoh.publish_plan(PlanCommand(
+                vehicle_id=vehicle_id, seq=self.loop.plan_seq, stamp_ns=stamp_ns, heading_rad=heading,
+                turn_rate_rad_s=float(turn_rates[slot]), airspeed_mps=cfg.speed_mps, altitude_m=cfg.altitude_m,
+                planned_path_enu_m=tuple((float(x), float(y)) for x, y in path[slot]), planner=self.planner_name))
+
+    def _steer(self) -> None:
+        """Turn each vehicle's aim into a heading command from its latest MAVLink position.
+
+        The aim is the end of the vehicle's planned path (k+T). Steering toward it
+        from where the vehicle is *now* (pure pursuit on the plan) absorbs the delay
+        between the reports a plan was made from and the moment the command is
+        flown; within one step's flight of the aim point, or without telemetry,
+        the plan's first heading (``psi + u T``) is commanded instead.
+        """
+        for vehicle_id, aim in self.loop.aims.items():
+            heading = aim.heading_rad
+            position = self.commander.link(vehicle_id).position_enu_m
+            if position is not None:
+                dx, dy = aim.point_enu_m[0] - position[0], aim.point_enu_m[1] - position[1]
+                if math.hypot(dx, dy) > aim.min_distance_m:
+                    heading = math.atan2(dy, dx)
+            self.commander.command(vehicle_id, HeadingCommand(heading, aim.altitude_m, aim.airspeed_mps))
+
+    def _publish_track(self, state: TrackerState, diagnostics, stamp_ns: int, slots: list[int],
+                       active: list[str]) -> None:
+        estimate = state.estimate
+        prediction = ()
+        if diagnostics.prediction is not None:
+            predicted = diagnostics.prediction.states
+            prediction = tuple(
+                PredictedPoint(stamp_ns=int(s), position_enu_m=(float(m[0]), float(m[1])),
+                               position_cov_m2=tuple(float(c) for c in _symmetric(cov[:2, :2]).ravel()))
+                for s, m, cov in zip(diagnostics.prediction.stamps_ns, predicted.mean, predicted.cov))
+        self.loop.track_seq += 1
+        self.loop.last_track_stamp_ns = stamp_ns
+        self.zenoh.publish_track(TrackEstimate(
+            target_id=self.scenario.target.id, seq=self.loop.track_seq, stamp_ns=stamp_ns,
+            model=self.scenario.estimator.model, state=tuple(float(v) for v in estimate.mean),
+            covariance=tuple(float(c) for c in _symmetric(estimate.cov).ravel()),
+            contributing_vehicles=tuple(sorted({active[s] for s in slots})), prediction=prediction))
+
+    def _record(self, ready: ReadyStep, active: list[str], by_vehicle: dict[str, SensorReport],
+                state: TrackerState, decision_s: float | None) -> None:
+        estimate_xy, error = None, None
+        if state.estimate is not None:
+            estimate_xy = (float(state.estimate.mean[0]), float(state.estimate.mean[1]))
+            truth = self._truth_near(ready.stamp_ns)
+            if truth is not None:
+                error = math.hypot(estimate_xy[0] - truth[0], estimate_xy[1] - truth[1])
+        record = StepRecord(ready.index, ready.stamp_ns,
+                            {v: bool(by_vehicle[v].detected) if v in by_vehicle else False for v in self.roster},
+                            estimate_xy, error, decision_s, tuple(active))
+        self.records.append(record)
+        if self.on_step is not None:
+            self.on_step(record)
+
+    def _truth_near(self, stamp_ns: int) -> tuple[float, float] | None:
+        """The simulator's truth at a stamp (within a tenth of a step), if it published one."""
+        truth = self.loop.truth.get(stamp_ns)
+        if truth is None and self.loop.truth:
+            nearest = min(self.loop.truth, key=lambda s: abs(s - stamp_ns))
+            if abs(nearest - stamp_ns) <= self.steps.step_ns // 10:
+                truth = self.loop.truth[nearest]
+        return truth
+
+    # ----------------------------------------------------------------- status
+
+    def status(self, now: float) -> DaemonStatus:
+        """The daemon's health: vehicles, link state, counters, last track."""
+        vehicles = []
+        for vehicle_id, entry in self.registry.entries.items():
+            autopilot = None
+            if self.commander is not None:
+                autopilot = AUTOPILOT_NAMES.get(self.commander.link(vehicle_id).autopilot)
+            vehicles.append(VehicleStatus(vehicle_id=vehicle_id, sysid=entry.config.sysid,
+                                          link=self.registry.link_state(vehicle_id, now),
+                                          last_report_stamp_ns=entry.last_report_stamp_ns, reports=entry.reports,
+                                          autopilot=autopilot))
+        counters = Counter(self.ingest.counters) + self.steps.counters + self.counters
+        if self.commander is not None:
+            counters.update({f"mavlink.{k}": v for k, v in self.commander.counters().items()})
+        return DaemonStatus(stamp_ns=time.time_ns(), uptime_s=max(now - self._started_s, 0.0),
+                            scenario=self.scenario.name, vehicles=tuple(vehicles),
+                            counters={k: int(v) for k, v in counters.items() if v >= 0},
+                            last_track_stamp_ns=self.loop.last_track_stamp_ns)
+
+
+def _measurement(report: SensorReport, components: tuple[str, ...]) -> np.ndarray | None:
+    """The report's values in the sensor model's component order; None if one is missing."""
+    fields = {"range": report.range_m, "azimuth": report.azimuth_rad, "elevation": report.elevation_rad}
+    values = [fields[c] for c in components]
+    return None if any(v is None for v in values) else np.array(values, dtype=np.float64)
+
+
+def _symmetric(matrix: np.ndarray) -> np.ndarray:
+    """Exactly symmetric copy (the wire checks symmetry)."""
+    return 0.5 * (matrix + matrix.T)

@@ -1,0 +1,149 @@
+"""``gcs run`` (the daemon) and ``gcs status`` (ask a running daemon how it is)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import signal
+import time
+
+import msgspec
+
+from gcs.adapters.mavlink_cli import add_mavlink_arguments, connections_from_arguments, signing_key_from_arguments
+from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, settings_from_arguments
+from gcs.config import ScenarioError
+from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
+from gcs.tracking import PLANNERS
+from gcs.world_loader import build_world
+from protocols.codec import decode
+from protocols.errors import ProtocolError
+from protocols.keys import status_key, validate_prefix
+from protocols.messages import DaemonStatus
+
+__all__ = ["add_run", "add_status", "DEFAULT_GCS_MAVLINK", "build_daemon", "install_signal_handlers"]
+
+log = logging.getLogger(__name__)
+
+DEFAULT_GCS_MAVLINK = "udpin:127.0.0.1:14550"
+"""Where the daemon listens for vehicles unless told otherwise (the vehicles' default udpout)."""
+
+
+def add_daemon_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options shared by ``gcs run`` and ``gcs demo``."""
+    parser.add_argument("--scenario", default=DEFAULT_SCENARIO,
+                        help=f"shipped name or .toml path (default {DEFAULT_SCENARIO})")
+    parser.add_argument("--planner", choices=PLANNERS, default=None,
+                        help="override the scenario's planner (ga_k5 is the paper's GA on k+5 predictions)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the planner's random generator (default 0)")
+
+
+def add_run(sub: argparse._SubParsersAction) -> None:
+    """Register ``gcs run``."""
+    parser = sub.add_parser(
+        "run", help="the ground-station daemon: reports in over Zenoh, headings out over MAVLink",
+        description="Fuse the vehicles' reports, predict the target, plan every vehicle's heading and command "
+                    "it over MAVLink; publish tracks and plans over Zenoh. Stop with Ctrl-C or SIGTERM.")
+    add_daemon_arguments(parser)
+    add_mavlink_arguments(parser, DEFAULT_GCS_MAVLINK, "every vehicle is reached through")
+    add_zenoh_arguments(parser, listen=(DEFAULT_ENDPOINT,), connect=())
+    parser.set_defaults(handler=_cmd_run)
+
+
+def build_daemon(args: argparse.Namespace, **kwargs):
+    """The daemon the parsed options describe (ValueError/ScenarioError/OSError on bad options)."""
+    from gcs.app import Daemon, DaemonOptions
+
+    scenario = load_scenario(args.scenario)
+    validate_prefix(args.prefix)
+    zenoh = settings_from_arguments(args)
+    if zenoh is None:
+        raise ValueError("the daemon needs zenoh (--zenoh-mode peer or client)")
+    options = DaemonOptions(zenoh=zenoh, prefix=args.prefix,
+                            mavlink=connections_from_arguments(args, [v.id for v in scenario.vehicles]),
+                            signing_key=signing_key_from_arguments(args), seed=args.seed, planner=args.planner)
+    base_dir = scenario_base_dir(args.scenario)
+    return Daemon(scenario, build_world(scenario, base_dir), options, **kwargs)
+
+
+def install_signal_handlers(stop) -> None:
+    """SIGINT and SIGTERM call ``stop()``; the loop then returns and closes everything."""
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop())
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    try:
+        daemon = build_daemon(args)
+    except (ScenarioError, ValueError, OSError, ProtocolError) as error:
+        log.error("%s", error)
+        return 2
+    install_signal_handlers(daemon.stop)
+    try:
+        daemon.run()
+    except RuntimeError as error:  # zenoh could not open (e.g. port in use, client without router)
+        log.error("%s", error)
+        return 1
+    log.info("daemon stopped after %d decisions", daemon.counters["decisions"])
+    return 0
+
+
+def add_status(sub: argparse._SubParsersAction) -> None:
+    """Register ``gcs status``."""
+    parser = sub.add_parser("status", help="print a running daemon's status (vehicles, links, last track, counters)",
+                            description="Query gcs/daemon/status over Zenoh and print it.")
+    add_zenoh_arguments(parser, listen=(), connect=(DEFAULT_ENDPOINT,))
+    parser.add_argument("--timeout", type=float, default=3.0, help="seconds to wait for the daemon (default 3)")
+    parser.add_argument("--json", action="store_true", help="print the status as JSON")
+    parser.set_defaults(handler=_cmd_status)
+
+
+def query_status(settings, prefix: str, timeout_s: float) -> DaemonStatus | None:
+    """The daemon's status, or None when no daemon answered in time.
+
+    A fresh session learns about the daemon's queryable only once its connection
+    is up, so the query is repeated until ``timeout_s``.
+    """
+    deadline = time.monotonic() + timeout_s
+    with open_session(settings) as session:
+        while True:
+            remaining = deadline - time.monotonic()
+            for reply in session.get(status_key(prefix), timeout=max(min(remaining, 1.0), 0.05)):
+                if reply.ok is not None:
+                    return decode(reply.ok.payload.to_bytes(), str(reply.ok.encoding), DaemonStatus)
+            if time.monotonic() >= deadline:
+                return None
+            time.sleep(0.1)
+
+
+def format_status(status: DaemonStatus) -> list[str]:
+    """Human-readable lines."""
+    lines = [f"scenario {status.scenario}, up {status.uptime_s:.0f} s, last track stamp "
+             f"{status.last_track_stamp_ns if status.last_track_stamp_ns is not None else 'none'}"]
+    for vehicle in status.vehicles:
+        lines.append(f"  {vehicle.vehicle_id:<10} sysid {vehicle.sysid or '-':>3}  link {vehicle.link:<7} "
+                     f"reports {vehicle.reports:>6}  autopilot {vehicle.autopilot or '-'}")
+    for name, value in sorted(status.counters.items()):
+        lines.append(f"  {name:<40} {value:>10}")
+    return lines
+
+
+def _cmd_status(args: argparse.Namespace) -> int:
+    settings = settings_from_arguments(args)
+    if settings is None:
+        log.error("gcs status needs zenoh")
+        return 2
+    try:
+        status = query_status(settings, args.prefix, args.timeout)
+    except (RuntimeError, ProtocolError) as error:
+        log.error("%s", error)
+        return 1
+    if status is None:
+        log.error("no daemon answered on %s within %g s", status_key(args.prefix), args.timeout)
+        return 1
+    if args.json:
+        print(json.dumps(msgspec.to_builtins(status), indent=2))
+    else:
+        print("\n".join(format_status(status)))
+    return 0
+

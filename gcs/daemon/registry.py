@@ -1,0 +1,110 @@
+"""What the daemon knows about each vehicle of the roster, and which ones it plans for.
+
+A vehicle is **alive** while its Zenoh liveliness token is declared or its
+MAVLink heartbeat is recent (within ``lost_after_s``, 5 s: MAVProxy's
+link-loss convention). It is **plannable** when alive and its navigation is
+known: a position (from its reports) and a heading (from its nav reports).
+The planner state comes only from stamped Zenoh data, never from MAVLink
+telemetry, so that a replay of the same reports plans the same way.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from gcs.config import VehicleConfig
+from protocols.messages import NavReport, SensorReport
+
+__all__ = ["VehicleEntry", "Registry", "LOST_AFTER_S"]
+
+LOST_AFTER_S = 5.0
+NS_PER_S = 1_000_000_000
+
+
+@dataclass
+class VehicleEntry:
+    """One roster vehicle: configuration, liveliness and its latest navigation."""
+
+    config: VehicleConfig
+    token: bool = False
+    token_changed_s: float | None = None
+    reports: int = 0
+    last_report_stamp_ns: int | None = None
+    position_enu_m: np.ndarray | None = None
+    position_stamp_ns: int | None = None
+    heading_rad: float | None = None
+    velocity_enu_mps: np.ndarray | None = None
+    nav_stamp_ns: int | None = None
+    was_alive: bool = False
+
+
+class Registry:
+    """The roster's entries, in scenario order."""
+
+    def __init__(self, vehicles: list[VehicleConfig], heartbeat_age: Callable[[str, float], float | None]) -> None:
+        """``heartbeat_age(vehicle_id, now_s)`` is the age of its last MAVLink heartbeat (None: never)."""
+        self.entries = {v.id: VehicleEntry(v) for v in vehicles}
+        self.heartbeat_age = heartbeat_age
+
+    @property
+    def ids(self) -> list[str]:
+        """Vehicle ids in roster order."""
+        return list(self.entries)
+
+    def on_liveliness(self, vehicle_id: str, alive: bool, now_s: float) -> None:
+        """A liveliness token was declared (True) or withdrawn (False)."""
+        entry = self.entries.get(vehicle_id)
+        if entry is not None:
+            entry.token, entry.token_changed_s = alive, now_s
+
+    def on_report(self, report: SensorReport) -> None:
+        """An accepted sensor report: the vehicle's own position at the report's stamp."""
+        entry = self.entries[report.vehicle_id]
+        entry.reports += 1
+        entry.last_report_stamp_ns = report.stamp_ns
+        entry.position_enu_m = np.asarray(report.vehicle_position_enu_m, dtype=np.float64)
+        entry.position_stamp_ns = report.stamp_ns
+
+    def on_nav(self, nav: NavReport) -> None:
+        """An accepted nav report: heading and velocity."""
+        entry = self.entries[nav.vehicle_id]
+        if nav.heading_rad is not None:
+            entry.heading_rad = nav.heading_rad
+        elif nav.velocity_enu_mps is not None and math.hypot(*nav.velocity_enu_mps[:2]) > 1.0:
+            entry.heading_rad = math.atan2(nav.velocity_enu_mps[1], nav.velocity_enu_mps[0])
+        if nav.velocity_enu_mps is not None:
+            entry.velocity_enu_mps = np.asarray(nav.velocity_enu_mps, dtype=np.float64)
+        entry.nav_stamp_ns = nav.stamp_ns
+
+    def alive(self, vehicle_id: str, now_s: float) -> bool:
+        """Liveliness token declared, or a MAVLink heartbeat within :data:`LOST_AFTER_S`."""
+        entry = self.entries[vehicle_id]
+        age = self.heartbeat_age(vehicle_id, now_s)
+        return entry.token or (age is not None and age <= LOST_AFTER_S)
+
+    def link_state(self, vehicle_id: str, now_s: float) -> str:
+        """``ok``, ``lost`` (was alive, is not) or ``unknown`` (never heard of)."""
+        entry = self.entries[vehicle_id]
+        if self.alive(vehicle_id, now_s):
+            entry.was_alive = True
+            return "ok"
+        return "lost" if entry.was_alive or entry.token_changed_s is not None else "unknown"
+
+    def plannable(self, now_s: float) -> list[str]:
+        """Alive vehicles with a known position and heading, in roster order."""
+        return [vid for vid, e in self.entries.items()
+                if self.alive(vid, now_s) and e.position_enu_m is not None and e.heading_rad is not None]
+
+    def position_at(self, vehicle_id: str, stamp_ns: int) -> np.ndarray:
+        """Position (3,) at ``stamp_ns``: the last reported one, moved on with the velocity if older."""
+        entry = self.entries[vehicle_id]
+        position = entry.position_enu_m.copy()
+        if entry.velocity_enu_mps is not None and entry.position_stamp_ns is not None:
+            dt = (stamp_ns - entry.position_stamp_ns) / NS_PER_S
+            if 0.0 < dt <= 5.0:
+                position[:2] += entry.velocity_enu_mps[:2] * dt
+        return position

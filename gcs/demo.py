@@ -1,0 +1,182 @@
+"""``gcs demo``: the daemon and the simulated vehicles on loopback, with a live line and a summary.
+
+The simulated vehicles run as a separate process (``sim-vehicles run``), the
+daemon in this one; they meet on free loopback ports: the daemon's Zenoh peer
+listens on ``tcp/127.0.0.1:<port>`` and the vehicles connect to it (no router),
+and the vehicles send MAVLink to the daemon's ``udpin:127.0.0.1:<port>``. The
+summary scores the daemon's track against the simulator's published truth,
+with the same quantities as ``gcs bench urban``: decision steps, steps seen by
+any UAV and by each, fused position RMSE, decision time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from gcs.adapters.ports import free_tcp_port, free_udp_port
+from gcs.app import Daemon, StepRecord
+from gcs.config import ScenarioError
+from gcs.daemon.cli import add_daemon_arguments, build_daemon
+from protocols.errors import ProtocolError
+
+__all__ = ["add_demo", "summarise"]
+
+log = logging.getLogger(__name__)
+
+
+def add_demo(sub: argparse._SubParsersAction) -> None:
+    """Register ``gcs demo``."""
+    parser = sub.add_parser(
+        "demo", help="daemon + simulated vehicles on loopback, live progress and a summary",
+        description="Run the ground station against simulated vehicles (a separate process) on 127.0.0.1, "
+                    "show one line of progress, and print observations and RMSE against the truth.")
+    add_daemon_arguments(parser)
+    parser.add_argument("--duration", type=float, default=None, metavar="S",
+                        help="simulated seconds (default: the scenario's, 300 s for wang2012_urban)")
+    parser.add_argument("--rate", type=float, default=10.0, help="simulation speed-up (default 10)")
+    parser.add_argument("--json", type=Path, metavar="FILE",
+                        help="write the summary: steps, seen_any, seen_per_uav, rmse_m, ...")
+    parser.set_defaults(handler=_cmd_demo)
+
+
+def summarise(records: list[StepRecord], vehicles: list[str]) -> dict:
+    """The demo's summary of the daemon's decision steps."""
+    errors = np.array([r.error_m for r in records if r.error_m is not None])
+    decisions = np.array([r.decision_s for r in records if r.decision_s is not None]) * 1e3
+    return {
+        "steps": len(records),
+        "seen_any": sum(any(r.seen.values()) for r in records),
+        "seen_per_uav": {v: sum(r.seen.get(v, False) for r in records) for v in vehicles},
+        "rmse_m": float(np.sqrt(np.mean(errors**2))) if errors.size else None,
+        "scored_steps": int(errors.size),
+        "decision_ms_median": float(np.median(decisions)) if decisions.size else None,
+        "decision_ms_p99": float(np.percentile(decisions, 99)) if decisions.size else None,
+    }
+
+
+class _Progress:
+    """One line, rewritten in place on a terminal; a line every 30 steps otherwise."""
+
+    def __init__(self, stream, duration_s: float) -> None:
+        self.stream, self.duration_s = stream, duration_s
+        self.tty = stream.isatty()
+        self.seen = self.steps = 0
+        self.squares, self.scored = 0.0, 0
+
+    def __call__(self, record: StepRecord) -> None:
+        self.steps += 1
+        self.seen += any(record.seen.values())
+        if record.error_m is not None:
+            self.squares += record.error_m**2
+            self.scored += 1
+        rmse = f"{math.sqrt(self.squares / self.scored):6.1f} m" if self.scored else "     - "
+        decision = f"{record.decision_s * 1e3:5.0f} ms" if record.decision_s is not None else "    - "
+        line = (f"step {self.steps:4d}/{self.duration_s:.0f}  seen by any {self.seen:4d}  RMSE {rmse}  "
+                f"decision {decision}  UAVs {len(record.vehicles)}")
+        if self.tty:
+            self.stream.write("\r" + line)
+            self.stream.flush()
+        elif self.steps % 30 == 0:
+            self.stream.write(line + "\n")
+
+    def end(self) -> None:
+        if self.tty:
+            self.stream.write("\n")
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    mavlink_port, zenoh_port = free_udp_port(), free_tcp_port()
+    endpoint = f"tcp/127.0.0.1:{zenoh_port}"
+    args.mavlink, args.vehicle = f"udpin:127.0.0.1:{mavlink_port}", []
+    args.signing_passphrase = args.signing_key_file = None
+    args.zenoh_mode, args.zenoh_listen, args.zenoh_connect = "peer", [endpoint], []
+    args.zenoh_default_listen = args.zenoh_default_connect = ()
+    args.prefix = "gcs"
+    if not args.rate > 0:
+        log.error("--rate must be > 0, got %s", args.rate)
+        return 2
+    try:
+        daemon = build_daemon(args)
+    except (ScenarioError, ValueError, OSError, ProtocolError) as error:
+        log.error("%s", error)
+        return 2
+    duration = args.duration if args.duration is not None else daemon.scenario.time.duration_s
+    progress = _Progress(sys.stderr, duration)
+    daemon.on_step = progress
+    log_file = Path(tempfile.gettempdir()) / f"gcs-demo-sim-vehicles-{mavlink_port}.log"
+    command = [sys.executable, "-m", "sim_vehicles.cli", "--log-level", "WARNING", "run", "--scenario", args.scenario,
+               "--rate", str(args.rate), "--duration", str(duration), "--seed", str(args.seed),
+               "--mavlink", f"udpout:127.0.0.1:{mavlink_port}", "--zenoh-connect", endpoint]
+    print(f"demo: {daemon.scenario.name}, {len(daemon.scenario.vehicles)} UAVs, {duration:g} s at {args.rate:g}x; "
+          f"zenoh {endpoint}, MAVLink udpin:127.0.0.1:{mavlink_port}; simulator log {log_file}", flush=True)
+    stopped = _run_together(daemon, command, log_file)
+    progress.end()
+    summary = summarise(daemon.records, daemon.roster)
+    summary.update({"scenario": daemon.scenario.name, "planner": daemon.planner_name, "rate": args.rate,
+                    "duration_s": duration, "rejected": {k: v for k, v in daemon.status(time.monotonic()).counters
+                                                         .items() if k.startswith("rejected.")}})
+    _print_summary(summary)
+    if args.json is not None:
+        args.json.write_text(json.dumps(summary, indent=2))
+    return 130 if stopped else 0
+
+
+def _run_together(daemon: Daemon, command: list[str], log_file: Path) -> bool:
+    """Run the simulator process and the daemon until the simulator ends; True if interrupted."""
+    interrupted = []
+
+    def on_signal(signum, frame) -> None:
+        interrupted.append(signum)
+        daemon.stop()
+
+    previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    with open(log_file, "w") as log_stream:
+        simulator = subprocess.Popen(command, stdout=log_stream, stderr=subprocess.STDOUT)
+        finished: list[float] = []
+
+        def done() -> bool:
+            if simulator.poll() is not None and not finished:
+                finished.append(time.monotonic())
+            return bool(finished) and time.monotonic() - finished[0] > 1.0  # let the last step through
+
+        try:
+            daemon.run(until=done)
+        finally:
+            if simulator.poll() is None:
+                simulator.send_signal(signal.SIGINT)
+                try:
+                    simulator.wait(timeout=10)
+                except subprocess.TimeoutExpired:
+                    simulator.kill()
+                    simulator.wait()
+            for signum, handler in previous.items():
+                signal.signal(signum, handler)
+    if simulator.returncode not in (0, -signal.SIGINT) and not interrupted:
+        log.error("the simulated vehicles exited with %s; see %s", simulator.returncode, log_file)
+    return bool(interrupted)
+
+
+def _print_summary(summary: dict) -> None:
+    per_uav = ", ".join(f"{v} {n}" for v, n in summary["seen_per_uav"].items())
+    rmse = f"{summary['rmse_m']:.1f} m over {summary['scored_steps']} steps" if summary["rmse_m"] is not None else "-"
+    median, p99 = (_ms(summary[key]) for key in ("decision_ms_median", "decision_ms_p99"))
+    print(f"steps {summary['steps']}; seen by at least one UAV {summary['seen_any']}; per UAV {per_uav}")
+    print(f"fused position RMSE {rmse}; decision time median {median}, p99 {p99}")
+    if summary["rejected"]:
+        print("rejected: " + ", ".join(f"{k} {v}" for k, v in sorted(summary["rejected"].items())))
+    print("compare: gcs bench urban (the same loop in one process, without the network and the airframe lag)")
+
+
+def _ms(value: float | None) -> str:
+    return "-" if value is None else f"{value:.0f} ms"

@@ -1,0 +1,82 @@
+"""Building the tracker (estimator + planner) a scenario describes.
+
+Shared by the daemon, the benchmarks and replay, so that they all run the same
+filter and planner for the same scenario.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from gcs.config import Scenario
+from gcs.core.filters.uif import UnscentedInformationFilter
+from gcs.core.models.motion import motion_model
+from gcs.core.models.sensor import SensorModel
+from gcs.core.planners import GeneticPlanner, OrbitPlanner, PursuitPlanner, RhcWeights
+from gcs.core.tracker import TrackerConfig
+from gcs.core.world import VisibilityMaps, World
+
+__all__ = ["PLANNERS", "FROM_SCENARIO", "filter_sensor_models", "tracker_config", "scenario_planner"]
+
+PLANNERS = ("ga_k5", "ga_k0", "orbit", "pursuit")
+"""GA-RHC on k+5 predictions or on the current estimate (k+0, the paper's
+comparison), stand-off orbit, straight-line pursuit."""
+
+FROM_SCENARIO = "scenario"
+"""Default of ``stall``: take ``planner.stall_generations`` from the scenario."""
+
+_PLANNER_BY_KIND = {"ga_rhc": "ga_k5", "k0": "ga_k0", "orbit": "orbit", "pursuit": "pursuit"}
+
+
+def scenario_planner(scenario: Scenario) -> str:
+    """The :data:`PLANNERS` name of the scenario's ``[planner] kind``."""
+    return _PLANNER_BY_KIND[scenario.planner.kind]
+
+
+def filter_sensor_models(scenario: Scenario) -> tuple[SensorModel, ...]:
+    """The filter's sensor model of every vehicle (wang2012 eq. 3-4; zuo2021 eq. 2 noise)."""
+    models = []
+    for vehicle in scenario.vehicles:
+        cfg = scenario.sensor_for(vehicle)
+        components, std = cfg.layout()
+        models.append(SensorModel(components, std, distance_dependent=cfg.noise == "distance_dependent",
+                                  reference_range_m=cfg.reference_range_m))
+    return tuple(models)
+
+
+def _planner(name: str, scenario: Scenario, generations: int | None, stall: int | None | str):
+    cfg = scenario.planner
+    if name in ("ga_k5", "ga_k0"):
+        return GeneticPlanner(population=cfg.population, generations=generations or cfg.generations,
+                              deadline_s=cfg.deadline_s,
+                              stall=cfg.stall_generations if stall == FROM_SCENARIO else stall)
+    if name == "orbit":
+        return OrbitPlanner()
+    if name == "pursuit":
+        return PursuitPlanner()
+    raise ValueError(f"unknown planner {name!r}; expected one of {', '.join(PLANNERS)}")
+
+
+def tracker_config(scenario: Scenario, world: World, planner: str, generations: int | None = None,
+                   stall: int | None | str = FROM_SCENARIO) -> TrackerConfig:
+    """The tracker for a scenario and one of :data:`PLANNERS`."""
+    cfg = scenario.planner
+    altitude = min(v.altitude_m for v in scenario.vehicles)  # wang2012: visibility at the lowest UAV's height
+    max_range = min(scenario.sensor_for(v).max_range_m for v in scenario.vehicles)
+    weights = RhcWeights(w_vis=cfg.w_vis, u_max_rad_s=cfg.u_max_rad_s, w_u=cfg.w_u, w_res=cfg.w_res,
+                         standoff_m=cfg.standoff_m, control_weight=cfg.control_weight,
+                         standoff_weight=cfg.standoff_weight)
+    return TrackerConfig(
+        uif=UnscentedInformationFilter(motion_model(scenario.estimator.model, scenario.estimator.accel_psd_m2_s3)),
+        sensors=filter_sensor_models(scenario),
+        planner=_planner(planner, scenario, generations, stall),
+        max_turn_rate=np.array([v.max_turn_rate_rad_s for v in scenario.vehicles]),
+        step_s=scenario.time.step_s,
+        horizon_steps=cfg.horizon_steps,
+        weights=weights,
+        predict_ahead=planner != "ga_k0",
+        visibility=lambda points: VisibilityMaps(world.visibility_maps(points, altitude, max_range)),
+        restricted=world.in_restricted if len(world.airspace) else None,
+        initial_position_std_m=scenario.estimator.initial_position_std_m,
+        initial_velocity_std_mps=scenario.estimator.initial_velocity_std_mps,
+    )
