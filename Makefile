@@ -22,13 +22,10 @@ $(STAMP): pyproject.toml Makefile
 	$(BIN)/python -m pip install --quiet --no-deps '$(MAVPROXY)'
 	@touch $(STAMP)
 
-# Until the daemon lands (`gcs demo`), the demo checks the default scenario, runs a short
-# target-estimation benchmark (DUIF vs FilterPy's UKF against the PCRLB) and one minute of
-# the wang2012 closed loop in one process (GA-RHC and a stand-off orbit, same seed).
+# The ground station (daemon) against three simulated fixed-wings (a separate process) on
+# loopback: the default scenario, 300 simulated seconds at 10x, a live line, then a summary.
 demo: $(STAMP)
-	$(BIN)/gcs scenario check
-	$(BIN)/gcs bench estimation --runs 20 --table-runs 2
-	$(BIN)/gcs bench urban --runs 1 --duration 60 --planner ga_k5 --planner orbit --no-scaling
+	$(BIN)/gcs demo
 
 test: $(STAMP)
 	$(BIN)/python -m pytest

@@ -56,6 +56,8 @@ log = logging.getLogger(__name__)
 
 NS_PER_S = 1_000_000_000
 AUTOPILOT_NAMES = {3: "ArduPilot", 12: "PX4"}
+STEER_RATE_HZ = 4.0
+"""How often the headings toward the planned paths are recomputed (the carrot rate)."""
 
 
 @dataclass(frozen=True)
@@ -155,6 +157,7 @@ class Daemon:
         self._stopping = False
         self._started_s = clock()
         self._subset_configs: dict[tuple[int, ...], TrackerConfig] = {}
+        self._next_steer_s = 0.0
 
     # ------------------------------------------------------------- lifecycle
 
@@ -221,9 +224,11 @@ class Daemon:
                 self.counters["errors.decision"] += 1
                 log.exception("decision step %d failed; continuing", step_.index)
         if self.commander is not None:
-            self._steer()
+            if now >= self._next_steer_s:
+                self._steer()
+                self._next_steer_s = now + 1.0 / STEER_RATE_HZ
             self.commander.service(now)
-        self.zenoh.answer_queries()
+        self.zenoh.answer_queries(status=lambda: self.status(now))
         return bool(received or ready)
 
     def _handle(self, item, now: float) -> None:

@@ -38,6 +38,12 @@ def add_run(sub: argparse._SubParsersAction) -> None:
                         help="wire stamp of simulation time zero (default: now, whole seconds)")
     add_mavlink_arguments(parser, DEFAULT_MAVLINK, "every vehicle")
     add_zenoh_arguments(parser, listen=(), connect=(DEFAULT_ENDPOINT,))
+    parser.add_argument("--only", action="append", default=None, metavar="ID",
+                        help="fly only this vehicle (repeatable), e.g. one process per vehicle; the target is "
+                             "simulated in each, with the same seed the same target")
+    parser.add_argument("--wait-for-gcs", type=float, default=5.0, metavar="S",
+                        help="wait up to S wall seconds for a subscriber to the reports before starting, so the "
+                             "first reports are not lost while the connection comes up (default 5; 0: don't)")
     parser.add_argument("--json", type=Path, metavar="FILE", help="write the closing summary as JSON")
     parser.set_defaults(handler=_cmd_run)
 
@@ -49,7 +55,8 @@ def _options(args: argparse.Namespace, vehicle_ids: list[str]) -> RunOptions:
     validate_prefix(args.prefix)
     epoch = args.epoch_ns if args.epoch_ns is not None else (time.time_ns() // 1_000_000_000) * 1_000_000_000
     return RunOptions(rate=args.rate, duration_s=args.duration, seed=args.seed, epoch_ns=epoch, mavlink=mavlink,
-                      signing_key=key, zenoh=zenoh, prefix=args.prefix)
+                      signing_key=key, zenoh=zenoh, prefix=args.prefix,
+                      only=None if args.only is None else tuple(args.only), wait_for_subscriber_s=args.wait_for_gcs)
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
@@ -59,7 +66,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
             raise ValueError(f"--rate must be > 0, got {args.rate}")
         if args.duration is not None and not args.duration > 0:
             raise ValueError(f"--duration must be > 0, got {args.duration}")
-        options = _options(args, [v.id for v in scenario.vehicles])
+        flown = [v.id for v in scenario.vehicles if args.only is None or v.id in args.only]
+        options = _options(args, flown)
         base_dir = scenario_base_dir(args.scenario)
         world = build_world(scenario, base_dir)
         runner = Runner(scenario, world, options, base_dir=base_dir)

@@ -72,6 +72,13 @@ class RunOptions:
         None: publish nothing over Zenoh.
     prefix : str
         Zenoh key prefix.
+    only : tuple of vehicle ids, or None
+        Fly only these vehicles (e.g. one per process); the target's truth is
+        published by the process that flies the scenario's first vehicle.
+    wait_for_subscriber_s : float
+        Before the clock starts, wait up to this long (wall time) for subscribers
+        to every key (a ground station), so that the first reports are not
+        published into the void while the connection comes up.
     """
 
     rate: float = 1.0
@@ -82,6 +89,8 @@ class RunOptions:
     signing_key: bytes | None = None
     zenoh: ZenohSettings | None = None
     prefix: str = "gcs"
+    only: tuple[str, ...] | None = None
+    wait_for_subscriber_s: float = 0.0
 
 
 @dataclass
@@ -135,7 +144,9 @@ class Runner:
         self.scenario = scenario
         self.options = options
         self.clock, self.sleep = clock, sleep
-        self.scene = Scene(scenario, world, options.seed, options.epoch_ns, base_dir)
+        self.scene = Scene(scenario, world, options.seed, options.epoch_ns, base_dir, options.only)
+        self.vehicles = [v for v in scenario.vehicles if v.id in self.scene.vehicles]
+        self.publishes_truth = scenario.vehicles[0].id in self.scene.vehicles
         self.summary = RunSummary()
         self.stop_event = threading.Event()
         self.endpoints: MavlinkEndpoints | None = None
@@ -148,11 +159,11 @@ class Runner:
 
     def _open(self) -> None:
         sim = self.scenario.simulation
-        by_sysid = {v.sysid: v.id for v in self.scenario.vehicles}
+        by_sysid = {v.sysid: v.id for v in self.vehicles}
         if self.options.mavlink is not None:
-            connections = {v.sysid: self.options.mavlink[v.id] for v in self.scenario.vehicles}
+            connections = {v.sysid: self.options.mavlink[v.id] for v in self.vehicles}
             self.endpoints = MavlinkEndpoints(connections, self.options.signing_key)
-            for vehicle in self.scenario.vehicles:
+            for vehicle in self.vehicles:
                 autopilot = SimAutopilot(vehicle.sysid, self.scene.frame, sim.airframe, vehicle.speed_mps,
                                          vehicle.altitude_m, self.endpoints.encoder(vehicle.sysid))
                 autopilot.start(self.scene.vehicles[vehicle.id].state)
@@ -161,16 +172,29 @@ class Runner:
         if self.options.zenoh is not None:
             self.session = open_session(self.options.zenoh)
             prefix = self.options.prefix
-            for vehicle in self.scenario.vehicles:
+            for vehicle in self.vehicles:
                 self.publishers[(vehicle.id, "report")] = declare_publisher(
                     self.session, report_key(vehicle.id, prefix), SensorReport)
                 self.publishers[(vehicle.id, "nav")] = declare_publisher(
                     self.session, nav_key(vehicle.id, prefix), NavReport)
                 self.tokens.append(self.session.liveliness().declare_token(alive_key(vehicle.id, prefix)))
             target = self.scenario.target.id
-            self.publishers[(target, "truth")] = declare_publisher(self.session, truth_key(target, prefix), TargetTruth)
-            log.info("Zenoh: %s session, prefix %r, %d vehicles", self.options.zenoh.mode, prefix,
-                     len(self.scenario.vehicles))
+            if self.publishes_truth:
+                self.publishers[(target, "truth")] = declare_publisher(self.session, truth_key(target, prefix),
+                                                                       TargetTruth)
+            log.info("Zenoh: %s session, prefix %r, %d vehicles", self.options.zenoh.mode, prefix, len(self.vehicles))
+            self._wait_for_subscriber()
+
+    def _wait_for_subscriber(self) -> None:
+        deadline = self.clock() + self.options.wait_for_subscriber_s
+        publishers = list(self.publishers.values())
+        while publishers and not all(p.matching_status.matching for p in publishers):
+            if self.clock() >= deadline or self.stop_event.is_set():
+                if self.options.wait_for_subscriber_s > 0:
+                    log.info("not every key has a subscriber yet; flying anyway")
+                return
+            self.stop_event.wait(0.02)
+        log.info("every key has a subscriber")
 
     def close(self) -> None:
         """Withdraw liveliness, close the Zenoh session and the MAVLink sockets."""

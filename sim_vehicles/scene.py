@@ -80,10 +80,13 @@ class Scene:
         Wire stamp of simulation time zero.
     base_dir : Path or None
         Where relative files of the scenario (a scripted target path) live.
+    only : tuple of vehicle ids, or None
+        Simulate only these vehicles (the target is always simulated); their
+        random streams are the same as in a scene of every vehicle.
     """
 
     def __init__(self, scenario: Scenario, world: World, seed: int, epoch_ns: int = 0,
-                 base_dir: Path | None = None) -> None:
+                 base_dir: Path | None = None, only: tuple[str, ...] | None = None) -> None:
         self.scenario = scenario
         self.world = world
         self.epoch_ns = int(epoch_ns)
@@ -98,7 +101,12 @@ class Scene:
         self.target: TargetState = start_state(self.target_model, scenario, self.rng_target)
         gps_model = GpsModel.from_scenario(scenario)
         self.vehicles: dict[str, SimVehicle] = {}
+        unknown = sorted(set(only or ()) - {v.id for v in scenario.vehicles})
+        if unknown:
+            raise ValueError(f"unknown vehicles {unknown}; the scenario has {[v.id for v in scenario.vehicles]}")
         for index, cfg in enumerate(scenario.vehicles):
+            if only is not None and cfg.id not in only:
+                continue  # its streams stay unused, so every vehicle draws the same noise in any split
             rng_gps, rng_ins, rng_sensor = (np.random.default_rng(s) for s in streams[1 + 3 * index: 4 + 3 * index])
             state = AirframeState(np.array([cfg.start_enu_m[0], cfg.start_enu_m[1], cfg.altitude_m]),
                                   heading_rad=cfg.start_heading_rad, roll_rad=0.0, airspeed_mps=cfg.speed_mps)

@@ -2,8 +2,10 @@
 
 Importing this module selects MAVLink 2 in pymavlink (``MAVLINK20=1`` must be set
 before ``pymavlink.mavutil`` is first imported; signing needs MAVLink 2) and
-exposes the ``ardupilotmega`` dialect as :data:`mavlink`, which has the
-GUIDED_CHANGE_* commands (reference/mavlink.md).
+exposes pymavlink's default MAVLink 2 module as :data:`mavlink` (the ``all``
+dialect, a superset of ``ardupilotmega`` with the GUIDED_CHANGE_* commands;
+reference/mavlink.md). Connections parse with ``ardupilotmega``; the message
+ids and enums are the same, but each module has its own ``MAVError`` class.
 
 Conventions at this edge (design.md section 3): latitude and longitude are
 ``1e7``-scaled integers, altitudes in metres relative to home, and yaw is NED
@@ -27,7 +29,7 @@ os.environ["MAVLINK20"] = "1"
 from pymavlink import mavutil  # noqa: E402
 
 mavlink = mavutil.mavlink
-"""The MAVLink 2 ``ardupilotmega`` dialect module (message classes, enums, ``MAVLink``)."""
+"""pymavlink's MAVLink 2 module (``all`` dialect: message classes, enums, ``MAVLink``)."""
 
 __all__ = [
     "ARDUPLANE_MODES",

@@ -102,18 +102,27 @@ class ZenohIO:
         """Publish on ``<prefix>/daemon/status`` and keep it for queries."""
         self._put(status_key(self.prefix), status)
 
-    def answer_queries(self) -> int:
-        """Reply to waiting queries from the latest payloads; returns how many were answered."""
+    def answer_queries(self, status: Callable[[], DaemonStatus] | None = None) -> int:
+        """Reply to waiting queries; returns how many were answered.
+
+        Track queries get the latest published tracks; status queries get
+        ``status()`` (fresh) when given, else the latest published status.
+        """
         answered = 0
-        for queryable in (self._tracks, self._status):
-            while (query := queryable.try_recv()) is not None:
-                wanted = zenoh.KeyExpr(str(query.selector.key_expr))
-                for key, (payload, encoding) in list(self._latest.items()):
-                    if wanted.intersects(zenoh.KeyExpr(key)) and (queryable is self._status) == (
-                            key == status_key(self.prefix)):
-                        query.reply(key, payload, encoding=zenoh.Encoding(encoding))
-                query.drop()
-                answered += 1
+        while (query := self._tracks.try_recv()) is not None:
+            wanted = zenoh.KeyExpr(str(query.selector.key_expr))
+            for key, (payload, encoding) in list(self._latest.items()):
+                if key != status_key(self.prefix) and wanted.intersects(zenoh.KeyExpr(key)):
+                    query.reply(key, payload, encoding=zenoh.Encoding(encoding))
+            query.drop()
+            answered += 1
+        while (query := self._status.try_recv()) is not None:
+            key = status_key(self.prefix)
+            latest = encode(status()) if status is not None else self._latest.get(key)
+            if latest is not None:
+                query.reply(key, latest[0], encoding=zenoh.Encoding(latest[1]))
+            query.drop()
+            answered += 1
         return answered
 
     def close(self) -> None:

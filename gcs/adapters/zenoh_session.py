@@ -14,6 +14,7 @@ dropped under load (the default DROP loses about a fifth at saturation).
 from __future__ import annotations
 
 import json
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -23,7 +24,7 @@ from protocols.codec import encode, encoding_for
 from protocols.messages import Message
 
 __all__ = ["DEFAULT_ENDPOINT", "ZenohSettings", "open_session", "declare_publisher", "publish", "add_zenoh_arguments",
-           "settings_from_arguments"]
+           "settings_from_arguments", "query"]
 
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 """Where the daemon listens and the vehicles connect unless told otherwise."""
@@ -104,3 +105,19 @@ def settings_from_arguments(args) -> ZenohSettings | None:
     listen = tuple(args.zenoh_listen) if args.zenoh_listen is not None else args.zenoh_default_listen
     connect = tuple(args.zenoh_connect) if args.zenoh_connect is not None else args.zenoh_default_connect
     return ZenohSettings(mode=args.zenoh_mode, listen=listen, connect=connect)
+
+
+def query(session: zenoh.Session, selector: str, timeout_s: float) -> list[zenoh.Sample]:
+    """The samples queryables answer for ``selector``, asking again until one answers or ``timeout_s`` passes.
+
+    A freshly opened session learns about remote queryables only once its
+    connection is up, so a single ``get`` right after opening may find nobody.
+    """
+    deadline = time.monotonic() + timeout_s
+    while True:
+        remaining = deadline - time.monotonic()
+        samples = [reply.ok for reply in session.get(selector, timeout=max(min(remaining, 1.0), 0.05))
+                   if reply.ok is not None]
+        if samples or time.monotonic() >= deadline:
+            return samples
+        time.sleep(0.1)

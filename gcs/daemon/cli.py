@@ -6,12 +6,12 @@ import argparse
 import json
 import logging
 import signal
-import time
 
 import msgspec
 
 from gcs.adapters.mavlink_cli import add_mavlink_arguments, connections_from_arguments, signing_key_from_arguments
-from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, settings_from_arguments
+from gcs.adapters.zenoh_session import (DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, query,
+                                        settings_from_arguments)
 from gcs.config import ScenarioError
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
 from gcs.tracking import PLANNERS
@@ -99,21 +99,11 @@ def add_status(sub: argparse._SubParsersAction) -> None:
 
 
 def query_status(settings, prefix: str, timeout_s: float) -> DaemonStatus | None:
-    """The daemon's status, or None when no daemon answered in time.
-
-    A fresh session learns about the daemon's queryable only once its connection
-    is up, so the query is repeated until ``timeout_s``.
-    """
-    deadline = time.monotonic() + timeout_s
+    """The daemon's status, or None when no daemon answered within ``timeout_s``."""
     with open_session(settings) as session:
-        while True:
-            remaining = deadline - time.monotonic()
-            for reply in session.get(status_key(prefix), timeout=max(min(remaining, 1.0), 0.05)):
-                if reply.ok is not None:
-                    return decode(reply.ok.payload.to_bytes(), str(reply.ok.encoding), DaemonStatus)
-            if time.monotonic() >= deadline:
-                return None
-            time.sleep(0.1)
+        for sample in query(session, status_key(prefix), timeout_s):
+            return decode(sample.payload.to_bytes(), str(sample.encoding), DaemonStatus)
+    return None
 
 
 def format_status(status: DaemonStatus) -> list[str]:

@@ -81,3 +81,17 @@ def test_dead_reckoning_takes_over_in_a_gps_denied_zone() -> None:
     error = sum((a - b) ** 2 for a, b in zip(report.vehicle_position_enu_m, truth)) ** 0.5
     assert 0.0 < error < 30.0  # dead reckoning drifts, but not far in 10 s
     assert report.vehicle_position_std_m > scenario.simulation.gps.horizontal_std_m
+
+
+def test_a_scene_of_one_vehicle_draws_what_that_vehicle_draws_among_all() -> None:
+    whole = Scene(SCENARIO, WORLD, seed=5)
+    alone = Scene(SCENARIO, WORLD, seed=5, only=("uav2",))
+    assert list(alone.vehicles) == ["uav2"]
+    for _ in range(40):
+        whole.advance(0.05, {})
+        alone.advance(0.05, {})
+    assert alone.sensor_report("uav2") == whole.sensor_report("uav2")
+    assert alone.nav_report("uav2") == whole.nav_report("uav2")
+    assert alone.truth() == whole.truth()
+    with pytest.raises(ValueError, match="nobody"):
+        Scene(SCENARIO, WORLD, seed=5, only=("nobody",))

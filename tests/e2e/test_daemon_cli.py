@@ -1,0 +1,52 @@
+"""`gcs demo`, `gcs run` and `gcs status` as processes."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+
+from tests.e2e.processes import script
+from tests.loopback import free_tcp_port, free_udp_port
+
+
+def test_demo_runs_daemon_and_vehicles_and_writes_the_summary(tmp_path) -> None:
+    out = tmp_path / "demo.json"
+    done = subprocess.run([script("gcs"), "demo", "--duration", "20", "--rate", "10", "--json", str(out)],
+                          capture_output=True, text=True, timeout=180)
+    assert done.returncode == 0, done.stderr[-3000:]
+    summary = json.loads(out.read_text())
+    assert summary["steps"] == 20
+    assert set(summary["seen_per_uav"]) == {"uav1", "uav2", "uav3"}
+    assert 0 < summary["seen_any"] <= 20 and summary["rmse_m"] is not None and summary["rmse_m"] > 0
+    assert "seen by at least one UAV" in done.stdout and "demo: wang2012_urban" in done.stdout
+
+
+def test_run_answers_status_and_stops_cleanly_on_sigint() -> None:
+    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
+    daemon = subprocess.Popen([script("gcs"), "run", "--zenoh-listen", endpoint,
+                               "--mavlink", f"udpin:127.0.0.1:{free_udp_port()}"],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        status = subprocess.run([script("gcs"), "status", "--json", "--zenoh-connect", endpoint, "--timeout", "20"],
+                                capture_output=True, text=True, timeout=60)
+        daemon.send_signal(signal.SIGINT)
+        _, stderr = daemon.communicate(timeout=20)
+    finally:
+        if daemon.poll() is None:
+            daemon.kill()
+            daemon.communicate()
+    assert status.returncode == 0, status.stderr
+    shown = json.loads(status.stdout)
+    assert shown["scenario"] == "wang2012_urban"
+    assert [v["vehicle_id"] for v in shown["vehicles"]] == ["uav1", "uav2", "uav3"]
+    assert {v["link"] for v in shown["vehicles"]} == {"unknown"}
+    assert daemon.returncode == 0, stderr[-3000:]
+    assert "daemon stopped" in stderr
+
+
+def test_status_without_a_daemon_fails_clearly() -> None:
+    done = subprocess.run([script("gcs"), "status", "--zenoh-connect", f"tcp/127.0.0.1:{free_tcp_port()}",
+                           "--timeout", "1"], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 1
+    assert "no daemon answered" in done.stderr

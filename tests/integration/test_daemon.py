@@ -1,0 +1,86 @@
+"""The daemon in a thread against simulated vehicles on loopback: queries, bad input, a vehicle lost and back."""
+
+from __future__ import annotations
+
+import threading
+import time
+from contextlib import ExitStack
+
+import zenoh
+
+from gcs.adapters.mavlink_wire import ARDUPLANE_MODES
+from gcs.adapters.zenoh_session import ZenohSettings, open_session, query
+from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.cli import query_status
+from protocols.codec import decode, encode
+from protocols.keys import report_key, track_key
+from protocols.messages import SensorReport, TrackEstimate
+from tests.integration.sim_harness import SCENARIO, WORLD, options, running_vehicles
+from tests.loopback import free_tcp_port, free_udp_port
+
+RATE = 5.0
+EPOCH_NS = 1_000_000_000_000
+
+
+def _wait(condition, timeout: float, what: str) -> None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if condition():
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"timed out waiting for {what}")
+
+
+def test_daemon_tracks_answers_rejects_bad_input_and_replans_around_a_lost_vehicle() -> None:
+    endpoint, port = f"tcp/127.0.0.1:{free_tcp_port()}", free_udp_port()
+    daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=ZenohSettings(listen=(endpoint,), connect=()),
+                                                   mavlink={v.id: f"udpin:127.0.0.1:{port}" for v in SCENARIO.vehicles}))
+    thread = threading.Thread(target=daemon.run, name="daemon", daemon=True)
+    thread.start()
+    vehicles = ZenohSettings(connect=(endpoint,))
+    try:
+        with ExitStack() as stack:
+            pair = stack.enter_context(running_vehicles(options(
+                port, rate=RATE, zenoh=vehicles, epoch_ns=EPOCH_NS, only=("uav1", "uav2"), wait_for_subscriber_s=5)))
+            third = ExitStack()
+            third.enter_context(running_vehicles(options(
+                port, rate=RATE, zenoh=vehicles, epoch_ns=EPOCH_NS, only=("uav3",), wait_for_subscriber_s=5)))
+            _wait(lambda: len(daemon.records) >= 20, 30, "20 decision steps")
+            assert {r.vehicles for r in daemon.records[-5:]} == {("uav1", "uav2", "uav3")}
+            assert all(pair.autopilots[v].mode == ARDUPLANE_MODES["GUIDED"] for v in ("uav1", "uav2"))
+
+            session = stack.enter_context(open_session(ZenohSettings(connect=(endpoint,))))
+            (sample,) = query(session, track_key("target"), 5.0)
+            track = decode(sample.payload.to_bytes(), str(sample.encoding), TrackEstimate)
+            assert track.model == "cv2d" and len(track.prediction) == SCENARIO.planner.horizon_steps
+            bad = [(report_key("uav1"), b"\xff\xfe not json", "application/json;gcs.SensorReport/1"),
+                   (report_key("intruder"), *encode(SensorReport(
+                       vehicle_id="intruder", seq=1, stamp_ns=EPOCH_NS, vehicle_position_enu_m=(0.0, 0.0, 100.0),
+                       detected=False))),
+                   (report_key("uav2"), b"{}", "text/plain")]
+            for key, payload, encoding in bad:
+                session.put(key, payload, encoding=zenoh.Encoding(encoding))
+            _wait(lambda: daemon.ingest.counters["rejected.malformed"] >= 1
+                  and daemon.ingest.counters["rejected.unknown_vehicle"] >= 1
+                  and daemon.ingest.counters["rejected.encoding"] >= 1, 10, "the bad input to be counted")
+
+            third.close()  # uav3 goes away: liveliness withdrawn, heartbeats stop
+            _wait(lambda: daemon.records[-1].vehicles == ("uav1", "uav2"), 15, "a plan without uav3")
+            _wait(lambda: daemon.registry.link_state("uav3", time.monotonic()) == "lost", 10, "uav3 lost")
+            decisions = daemon.counters["decisions"]
+            _wait(lambda: daemon.counters["decisions"] >= decisions + 5, 15, "planning to go on with two")
+
+            resume = (pair.scene.stamp_ns // 1_000_000_000 + 2) * 1_000_000_000
+            stack.enter_context(running_vehicles(options(
+                port, rate=RATE, zenoh=vehicles, epoch_ns=resume, only=("uav3",), wait_for_subscriber_s=5)))
+            _wait(lambda: daemon.records[-1].vehicles == ("uav1", "uav2", "uav3"), 20, "uav3 re-admitted")
+            status = query_status(ZenohSettings(connect=(endpoint,)), "gcs", 5.0)
+    finally:
+        daemon.stop()
+        thread.join(timeout=15)
+    assert not thread.is_alive()
+    assert status is not None and [v.link for v in status.vehicles] == ["ok", "ok", "ok"]
+    assert status.counters["rejected.malformed"] >= 1 and status.counters["rejected.unknown_vehicle"] >= 1
+    assert status.counters.get("errors.decision", 0) == 0
+    seen = sum(any(r.seen.values()) for r in daemon.records)
+    assert seen >= 0.8 * len(daemon.records)

@@ -1,0 +1,140 @@
+"""The daemon's parts without sockets: ingest validation, decision-step assembly, the vehicle registry."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from gcs.adapters.zenoh_io import Received
+from gcs.daemon.ingest import Ingest
+from gcs.daemon.registry import LOST_AFTER_S, Registry
+from gcs.daemon.steps import StepAssembler
+from gcs.scenarios import load_scenario
+from protocols.codec import encode
+from protocols.keys import nav_key, report_key, truth_key
+from protocols.messages import NavReport, SensorReport, TargetTruth
+
+SCENARIO = load_scenario("wang2012_urban")
+S = 1_000_000_000
+
+
+def _report(vehicle: str = "uav1", stamp: int = 10 * S, seq: int = 1, detected: bool = True) -> SensorReport:
+    values = dict(range_m=300.0, range_std_m=10.0, azimuth_rad=0.5, azimuth_std_rad=0.05, elevation_rad=-0.6,
+                  elevation_std_rad=0.05) if detected else {}
+    return SensorReport(vehicle_id=vehicle, seq=seq, stamp_ns=stamp, vehicle_position_enu_m=(100.0, 200.0, 200.0),
+                        detected=detected, **values)
+
+
+def _received(key: str, message=None, payload: bytes | None = None, encoding: str | None = None) -> Received:
+    if message is not None:
+        payload, encoding = encode(message)
+    return Received("sample", key, payload, encoding, 0)
+
+
+def _ingest() -> Ingest:
+    return Ingest({v.id for v in SCENARIO.vehicles})
+
+
+def test_good_messages_are_accepted_and_counted() -> None:
+    ingest = _ingest()
+    report = _report()
+    assert ingest.accept(_received(report_key("uav1"), report)) == report
+    nav = NavReport(vehicle_id="uav2", seq=1, stamp_ns=S, velocity_enu_mps=(1.0, 2.0, 0.0))
+    assert ingest.accept(_received(nav_key("uav2"), nav)) == nav
+    truth = TargetTruth(target_id="target", seq=1, stamp_ns=S, position_enu_m=(1.0, 2.0), velocity_enu_mps=(0.0, 0.0))
+    assert ingest.accept(_received(truth_key("target"), truth)) == truth
+    assert ingest.counters == {"accepted.report": 1, "accepted.nav": 1, "accepted.truth": 1}
+
+
+@pytest.mark.parametrize(("key", "payload", "encoding", "reason"), [
+    ("gcs/vehicle/uav1/report", b"{not json", "application/json;gcs.SensorReport/1", "malformed"),
+    ("gcs/vehicle/uav1/report", b"{}", "application/json;gcs.SensorReport/9", "encoding"),
+    ("gcs/vehicle/uav1/report", b"{}", "application/json;gcs.NavReport/1", "unexpected_type"),
+    ("gcs/vehicle/uav 1/report", b"{}", "application/json;gcs.SensorReport/1", "key"),
+    ("gcs/plan/uav1", b"{}", "application/json;gcs.PlanCommand/1", "unexpected_kind"),
+    ("gcs/vehicle/uav1/report", b'{"vehicle_id":"uav1","seq":1,"stamp_ns":1,"vehicle_position_enu_m":[NaN,0,0],'
+                                b'"detected":false}', "application/json;gcs.SensorReport/1", "malformed"),
+])
+def test_bad_input_is_rejected_by_reason(key: str, payload: bytes, encoding: str, reason: str) -> None:
+    ingest = _ingest()
+    assert ingest.accept(_received(key, payload=payload, encoding=encoding)) is None
+    assert ingest.counters == {f"rejected.{reason}": 1}
+
+
+def test_unknown_vehicles_mismatched_ids_and_stale_stamps_are_rejected() -> None:
+    ingest = _ingest()
+    assert ingest.accept(_received(report_key("intruder"), _report("intruder"))) is None
+    assert ingest.accept(_received(report_key("uav2"), _report("uav1"))) is None
+    assert ingest.accept(_received(report_key("uav1"), _report(stamp=5 * S))) is not None
+    assert ingest.accept(_received(report_key("uav1"), _report(stamp=5 * S, seq=2))) is None  # duplicate
+    assert ingest.accept(_received(report_key("uav1"), _report(stamp=4 * S, seq=3))) is None  # older
+    assert ingest.accept(_received(report_key("uav1"), _report(stamp=6 * S, seq=4))) is not None
+    assert ingest.counters == {"rejected.unknown_vehicle": 1, "rejected.id_mismatch": 1,
+                               "rejected.out_of_order": 2, "accepted.report": 2}
+
+
+@given(st.binary(max_size=300), st.text(max_size=60))
+def test_arbitrary_bytes_never_raise(payload: bytes, encoding: str) -> None:
+    ingest = _ingest()
+    assert ingest.accept(_received(report_key("uav3"), payload=payload, encoding=encoding)) is None
+    assert sum(ingest.counters.values()) == 1 and next(iter(ingest.counters)).startswith("rejected.")
+
+
+def test_steps_release_when_every_expected_vehicle_has_reported() -> None:
+    steps = StepAssembler(step_ns=S, max_wait_s=0.5)
+    expected = {"uav1", "uav2"}
+    steps.add(_report("uav1", 100 * S), now_s=0.0)
+    assert steps.ready(expected, now_s=0.1) == []
+    steps.add(_report("uav2", 100 * S), now_s=0.1)
+    (first,) = steps.ready(expected, now_s=0.1)
+    assert first.index == 0 and first.stamp_ns == 100 * S and len(first.reports) == 2
+    steps.add(_report("uav1", 101 * S + S // 10), now_s=0.2)  # 0.1 s off the grid: still step 1
+    steps.add(_report("uav2", 102 * S), now_s=0.2)  # uav2 skipped step 1 and reported step 2
+    released = steps.ready(expected, now_s=0.2)
+    assert [r.index for r in released] == [1]  # step 2 waits for uav1
+    assert released[0].stamp_ns == 101 * S
+
+
+def test_steps_time_out_in_order_and_late_reports_are_counted() -> None:
+    steps = StepAssembler(step_ns=S, max_wait_s=0.5)
+    steps.add(_report("uav1", 0), now_s=0.0)
+    steps.add(_report("uav1", 1 * S), now_s=0.3)
+    assert steps.ready({"uav1", "uav2"}, now_s=0.4) == []
+    assert [r.index for r in steps.ready({"uav1", "uav2"}, now_s=0.6)] == [0]
+    assert [r.index for r in steps.ready({"uav1", "uav2"}, now_s=0.9)] == [1]
+    assert steps.counters["steps_released_by_timeout"] == 2
+    assert not steps.add(_report("uav2", 0), now_s=1.0)
+    assert steps.counters["rejected.late"] == 1
+
+
+def _registry(ages: dict[str, float | None]) -> Registry:
+    return Registry(list(SCENARIO.vehicles), lambda vehicle, now: ages.get(vehicle))
+
+
+def test_alive_from_liveliness_or_heartbeat_and_plannable_needs_navigation() -> None:
+    ages = {"uav1": 1.0, "uav2": LOST_AFTER_S + 0.1, "uav3": None}
+    registry = _registry(ages)
+    assert [registry.alive(v, 0.0) for v in registry.ids] == [True, False, False]
+    registry.on_liveliness("uav3", True, 0.0)
+    assert registry.alive("uav3", 0.0) and registry.link_state("uav3", 0.0) == "ok"
+    assert registry.link_state("uav2", 0.0) == "unknown"
+    assert registry.plannable(0.0) == []
+    registry.on_report(_report("uav3", 3 * S))
+    assert registry.plannable(0.0) == []  # no heading yet
+    registry.on_nav(NavReport(vehicle_id="uav3", seq=1, stamp_ns=3 * S, velocity_enu_mps=(0.0, 20.0, 0.0)))
+    assert registry.plannable(0.0) == ["uav3"]
+    assert registry.entries["uav3"].heading_rad == pytest.approx(math.pi / 2)
+    registry.on_liveliness("uav3", False, 1.0)
+    assert registry.plannable(1.0) == [] and registry.link_state("uav3", 1.0) == "lost"
+
+
+def test_position_is_moved_on_with_the_velocity_to_the_step_stamp() -> None:
+    registry = _registry({})
+    registry.on_report(_report("uav1", 10 * S))
+    registry.on_nav(NavReport(vehicle_id="uav1", seq=1, stamp_ns=10 * S, velocity_enu_mps=(3.0, -4.0, 0.0)))
+    assert registry.position_at("uav1", 12 * S) == pytest.approx(np.array([106.0, 192.0, 200.0]))
+    assert registry.position_at("uav1", 10 * S) == pytest.approx(np.array([100.0, 200.0, 200.0]))
