@@ -158,6 +158,7 @@ class Daemon:
         self._started_s = clock()
         self._subset_configs: dict[tuple[int, ...], TrackerConfig] = {}
         self._next_steer_s = 0.0
+        self._closed = False
 
     # ------------------------------------------------------------- lifecycle
 
@@ -184,10 +185,10 @@ class Daemon:
                  list(self.options.zenoh.connect), sorted(set((self.options.mavlink or {}).values())) or "off")
 
     def close(self) -> None:
-        """Close MAVLink and Zenoh (idempotent)."""
-        if self.commander is not None:
+        """Close MAVLink and Zenoh (idempotent). The commander's last view stays readable."""
+        if self.commander is not None and not self._closed:
             self.commander.close()
-            self.commander = None
+        self._closed = True
         self.zenoh.close()
 
     def run(self, until: Callable[[], bool] | None = None, idle_s: float = 0.002) -> None:
