@@ -1,7 +1,7 @@
 """The ``gcs`` daemon: reports in over Zenoh, the pure tracker step, headings out over MAVLink.
 
 One thread runs the loop (functional core, imperative shell: everything that
-decides is :func:`gcs.core.tracker.step`; this module gathers its inputs and
+decides is :func:`gcs.core.tracker.fuse` and :func:`gcs.core.tracker.plan`; this module gathers their inputs and
 applies its outputs):
 
 1. drain the Zenoh inbox (callbacks only enqueued): validate and count
@@ -9,10 +9,12 @@ applies its outputs):
    (:class:`~gcs.daemon.steps.StepAssembler`), update the vehicle registry from
    reports, nav reports and liveliness tokens;
 2. read MAVLink (heartbeats, telemetry) through the commander;
-3. for every decision step that is ready: fuse, predict and plan for the
-   vehicles alive now (a lost vehicle is planned without; it rejoins when it
-   returns), publish ``TrackEstimate`` and ``PlanCommand`` (heading ``psi + u T``,
-   the heading at the end of the step, and the planned path);
+3. for every decision step that is ready: fuse every roster vehicle's reports
+   (:mod:`gcs.daemon.fusion`, the same code ``gcs replay --process`` runs) and
+   publish the ``TrackEstimate``; predict and plan for the vehicles alive now (a
+   lost vehicle is planned without; it rejoins when it returns) and publish each
+   ``PlanCommand`` (heading ``psi + u T``, the heading at the end of the step,
+   and the planned path);
 4. steer every vehicle toward the end of its planned path from its latest
    MAVLink position (:meth:`Daemon._steer`), and let the commander stream what
    is due (GCS heartbeat, GUIDED requests, position-target carrots, ArduPilot
@@ -40,15 +42,16 @@ from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame, wrap_angle
 from gcs.core.kinematics import VehicleState, rollout
-from gcs.core.tracker import Detection, StepInputs, TrackerConfig, TrackerState, step
+from gcs.core.filters.uif import GaussianEstimate
+from gcs.core.tracker import TrackerConfig, TrackerState, plan
+from gcs.daemon.fusion import fuse_step, track_message
 from gcs.core.world import World
 from gcs.daemon.ingest import Ingest
 from gcs.daemon.registry import Registry
 from gcs.daemon.steps import ReadyStep, StepAssembler
 from gcs.tracking import scenario_planner, tracker_config
 from protocols.keys import parse_key
-from protocols.messages import (DaemonStatus, NavReport, PlanCommand, PredictedPoint, SensorReport, TargetTruth,
-                                TrackEstimate, VehicleStatus)
+from protocols.messages import DaemonStatus, NavReport, PlanCommand, SensorReport, TargetTruth, VehicleStatus
 
 __all__ = ["DaemonOptions", "Daemon", "StepRecord"]
 
@@ -119,7 +122,7 @@ class _Aim:
 class _Loop:
     """The daemon's mutable memory between steps (estimate, plan, commands)."""
 
-    state: TrackerState | None = None
+    estimate: GaussianEstimate | None = None
     plan_rows: dict[str, np.ndarray] = field(default_factory=dict)
     turn_rate: dict[str, float] = field(default_factory=dict)
     track_seq: int = 0
@@ -220,7 +223,7 @@ class Daemon:
         ready = self.steps.ready(expected, now)
         for position, step_ in enumerate(ready):
             try:
-                self._decide(step_, now, plan=position == len(ready) - 1)
+                self._decide(step_, now, plan_now=position == len(ready) - 1)
             except Exception:  # a bug in one step must not take the ground station down
                 self.counters["errors.decision"] += 1
                 log.exception("decision step %d failed; continuing", step_.index)
@@ -265,41 +268,38 @@ class Daemon:
             self._subset_configs[indices] = config
         return config
 
-    def _decide(self, ready: ReadyStep, now: float, plan: bool = True) -> None:
-        """Fuse one step's reports; plan too unless a newer step is already waiting."""
+    def _decide(self, ready: ReadyStep, now: float, plan_now: bool = True) -> None:
+        """Fuse one step's reports (every roster vehicle's); plan for the vehicles alive now,
+        unless a newer step is already waiting."""
+        estimate, detections = fuse_step(self.tracker, self.loop.estimate, ready, self.roster)
+        self.loop.estimate = estimate
+        if estimate is not None:
+            self.loop.track_seq += 1
+            self.loop.last_track_stamp_ns = ready.stamp_ns
+            contributing = sorted({self.roster[d.vehicle] for d in detections})
+            self.zenoh.publish_track(track_message(self.tracker, estimate, self.scenario.target.id,
+                                                   self.scenario.estimator.model, self.loop.track_seq, contributing))
         active = self.registry.plannable(now)
-        by_vehicle = {r.vehicle_id: r for r in ready.reports}
+        result = None
         if not active:
             self.counters["steps_without_vehicles"] += 1
-            return
-        indices = tuple(self.roster.index(v) for v in active)
-        config = self._subset(indices)
-        cfgs = [self.vehicle_config[v] for v in active]
-        positions = np.array([self.registry.position_at(v, ready.stamp_ns) for v in active])
-        vehicles = VehicleState(positions[:, :2], np.array([self.registry.entries[v].heading_rad for v in active]),
-                                np.array([c.speed_mps for c in cfgs]), np.array([c.altitude_m for c in cfgs]))
-        detections = []
-        for slot, vehicle_id in enumerate(active):
-            report = by_vehicle.get(vehicle_id)
-            if report is None or not report.detected:
-                continue
-            values = _measurement(report, config.sensors[slot].components)
-            if values is not None:
-                detections.append(Detection(slot, np.asarray(report.vehicle_position_enu_m, dtype=np.float64),
-                                            values))
-        state = self._state_for(active)
-        inputs = StepInputs(ready.stamp_ns, vehicles, tuple(detections))
-        state, turn_rates, diagnostics = step(config, state, inputs, self.rng, now=self._data_clock(ready, now),
-                                              plan=plan)
-        self._remember(active, state, turn_rates)
-        self.counters["decisions" if plan else "steps_fused_only"] += 1
-        result = diagnostics.plan
-        if result is not None:
+        elif not plan_now:
+            self.counters["steps_fused_only"] += 1
+        elif estimate is not None:
+            cfgs = [self.vehicle_config[v] for v in active]
+            positions = np.array([self.registry.position_at(v, ready.stamp_ns) for v in active])
+            vehicles = VehicleState(positions[:, :2],
+                                    np.array([self.registry.entries[v].heading_rad for v in active]),
+                                    np.array([c.speed_mps for c in cfgs]), np.array([c.altitude_m for c in cfgs]))
+            config = self._subset(tuple(self.roster.index(v) for v in active))
+            state, turn_rates, diagnostics = plan(config, self._state_for(active, estimate), vehicles, self.rng,
+                                                  now=self._data_clock(ready, now))
+            self._remember(active, state, turn_rates)
+            self.counters["decisions"] += 1
+            result = diagnostics.plan
             self._command(active, vehicles, turn_rates, result.controls, ready.stamp_ns)
-        if state.estimate is not None:
-            self._publish_track(state, diagnostics, ready.stamp_ns, [d.vehicle for d in detections], active)
         decision_s = None if result is None else result.elapsed_s * self.options.plan_fraction / self.loop.data_rate
-        self._record(ready, active, by_vehicle, state, decision_s)
+        self._record(ready, active, estimate, decision_s)
 
     def _data_clock(self, ready: ReadyStep, now: float) -> Callable[[], float]:
         """The planner's clock in data time: wall time multiplied by how fast stamps advance.
@@ -323,15 +323,13 @@ class Daemon:
         clock, scale = self.clock, rate / self.options.plan_fraction
         return lambda: clock() * scale
 
-    def _state_for(self, active: list[str]) -> TrackerState:
-        estimate = None if self.loop.state is None else self.loop.state.estimate
+    def _state_for(self, active: list[str], estimate) -> TrackerState:
         rows = [self.loop.plan_rows.get(v) for v in active]
-        plan = np.stack(rows) if all(r is not None for r in rows) else None
+        warm = np.stack(rows) if all(r is not None for r in rows) else None
         turn = np.array([self.loop.turn_rate.get(v, 0.0) for v in active])
-        return TrackerState(estimate, plan, turn)
+        return TrackerState(estimate, warm, turn)
 
     def _remember(self, active: list[str], state: TrackerState, turn_rates: np.ndarray) -> None:
-        self.loop.state = state
         for slot, vehicle_id in enumerate(active):
             if state.plan is not None:
                 self.loop.plan_rows[vehicle_id] = state.plan[slot]
@@ -370,35 +368,17 @@ class Daemon:
                     heading = math.atan2(dy, dx)
             self.commander.command(vehicle_id, HeadingCommand(heading, aim.altitude_m, aim.airspeed_mps))
 
-    def _publish_track(self, state: TrackerState, diagnostics, stamp_ns: int, slots: list[int],
-                       active: list[str]) -> None:
-        estimate = state.estimate
-        prediction = ()
-        if diagnostics.prediction is not None:
-            predicted = diagnostics.prediction.states
-            prediction = tuple(
-                PredictedPoint(stamp_ns=int(s), position_enu_m=(float(m[0]), float(m[1])),
-                               position_cov_m2=tuple(float(c) for c in _symmetric(cov[:2, :2]).ravel()))
-                for s, m, cov in zip(diagnostics.prediction.stamps_ns, predicted.mean, predicted.cov))
-        self.loop.track_seq += 1
-        self.loop.last_track_stamp_ns = stamp_ns
-        self.zenoh.publish_track(TrackEstimate(
-            target_id=self.scenario.target.id, seq=self.loop.track_seq, stamp_ns=stamp_ns,
-            model=self.scenario.estimator.model, state=tuple(float(v) for v in estimate.mean),
-            covariance=tuple(float(c) for c in _symmetric(estimate.cov).ravel()),
-            contributing_vehicles=tuple(sorted({active[s] for s in slots})), prediction=prediction))
-
-    def _record(self, ready: ReadyStep, active: list[str], by_vehicle: dict[str, SensorReport],
-                state: TrackerState, decision_s: float | None) -> None:
+    def _record(self, ready: ReadyStep, active: list[str], estimate, decision_s: float | None) -> None:
         estimate_xy, error = None, None
-        if state.estimate is not None:
-            estimate_xy = (float(state.estimate.mean[0]), float(state.estimate.mean[1]))
+        if estimate is not None:
+            estimate_xy = (float(estimate.mean[0]), float(estimate.mean[1]))
             truth = self._truth_near(ready.stamp_ns)
             if truth is not None:
                 error = math.hypot(estimate_xy[0] - truth[0], estimate_xy[1] - truth[1])
-        record = StepRecord(ready.index, ready.stamp_ns,
-                            {v: bool(by_vehicle[v].detected) if v in by_vehicle else False for v in self.roster},
-                            estimate_xy, error, decision_s, tuple(active))
+        seen = {v: False for v in self.roster}
+        for report in ready.reports:
+            seen[report.vehicle_id] = seen[report.vehicle_id] or report.detected
+        record = StepRecord(ready.index, ready.stamp_ns, seen, estimate_xy, error, decision_s, tuple(active))
         self.records.append(record)
         if self.on_step is not None:
             self.on_step(record)
@@ -432,15 +412,3 @@ class Daemon:
                             scenario=self.scenario.name, vehicles=tuple(vehicles),
                             counters={k: int(v) for k, v in counters.items() if v >= 0},
                             last_track_stamp_ns=self.loop.last_track_stamp_ns)
-
-
-def _measurement(report: SensorReport, components: tuple[str, ...]) -> np.ndarray | None:
-    """The report's values in the sensor model's component order; None if one is missing."""
-    fields = {"range": report.range_m, "azimuth": report.azimuth_rad, "elevation": report.elevation_rad}
-    values = [fields[c] for c in components]
-    return None if any(v is None for v in values) else np.array(values, dtype=np.float64)
-
-
-def _symmetric(matrix: np.ndarray) -> np.ndarray:
-    """Exactly symmetric copy (the wire checks symmetry)."""
-    return 0.5 * (matrix + matrix.T)

@@ -30,7 +30,8 @@ from gcs.core.kinematics import VehicleState
 from gcs.core.models.sensor import AZIMUTH, ELEVATION, RANGE, SensorModel
 from gcs.core.planners.problem import PlanningProblem, PlanResult, RhcWeights, Visibility
 
-__all__ = ["Detection", "TrackerConfig", "TrackerState", "StepInputs", "StepDiagnostics", "step", "initial_estimate"]
+__all__ = ["Detection", "TrackerConfig", "TrackerState", "StepInputs", "StepDiagnostics", "fuse", "prediction", "plan",
+           "step", "initial_estimate"]
 
 
 @dataclass(frozen=True)
@@ -118,17 +119,25 @@ def initial_estimate(detection: Detection, sensor: SensorModel, stamp_ns: int, p
     return GaussianEstimate(mean, np.diag(variances), stamp_ns)
 
 
-def _fuse(config: TrackerConfig, estimate: GaussianEstimate | None, inputs: StepInputs) -> GaussianEstimate | None:
+def fuse(config: TrackerConfig, estimate: GaussianEstimate | None, stamp_ns: int,
+         detections: Sequence[Detection]) -> GaussianEstimate | None:
+    """Step 2 of ASRTP alone: the DUIF update of the estimate with one step's detections (eq. 14-15).
+
+    The track starts from the first range-bearing detection. Detections index
+    ``config.sensors`` by their ``vehicle``. Deterministic: the same estimate and
+    detections give the same result bit for bit (the daemon and ``gcs replay
+    --process`` rely on it). None while nothing has been seen.
+    """
     if estimate is None:
-        if not inputs.detections:
+        if not detections:
             return None
-        first = inputs.detections[0]
-        estimate = initial_estimate(first, config.sensors[first.vehicle], inputs.stamp_ns,
+        first = detections[0]
+        estimate = initial_estimate(first, config.sensors[first.vehicle], stamp_ns,
                                     config.initial_position_std_m, config.initial_velocity_std_mps,
                                     config.uif.motion.dim)
-    prior = config.uif.predict(estimate, inputs.stamp_ns)
+    prior = config.uif.predict(estimate, stamp_ns)
     groups: dict[SensorModel, list[Detection]] = {}
-    for detection in inputs.detections:
+    for detection in detections:
         groups.setdefault(config.sensors[detection.vehicle], []).append(detection)
     contributions = [
         config.uif.contribution(prior, sensor, np.stack([d.values for d in group]), np.stack([d.vehicle_xyz for d in group]))
@@ -137,7 +146,8 @@ def _fuse(config: TrackerConfig, estimate: GaussianEstimate | None, inputs: Step
     return config.uif.update(prior, contributions)
 
 
-def _prediction(config: TrackerConfig, estimate: GaussianEstimate) -> HorizonPrediction:
+def prediction(config: TrackerConfig, estimate: GaussianEstimate) -> HorizonPrediction:
+    """Step 3: the k+1..k+n predictions (eq. 16-17), or the estimate held (the paper's k+0)."""
     if config.predict_ahead:
         return predict_horizon(config.uif, estimate, config.step_s, config.horizon_steps)
     step_ns = int(round(config.step_s * NS_PER_S))
@@ -147,40 +157,50 @@ def _prediction(config: TrackerConfig, estimate: GaussianEstimate) -> HorizonPre
     return HorizonPrediction(stamps, held)
 
 
+def plan(
+    config: TrackerConfig,
+    state: TrackerState,
+    vehicles: VehicleState,
+    rng: np.random.Generator,
+    now: Callable[[], float] | None = None,
+) -> tuple[TrackerState, NDArray[np.float64], StepDiagnostics]:
+    """Steps 3-5 of ASRTP for the state's (already fused) estimate: predict, plan, first commands (V,).
+
+    ``config`` describes the V vehicles of ``vehicles`` (its sensors and turn
+    limits), which may be a subset of the roster the estimate was fused with.
+    """
+    estimate = state.estimate
+    if estimate is None:  # nothing seen yet: hold course
+        return state, state.turn_rate, StepDiagnostics(None, None, None, 0)
+    predicted = prediction(config, estimate)
+    problem = PlanningProblem(
+        vehicles=vehicles,
+        current_turn_rate=state.turn_rate,
+        max_turn_rate=config.max_turn_rate,
+        step_s=config.step_s,
+        target_means=predicted.states.mean,
+        target_covs=predicted.states.cov,
+        sensors=config.sensors,
+        visibility=None if config.visibility is None else config.visibility(predicted.positions),
+        restricted=config.restricted,
+        weights=config.weights,
+    )
+    result = config.planner.solve(problem, rng, warm_start=state.plan, now=now)
+    turn_rate = result.controls[:, 0].copy()
+    return TrackerState(estimate, result.controls, turn_rate), turn_rate, StepDiagnostics(estimate, predicted, result, 0)
+
+
 def step(
     config: TrackerConfig,
     state: TrackerState,
     inputs: StepInputs,
     rng: np.random.Generator,
     now: Callable[[], float] | None = None,
-    plan: bool = True,
 ) -> tuple[TrackerState, NDArray[np.float64], StepDiagnostics]:
-    """One ASRTP step; see the module docstring. Returns the turn rates (V,) to fly now.
+    """One ASRTP step (:func:`fuse` then :func:`plan`); see the module docstring.
 
-    ``plan=False`` fuses only (Step 2) and keeps flying the current commands: a
-    daemon that has fallen behind fuses every step it missed but plans only for
-    the newest.
+    Returns the new state, the turn rates (V,) to fly now and the diagnostics.
     """
-    estimate = _fuse(config, state.estimate, inputs)
-    if estimate is None:  # nothing seen yet: hold course
-        return replace(state, estimate=None), state.turn_rate, StepDiagnostics(None, None, None, 0)
-    if not plan:
-        return replace(state, estimate=estimate), state.turn_rate, StepDiagnostics(
-            estimate, None, None, len(inputs.detections))
-    prediction = _prediction(config, estimate)
-    problem = PlanningProblem(
-        vehicles=inputs.vehicles,
-        current_turn_rate=state.turn_rate,
-        max_turn_rate=config.max_turn_rate,
-        step_s=config.step_s,
-        target_means=prediction.states.mean,
-        target_covs=prediction.states.cov,
-        sensors=config.sensors,
-        visibility=None if config.visibility is None else config.visibility(prediction.positions),
-        restricted=config.restricted,
-        weights=config.weights,
-    )
-    plan = config.planner.solve(problem, rng, warm_start=state.plan, now=now)
-    turn_rate = plan.controls[:, 0].copy()
-    new_state = TrackerState(estimate, plan.controls, turn_rate)
-    return new_state, turn_rate, StepDiagnostics(estimate, prediction, plan, len(inputs.detections))
+    estimate = fuse(config, state.estimate, inputs.stamp_ns, inputs.detections)
+    new_state, turn_rate, diagnostics = plan(config, replace(state, estimate=estimate), inputs.vehicles, rng, now)
+    return new_state, turn_rate, replace(diagnostics, detections=len(inputs.detections))

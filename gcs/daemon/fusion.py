@@ -1,0 +1,69 @@
+"""Fusing one decision step into a track message: shared by the daemon and ``gcs replay --process``.
+
+Both call :func:`fuse_step` on the same steps and get the same ``TrackEstimate``
+bit for bit: detections are taken in roster order (not arrival order) from
+every roster vehicle that reported in the step, whether or not it is being
+planned for, and the prediction is the tracker's own (eq. 16-17).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from gcs.core.filters.uif import GaussianEstimate
+from gcs.core.tracker import Detection, TrackerConfig, fuse, prediction
+from gcs.daemon.steps import ReadyStep
+from protocols.messages import PredictedPoint, SensorReport, TrackEstimate
+
+__all__ = ["step_detections", "fuse_step", "track_message"]
+
+
+def _measurement(report: SensorReport, components: tuple[str, ...]) -> np.ndarray | None:
+    """The report's values in the sensor model's component order; None if one is missing."""
+    fields = {"range": report.range_m, "azimuth": report.azimuth_rad, "elevation": report.elevation_rad}
+    values = [fields[c] for c in components]
+    return None if any(v is None for v in values) else np.array(values, dtype=np.float64)
+
+
+def step_detections(ready: ReadyStep, roster: Sequence[str], config: TrackerConfig) -> tuple[Detection, ...]:
+    """The step's detections in roster order (a vehicle's first report of the step counts)."""
+    first: dict[str, SensorReport] = {}
+    for report in ready.reports:
+        first.setdefault(report.vehicle_id, report)
+    detections = []
+    for index, vehicle_id in enumerate(roster):
+        report = first.get(vehicle_id)
+        if report is None or not report.detected:
+            continue
+        values = _measurement(report, config.sensors[index].components)
+        if values is not None:
+            detections.append(Detection(index, np.asarray(report.vehicle_position_enu_m, dtype=np.float64), values))
+    return tuple(detections)
+
+
+def _symmetric(matrix: np.ndarray) -> np.ndarray:
+    """Exactly symmetric copy (the wire checks symmetry)."""
+    return 0.5 * (matrix + matrix.T)
+
+
+def track_message(config: TrackerConfig, estimate: GaussianEstimate, target_id: str, model: str, seq: int,
+                  contributing: Sequence[str]) -> TrackEstimate:
+    """The wire message of an estimate, with the k+1..k+n prediction."""
+    predicted = prediction(config, estimate)
+    points = tuple(
+        PredictedPoint(stamp_ns=int(stamp), position_enu_m=(float(mean[0]), float(mean[1])),
+                       position_cov_m2=tuple(float(c) for c in _symmetric(cov[:2, :2]).ravel()))
+        for stamp, mean, cov in zip(predicted.stamps_ns, predicted.states.mean, predicted.states.cov))
+    return TrackEstimate(target_id=target_id, seq=seq, stamp_ns=estimate.stamp_ns, model=model,
+                         state=tuple(float(v) for v in estimate.mean),
+                         covariance=tuple(float(c) for c in _symmetric(estimate.cov).ravel()),
+                         contributing_vehicles=tuple(contributing), prediction=points)
+
+
+def fuse_step(config: TrackerConfig, estimate: GaussianEstimate | None, ready: ReadyStep, roster: Sequence[str]
+              ) -> tuple[GaussianEstimate | None, tuple[Detection, ...]]:
+    """The estimate after one step, and the detections that went into it."""
+    detections = step_detections(ready, roster, config)
+    return fuse(config, estimate, ready.stamp_ns, detections), detections
