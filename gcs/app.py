@@ -33,10 +33,13 @@ import time
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 
+from gcs import __version__
 from gcs.adapters.mavlink_io import HeadingCommand, MavlinkCommander
+from gcs.adapters.recording import Recorder
 from gcs.adapters.zenoh_io import ZenohIO
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.config import Scenario
@@ -82,6 +85,9 @@ class DaemonOptions:
     plan_fraction : float
         Share of the planner's deadline it may use (the rest of the step is for
         fusion, visibility maps and I/O).
+    record : Path or None
+        Record everything received and published to this MCAP file
+        (:mod:`gcs.adapters.recording`), finished when the daemon stops.
     """
 
     zenoh: ZenohSettings
@@ -92,6 +98,7 @@ class DaemonOptions:
     planner: str | None = None
     max_wait_s: float = 0.5
     plan_fraction: float = 0.6
+    record: Path | None = None
 
 
 @dataclass(frozen=True)
@@ -151,7 +158,8 @@ class Daemon:
         self.planner_name = options.planner or scenario_planner(scenario)
         self.tracker: TrackerConfig = tracker_config(scenario, world, self.planner_name)
         self.rng = np.random.default_rng(options.seed)
-        self.zenoh = ZenohIO(options.zenoh, options.prefix)
+        self.recorder: Recorder | None = None
+        self.zenoh = ZenohIO(options.zenoh, options.prefix, tap=self._record_published)
         self.commander: MavlinkCommander | None = None
         self.registry = Registry(list(scenario.vehicles), self._heartbeat_age)
         self.loop = _Loop()
@@ -175,8 +183,14 @@ class Daemon:
         heard = self.commander.link(vehicle_id).last_heartbeat_s
         return None if heard is None else now_s - heard
 
+    def _record_published(self, key: str, payload: bytes, encoding: str, time_ns: int) -> None:
+        if self.recorder is not None and not key.endswith("/daemon/status"):
+            self.recorder.write(key, payload, encoding, time_ns)
+
     def open(self) -> None:
-        """Open Zenoh and MAVLink."""
+        """Open the recording, Zenoh and MAVLink."""
+        if self.options.record is not None:
+            self.recorder = Recorder(self.options.record, library=f"gcs {__version__}")
         self.zenoh.open()
         if self.options.mavlink is not None:
             self.commander = MavlinkCommander(
@@ -188,11 +202,14 @@ class Daemon:
                  list(self.options.zenoh.connect), sorted(set((self.options.mavlink or {}).values())) or "off")
 
     def close(self) -> None:
-        """Close MAVLink and Zenoh (idempotent). The commander's last view stays readable."""
+        """Close MAVLink and Zenoh and finish the recording (idempotent). The commander's last view stays readable."""
         if self.commander is not None and not self._closed:
             self.commander.close()
         self._closed = True
         self.zenoh.close()
+        if self.recorder is not None:
+            self.recorder.finish()
+            log.info("recorded %d messages to %s", self.recorder.messages, self.recorder.path)
 
     def run(self, until: Callable[[], bool] | None = None, idle_s: float = 0.002) -> None:
         """Loop until :meth:`stop` (or ``until()`` returns True); always closes what it opened."""
@@ -236,6 +253,11 @@ class Daemon:
         return bool(received or ready)
 
     def _handle(self, item, now: float) -> None:
+        if self.recorder is not None:
+            if item.kind == "sample":
+                self.recorder.write(item.key, item.payload, item.encoding, item.received_ns)
+            else:
+                self.recorder.write_liveliness(item.key, item.kind == "alive", item.received_ns)
         if item.kind in ("alive", "gone"):
             try:
                 parsed = parse_key(item.key, self.options.prefix)

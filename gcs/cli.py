@@ -19,6 +19,7 @@ from gcs import __version__
 from gcs.bench.cli import add_bench
 from gcs.daemon.cli import add_run, add_status
 from gcs.demo import add_demo
+from gcs.replay import add_record, add_replay
 from gcs.config import ScenarioError
 from gcs.scenarios import DEFAULT_SCENARIO, list_scenarios, load_scenario
 
@@ -56,7 +57,7 @@ def _add_scenario(sub: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=_cmd_scenario)
 
 
-SUBCOMMANDS: tuple[Callable[[argparse._SubParsersAction], None], ...] = (add_demo, add_run, add_status, _add_scenario, add_bench)
+SUBCOMMANDS: tuple[Callable[[argparse._SubParsersAction], None], ...] = (add_demo, add_run, add_status, add_record, add_replay, _add_scenario, add_bench)
 """Registration functions, one per subcommand, in the order ``--help`` lists them."""
 
 

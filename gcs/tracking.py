@@ -57,9 +57,13 @@ def _planner(name: str, scenario: Scenario, generations: int | None, stall: int 
     raise ValueError(f"unknown planner {name!r}; expected one of {', '.join(PLANNERS)}")
 
 
-def tracker_config(scenario: Scenario, world: World, planner: str, generations: int | None = None,
+def tracker_config(scenario: Scenario, world: World | None, planner: str, generations: int | None = None,
                    stall: int | None | str = FROM_SCENARIO) -> TrackerConfig:
-    """The tracker for a scenario and one of :data:`PLANNERS`."""
+    """The tracker for a scenario and one of :data:`PLANNERS`.
+
+    ``world`` None gives a tracker for estimation only (no visibility regions or
+    restricted airspace for the planner), e.g. ``gcs replay --process``.
+    """
     cfg = scenario.planner
     altitude = min(v.altitude_m for v in scenario.vehicles)  # wang2012: visibility at the lowest UAV's height
     max_range = min(scenario.sensor_for(v).max_range_m for v in scenario.vehicles)
@@ -75,8 +79,9 @@ def tracker_config(scenario: Scenario, world: World, planner: str, generations: 
         horizon_steps=cfg.horizon_steps,
         weights=weights,
         predict_ahead=planner != "ga_k0",
-        visibility=lambda points: VisibilityMaps(world.visibility_maps(points, altitude, max_range)),
-        restricted=world.in_restricted if len(world.airspace) else None,
+        visibility=None if world is None else (
+            lambda points: VisibilityMaps(world.visibility_maps(points, altitude, max_range))),
+        restricted=world.in_restricted if world is not None and len(world.airspace) else None,
         initial_position_std_m=scenario.estimator.initial_position_std_m,
         initial_velocity_std_mps=scenario.estimator.initial_velocity_std_mps,
     )

@@ -45,8 +45,10 @@ class ZenohIO:
     """Subscriptions to reports, nav, truth and liveliness; publications of tracks, plans and status."""
 
     def __init__(self, settings: ZenohSettings, prefix: str = "gcs",
-                 clock_ns: Callable[[], int] = time.time_ns) -> None:
-        self.settings, self.prefix, self.clock_ns = settings, prefix, clock_ns
+                 clock_ns: Callable[[], int] = time.time_ns,
+                 tap: Callable[[str, bytes, str, int], None] | None = None) -> None:
+        """``tap(key, payload, encoding, time_ns)`` sees every message this side publishes (for recording)."""
+        self.settings, self.prefix, self.clock_ns, self.tap = settings, prefix, clock_ns, tap
         self.inbox: queue.Queue[Received] = queue.Queue()
         self.session: zenoh.Session | None = None
         self._entities: list = []
@@ -89,6 +91,8 @@ class ZenohIO:
             publisher = self._publishers[key] = declare_publisher(self.session, key, type(message))
         publisher.put(payload, encoding=zenoh.Encoding(encoding))
         self._latest[key] = (payload, encoding)
+        if self.tap is not None:
+            self.tap(key, payload, encoding, self.clock_ns())
 
     def publish_track(self, track: TrackEstimate) -> None:
         """Publish on ``<prefix>/track/<target>`` and keep it for queries."""

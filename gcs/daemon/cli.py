@@ -6,6 +6,7 @@ import argparse
 import json
 import logging
 import signal
+from pathlib import Path
 
 import msgspec
 
@@ -36,6 +37,8 @@ def add_daemon_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--planner", choices=PLANNERS, default=None,
                         help="override the scenario's planner (ga_k5 is the paper's GA on k+5 predictions)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the planner's random generator (default 0)")
+    parser.add_argument("--record", type=Path, metavar="FILE.mcap",
+                        help="record everything received and published (MCAP), finished on exit")
 
 
 def add_run(sub: argparse._SubParsersAction) -> None:
@@ -61,7 +64,8 @@ def build_daemon(args: argparse.Namespace, **kwargs):
         raise ValueError("the daemon needs zenoh (--zenoh-mode peer or client)")
     options = DaemonOptions(zenoh=zenoh, prefix=args.prefix,
                             mavlink=connections_from_arguments(args, [v.id for v in scenario.vehicles]),
-                            signing_key=signing_key_from_arguments(args), seed=args.seed, planner=args.planner)
+                            signing_key=signing_key_from_arguments(args), seed=args.seed, planner=args.planner,
+                            record=args.record)
     base_dir = scenario_base_dir(args.scenario)
     return Daemon(scenario, build_world(scenario, base_dir), options, **kwargs)
 

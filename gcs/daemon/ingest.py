@@ -24,7 +24,7 @@ from collections import Counter
 from gcs.adapters.zenoh_io import Received
 from protocols.codec import decode
 from protocols.errors import ProtocolError
-from protocols.keys import MESSAGE_TYPE_BY_KIND, parse_key
+from protocols.keys import MESSAGE_TYPE_BY_KIND, ParsedKey, parse_key
 from protocols.messages import NavReport, SensorReport, TargetTruth
 
 __all__ = ["Ingest", "WARN_FIRST"]
@@ -35,6 +35,8 @@ WARN_FIRST = 5
 """Rejections of each reason logged at WARNING before the rest go to DEBUG."""
 
 _CONSUMED = {"report", "nav", "truth"}
+MAX_CACHED_KEYS = 4096
+"""Parsed keys remembered (a few per vehicle); a flood of made-up keys cannot grow the cache beyond this."""
 
 
 class Ingest:
@@ -45,6 +47,7 @@ class Ingest:
         self.prefix = prefix
         self.counters: Counter = Counter()
         self._last_stamp: dict[tuple[str, str], int] = {}
+        self._keys: dict[str, ParsedKey] = {}
 
     def reject(self, reason: str, detail: str) -> None:
         """Count and log one rejection."""
@@ -55,11 +58,15 @@ class Ingest:
 
     def accept(self, received: Received) -> SensorReport | NavReport | TargetTruth | None:
         """The decoded message if it passes every check, else None (counted and logged)."""
-        try:
-            parsed = parse_key(received.key, self.prefix)
-        except ProtocolError as error:
-            self.reject(error.reason, str(error))
-            return None
+        parsed = self._keys.get(received.key)
+        if parsed is None:
+            try:
+                parsed = parse_key(received.key, self.prefix)
+            except ProtocolError as error:
+                self.reject(error.reason, str(error))
+                return None
+            if len(self._keys) < MAX_CACHED_KEYS:
+                self._keys[received.key] = parsed
         if parsed.kind not in _CONSUMED:
             self.reject("unexpected_kind", f"{received.key}: the daemon does not consume {parsed.kind!r} keys")
             return None

@@ -1,0 +1,87 @@
+"""``gcs bench replay``: how many times faster than real time ``gcs replay --process`` estimates.
+
+The recording is made in the benchmark, without a network: the default
+scenario's simulated vehicles (:class:`sim_vehicles.scene.Scene`, loitering,
+no ground station) produce their reports, nav reports and the target's truth
+for ``duration`` simulated seconds, written with the recorder exactly as
+``gcs record`` writes them (receive time = stamp). Then
+:func:`gcs.replay.process` runs on the file several times; the figure is the
+recording's stamp span divided by the median processing time. Reading the file
+is included (the whole ``--process`` path), planning is not.
+"""
+
+from __future__ import annotations
+
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+from gcs.adapters.recording import Recorder
+from gcs.config import Scenario
+from gcs.core.world import World
+from gcs.replay import process
+from protocols.codec import encode
+from protocols.keys import nav_key, report_key, truth_key
+
+__all__ = ["make_recording", "run_benchmark", "format_report"]
+
+NS_PER_S = 1_000_000_000
+
+
+def make_recording(scenario: Scenario, world: World, path: Path, duration_s: float, seed: int) -> dict:
+    """Simulate ``duration_s`` of the scenario's inputs into an MCAP file; returns message counts."""
+    from sim_vehicles.scene import Scene
+
+    scene = Scene(scenario, world, seed=seed, epoch_ns=NS_PER_S)
+    sim = scenario.simulation
+    dt = sim.physics_step_s
+    report_every, nav_every = round(1.0 / sim.report_rate_hz / dt), round(1.0 / sim.nav_rate_hz / dt)
+    counts = {"report": 0, "nav": 0, "truth": 0}
+    with Recorder(path) as recorder:
+        for step in range(round(duration_s / dt)):
+            if step % nav_every == 0:
+                for vehicle_id in scene.vehicles:
+                    payload, encoding = encode(scene.nav_report(vehicle_id))
+                    recorder.write(nav_key(vehicle_id), payload, encoding, scene.stamp_ns)
+                    counts["nav"] += 1
+            if step % report_every == 0:
+                for vehicle_id in scene.vehicles:
+                    payload, encoding = encode(scene.sensor_report(vehicle_id))
+                    recorder.write(report_key(vehicle_id), payload, encoding, scene.stamp_ns)
+                    counts["report"] += 1
+                payload, encoding = encode(scene.truth())
+                recorder.write(truth_key(scenario.target.id), payload, encoding, scene.stamp_ns)
+                counts["truth"] += 1
+            scene.advance(dt, {})
+    return counts
+
+
+def run_benchmark(scenario: Scenario, world: World, duration_s: float = 300.0, repeats: int = 5,
+                  seed: int = 0) -> dict:
+    """Record, then time ``process`` ``repeats`` times; the speed in multiples of real time."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "bench.mcap"
+        counts = make_recording(scenario, world, path, duration_s, seed)
+        size = path.stat().st_size
+        times, tracks = [], 0
+        for _ in range(repeats):
+            start = time.perf_counter()
+            result, _ = process(path, scenario)
+            times.append(time.perf_counter() - start)
+            tracks = len(result)
+    median = statistics.median(times)
+    return {"scenario": scenario.name, "duration_s": duration_s, "messages": counts, "file_bytes": size,
+            "tracks": tracks, "repeats": repeats, "seconds_median": median, "seconds_min": min(times),
+            "realtime_multiple": duration_s / median, "goal_realtime_multiple": 1000.0}
+
+
+def format_report(result: dict) -> str:
+    """The benchmark as a few lines."""
+    messages = ", ".join(f"{v} {k}" for k, v in result["messages"].items())
+    verdict = "met" if result["realtime_multiple"] >= result["goal_realtime_multiple"] else "NOT met"
+    return (f"replay --process on {result['duration_s']:g} s of {result['scenario']} ({messages}; "
+            f"{result['file_bytes'] / 1024:.0f} KiB MCAP; {result['tracks']} tracks)\n"
+            f"median {result['seconds_median'] * 1e3:.0f} ms over {result['repeats']} runs "
+            f"(min {result['seconds_min'] * 1e3:.0f} ms): {result['realtime_multiple']:.0f}x real time "
+            f"(goal {result['goal_realtime_multiple']:.0f}x: {verdict})")

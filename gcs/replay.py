@@ -1,0 +1,350 @@
+"""``gcs record`` and ``gcs replay``: MCAP recordings of the Zenoh traffic, and feeding them back.
+
+* ``gcs record -o FILE.mcap`` subscribes to everything under the prefix and
+  writes it (:mod:`gcs.adapters.recording`); SIGINT/SIGTERM finish the file.
+* ``gcs replay FILE --info`` summarises channels, counts, duration and vehicles.
+* ``gcs replay FILE [--rate R | --fast]`` republishes the recorded inputs
+  (reports, nav, truth; liveliness as tokens) so that a running daemon consumes
+  them, keeping their recorded spacing divided by ``R``, or as fast as possible.
+* ``gcs replay FILE --process [--out TRACKS.mcap|.csv]`` runs the estimator on
+  the file directly, without Zenoh: the same validation, step assembly and
+  fusion as the daemon (:mod:`gcs.daemon.fusion`), so a recording of a live run
+  gives back the daemon's tracks bit for bit, provided no report was late in the
+  live run (the daemon's ``rejected.late`` counter is zero).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import functools
+import json
+import logging
+import math
+import queue
+import signal
+import threading
+import time
+from collections import Counter
+from collections.abc import Iterator
+from pathlib import Path
+
+import zenoh
+
+from gcs.adapters.recording import LIVELINESS_ENCODING, Recorded, Recorder, RecordingError, read_recording
+from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, settings_from_arguments
+from gcs.config import Scenario, ScenarioError
+from gcs.adapters.zenoh_io import Received
+from gcs.daemon.fusion import fuse_step, track_message
+from gcs.daemon.ingest import Ingest
+from gcs.daemon.steps import StepAssembler
+from gcs.scenarios import DEFAULT_SCENARIO, load_scenario
+from gcs.tracking import tracker_config
+from protocols.codec import encode
+from protocols.errors import ProtocolError
+from protocols.keys import DEFAULT_PREFIX, KEY_KINDS, parse_key, track_key, validate_prefix
+from protocols.messages import SensorReport, TrackEstimate
+
+__all__ = ["add_record", "add_replay", "process", "summarise", "INPUT_KINDS"]
+
+log = logging.getLogger(__name__)
+
+INPUT_KINDS = ("report", "nav", "truth", "alive")
+"""Key kinds that are inputs of the daemon (the rest, tracks, plans and status, are its outputs)."""
+NS_PER_S = 1_000_000_000
+
+
+def _prefix_of(key: str) -> str | None:
+    """The prefix a key of the key space is under (``gcs`` for ``gcs/vehicle/uav1/report``)."""
+    for marker in ("/vehicle/", "/track/", "/plan/", "/daemon/", "/sim/"):
+        if marker in key:
+            return key[: key.index(marker)]
+    return None
+
+
+@functools.lru_cache(maxsize=4096)
+def _kind(key: str) -> tuple[str | None, str | None]:
+    """Kind and id of a key of the key space under any prefix; (None, None) for other keys."""
+    prefix = _prefix_of(key)
+    if prefix is None:
+        return None, None
+    try:
+        parsed = parse_key(key, prefix)
+    except ProtocolError:
+        return None, None
+    return parsed.kind, parsed.ident
+
+
+# ------------------------------------------------------------------- --info
+
+def summarise(path: Path) -> dict:
+    """Channels (key, encoding, count), message count, duration and vehicles of a recording."""
+    channels: Counter = Counter()
+    vehicles: set[str] = set()
+    first = last = None
+    stamps: list[int] = []
+    for record in read_recording(path):
+        channels[(record.key, record.encoding)] += 1
+        first = record.log_time_ns if first is None else min(first, record.log_time_ns)
+        last = record.log_time_ns if last is None else max(last, record.log_time_ns)
+        kind, ident = _kind(record.key)
+        if kind in ("report", "nav", "alive") and ident is not None:
+            vehicles.add(ident)
+        if kind == "report":
+            stamps.append(record.publish_time_ns)
+    return {
+        "file": str(path), "messages": sum(channels.values()),
+        "duration_s": 0.0 if first is None else (last - first) / NS_PER_S,
+        "stamp_span_s": (max(stamps) - min(stamps)) / NS_PER_S if stamps else 0.0,
+        "vehicles": sorted(vehicles),
+        "channels": [{"key": k, "encoding": e, "messages": n} for (k, e), n in sorted(channels.items())],
+    }
+
+
+# ---------------------------------------------------------------- --process
+
+def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX) -> tuple[list[TrackEstimate], Counter]:
+    """The daemon's estimation on a recording: its tracks, and the ingest/step counters.
+
+    Messages go through the same :class:`Ingest` and :class:`StepAssembler` as in
+    the daemon, in recorded order, with the recorded receive times as the clock;
+    a step is released once every vehicle that is alive (its recorded liveliness
+    token) or has reported so far has reported for it, or when its wait expires,
+    as live.
+    """
+    config = tracker_config(scenario, world=None, planner="ga_k5")
+    roster = [v.id for v in scenario.vehicles]
+    ingest = Ingest(set(roster), prefix)
+    steps = StepAssembler(round(scenario.time.step_s * NS_PER_S))
+    reporters: set[str] = set()
+    estimate, tracks = None, []
+
+    def release(ready_steps) -> None:
+        nonlocal estimate
+        for ready in ready_steps:
+            estimate, detections = fuse_step(config, estimate, ready, roster)
+            if estimate is not None:
+                contributing = sorted({roster[d.vehicle] for d in detections})
+                tracks.append(track_message(config, estimate, scenario.target.id, scenario.estimator.model,
+                                            len(tracks) + 1, contributing))
+
+    now = 0.0
+    alive: set[str] = set()
+    for record in read_recording(path):
+        kind, ident = _kind(record.key)
+        if kind == "alive" and record.encoding == LIVELINESS_ENCODING:  # as the daemon's registry saw it
+            (alive.add if record.payload == b"alive" else alive.discard)(ident)
+            continue
+        if kind not in ("report", "nav", "truth"):
+            continue  # the daemon's own outputs
+        now = record.log_time_ns / NS_PER_S
+        message = ingest.accept(Received("sample", record.key, record.payload, record.encoding, record.log_time_ns))
+        if isinstance(message, SensorReport):
+            reporters.add(message.vehicle_id)
+            steps.add(message, now)
+            release(steps.ready(alive | reporters, now))
+    release(steps.ready(reporters, math.inf))
+    return tracks, Counter(ingest.counters) + steps.counters
+
+
+def write_tracks(tracks: list[TrackEstimate], out: Path, prefix: str = DEFAULT_PREFIX) -> None:
+    """Tracks to MCAP (one channel per target key, like a recording) or CSV (by the suffix)."""
+    if out.suffix == ".csv":
+        with open(out, "w", newline="") as stream:
+            writer = csv.writer(stream)
+            writer.writerow(["target_id", "seq", "stamp_ns", "x_m", "y_m", "vx_mps", "vy_mps", "var_x_m2",
+                             "var_y_m2", "contributing_vehicles"])
+            for t in tracks:
+                n = len(t.state)
+                writer.writerow([t.target_id, t.seq, t.stamp_ns, *[repr(v) for v in t.state[:4]],
+                                 repr(t.covariance[0]), repr(t.covariance[n + 1]), " ".join(t.contributing_vehicles)])
+        return
+    with Recorder(out) as recorder:
+        for t in tracks:
+            payload, encoding = encode(t)
+            recorder.write(track_key(t.target_id, prefix), payload, encoding, t.stamp_ns)
+
+
+# -------------------------------------------------------------- republish
+
+def _inputs(path: Path) -> Iterator[tuple[Recorded, str, str]]:
+    for record in read_recording(path):
+        kind, ident = _kind(record.key)
+        if kind in INPUT_KINDS:
+            yield record, kind, ident
+
+
+def republish(path: Path, settings, prefix: str, rate: float | None, stop: threading.Event,
+              wait_for_subscriber_s: float = 5.0) -> Counter:
+    """Put the recorded inputs back on Zenoh under ``prefix``; ``rate`` None is as fast as possible.
+
+    Publishers for every recorded input key are declared first, and up to
+    ``wait_for_subscriber_s`` is given for a subscriber (the daemon) to match
+    them, so that the first messages are not published before anyone listens.
+    """
+    counts: Counter = Counter()
+    keys = sorted({record.key for record, kind, _ in _inputs(path) if kind != "alive"})
+    with open_session(settings) as session:
+        publishers = {key: session.declare_publisher(prefix + key[len(_prefix_of(key)):],
+                                                     congestion_control=zenoh.CongestionControl.BLOCK)
+                      for key in keys}
+        tokens: dict[str, zenoh.LivelinessToken] = {}
+        deadline = time.monotonic() + wait_for_subscriber_s
+        while not all(p.matching_status.matching for p in publishers.values()) and time.monotonic() < deadline:
+            if stop.wait(0.02):
+                break
+        start_wall, start_log = time.monotonic(), None
+        try:
+            for record, kind, _ in _inputs(path):
+                if stop.is_set():
+                    break
+                start_log = record.log_time_ns if start_log is None else start_log
+                if rate is not None:
+                    due = start_wall + (record.log_time_ns - start_log) / NS_PER_S / rate
+                    if stop.wait(max(0.0, due - time.monotonic())):
+                        break
+                if kind == "alive":
+                    key = prefix + record.key[len(_prefix_of(record.key)):]
+                    if record.payload == b"alive" and key not in tokens:
+                        tokens[key] = session.liveliness().declare_token(key)
+                    elif record.payload == b"gone" and key in tokens:
+                        tokens.pop(key).undeclare()
+                    counts["liveliness"] += 1
+                    continue
+                publishers[record.key].put(record.payload, encoding=zenoh.Encoding(record.encoding))
+                counts[kind] += 1
+        finally:
+            for token in tokens.values():
+                token.undeclare()
+            for publisher in publishers.values():
+                publisher.undeclare()
+    return counts
+
+
+# ---------------------------------------------------------------------- CLI
+
+def _stop_on_signals(event: threading.Event) -> None:
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: event.set())
+
+
+def add_record(sub: argparse._SubParsersAction) -> None:
+    """Register ``gcs record``."""
+    parser = sub.add_parser("record", help="record the Zenoh traffic under a prefix to MCAP",
+                            description="Subscribe to everything under the prefix (reports, nav, tracks, plans, "
+                                        "truth, liveliness) and write the exact payloads to an MCAP file; Ctrl-C "
+                                        "or SIGTERM finishes the file.")
+    parser.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.mcap")
+    parser.add_argument("--duration", type=float, default=None, metavar="S", help="stop after S wall seconds")
+    add_zenoh_arguments(parser, listen=(), connect=(DEFAULT_ENDPOINT,))
+    parser.set_defaults(handler=_cmd_record)
+
+
+def _cmd_record(args: argparse.Namespace) -> int:
+    settings = settings_from_arguments(args)
+    if settings is None:
+        log.error("gcs record needs zenoh")
+        return 2
+    validate_prefix(args.prefix)
+    stop = threading.Event()
+    _stop_on_signals(stop)
+    inbox: queue.Queue = queue.Queue()
+    deadline = None if args.duration is None else time.monotonic() + args.duration
+    try:
+        recorder = Recorder(args.output)
+    except OSError as error:
+        log.error("cannot write %s: %s", args.output, error)
+        return 2
+    try:
+        with open_session(settings) as session:
+            session.declare_subscriber(f"{args.prefix}/**", lambda s: inbox.put(
+                (str(s.key_expr), s.payload.to_bytes(), str(s.encoding), time.time_ns())))
+            session.liveliness().declare_subscriber(f"{args.prefix}/**", lambda s: inbox.put(
+                (str(s.key_expr), s.kind == zenoh.SampleKind.PUT, None, time.time_ns())), history=True)
+            log.info("recording %s/** to %s", args.prefix, args.output)
+            while not stop.is_set() and (deadline is None or time.monotonic() < deadline):
+                _drain(inbox, recorder, timeout=0.1)
+            _drain(inbox, recorder, timeout=0.0)
+    except RuntimeError as error:
+        log.error("%s", error)
+        return 1
+    finally:
+        recorder.finish()
+    print(f"recorded {recorder.messages} messages to {args.output}")
+    return 0
+
+
+def _drain(inbox: queue.Queue, recorder: Recorder, timeout: float) -> None:
+    try:
+        item = inbox.get(timeout=timeout) if timeout else inbox.get_nowait()
+    except queue.Empty:
+        return
+    while True:
+        key, payload, encoding, time_ns = item
+        if encoding is None:
+            recorder.write_liveliness(key, payload, time_ns)
+        else:
+            recorder.write(key, payload, encoding, time_ns)
+        try:
+            item = inbox.get_nowait()
+        except queue.Empty:
+            return
+
+
+def add_replay(sub: argparse._SubParsersAction) -> None:
+    """Register ``gcs replay``."""
+    parser = sub.add_parser("replay", help="summarise, republish or process a recording",
+                            description="Republish a recording's inputs to Zenoh for a running daemon, or process "
+                                        "them directly with the daemon's estimator (--process), or summarise them "
+                                        "(--info).")
+    parser.add_argument("file", type=Path, metavar="FILE.mcap")
+    mode = parser.add_mutually_exclusive_group()
+    mode.add_argument("--info", action="store_true", help="print channels, counts, duration and vehicles")
+    mode.add_argument("--process", action="store_true", help="run the estimator on the file, without Zenoh")
+    mode.add_argument("--rate", type=float, default=1.0, help="republish R times faster than recorded (default 1)")
+    mode.add_argument("--fast", action="store_true", help="republish as fast as possible")
+    parser.add_argument("--scenario", default=DEFAULT_SCENARIO, help="scenario of the recorded run (--process)")
+    parser.add_argument("--out", type=Path, metavar="TRACKS", help="--process: write tracks (.mcap or .csv)")
+    parser.add_argument("--json", action="store_true", help="--info: print JSON")
+    add_zenoh_arguments(parser, listen=(), connect=(DEFAULT_ENDPOINT,))
+    parser.set_defaults(handler=_cmd_replay)
+
+
+def _cmd_replay(args: argparse.Namespace) -> int:
+    try:
+        if args.info:
+            info = summarise(args.file)
+            if args.json:
+                print(json.dumps(info, indent=2))
+            else:
+                print(f"{info['file']}: {info['messages']} messages over {info['duration_s']:.1f} s "
+                      f"(stamps span {info['stamp_span_s']:.1f} s); vehicles {', '.join(info['vehicles']) or '-'}")
+                for channel in info["channels"]:
+                    print(f"  {channel['messages']:>8}  {channel['key']}  [{channel['encoding']}]")
+            return 0
+        if args.process:
+            tracks, counters = process(args.file, load_scenario(args.scenario), args.prefix)
+            if args.out is not None:
+                write_tracks(tracks, args.out, args.prefix)
+            print(f"{len(tracks)} track estimates from {args.file}"
+                  + (f" -> {args.out}" if args.out else "") + "; "
+                  + ", ".join(f"{k} {v}" for k, v in sorted(counters.items())))
+            return 0
+        validate_prefix(args.prefix)
+        settings = settings_from_arguments(args)
+        if settings is None:
+            log.error("republishing needs zenoh")
+            return 2
+        if not args.fast and not args.rate > 0:
+            raise ValueError(f"--rate must be > 0, got {args.rate}")
+        stop = threading.Event()
+        _stop_on_signals(stop)
+        counts = republish(args.file, settings, args.prefix, None if args.fast else args.rate, stop)
+        print("republished " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
+        return 0
+    except (RecordingError, ScenarioError, ValueError, OSError) as error:
+        log.error("%s", error)
+        return 2
+    except RuntimeError as error:
+        log.error("%s", error)
+        return 1
