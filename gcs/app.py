@@ -32,7 +32,7 @@ import math
 import time
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -43,18 +43,18 @@ from gcs.adapters.recording import Recorder
 from gcs.adapters.zenoh_io import ZenohIO
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.config import Scenario
-from gcs.core.geometry import LocalFrame, wrap_angle
-from gcs.core.kinematics import VehicleState, rollout
+from gcs.core.geometry import LocalFrame
+from gcs.core.kinematics import VehicleState
 from gcs.core.filters.uif import GaussianEstimate
 from gcs.core.tracker import TrackerConfig, TrackerState, plan
-from gcs.daemon.fusion import fuse_step, track_message
+from gcs.daemon.fusion import fuse_step, plan_commands, track_message
 from gcs.core.world import World
 from gcs.daemon.ingest import Ingest
 from gcs.daemon.registry import Registry
 from gcs.daemon.steps import ReadyStep, StepAssembler
-from gcs.tracking import scenario_planner, tracker_config
+from gcs.tracking import scenario_planner, subset_config, tracker_config
 from protocols.keys import parse_key
-from protocols.messages import DaemonStatus, NavReport, PlanCommand, SensorReport, TargetTruth, VehicleStatus
+from protocols.messages import DaemonStatus, NavReport, SensorReport, TargetTruth, VehicleStatus
 
 __all__ = ["DaemonOptions", "Daemon", "StepRecord"]
 
@@ -282,12 +282,10 @@ class Daemon:
     # --------------------------------------------------------------- decision
 
     def _subset(self, indices: tuple[int, ...]) -> TrackerConfig:
-        """The tracker for a subset of the roster (vehicles lost are planned without)."""
+        """The tracker for a subset of the roster (vehicles lost are planned without), cached."""
         config = self._subset_configs.get(indices)
         if config is None:
-            config = replace(self.tracker, sensors=tuple(self.tracker.sensors[i] for i in indices),
-                             max_turn_rate=self.tracker.max_turn_rate[list(indices)])
-            self._subset_configs[indices] = config
+            config = self._subset_configs[indices] = subset_config(self.tracker, indices)
         return config
 
     def _decide(self, ready: ReadyStep, now: float, plan_now: bool = True) -> None:
@@ -308,18 +306,14 @@ class Daemon:
         elif not plan_now:
             self.counters["steps_fused_only"] += 1
         elif estimate is not None:
-            cfgs = [self.vehicle_config[v] for v in active]
-            positions = np.array([self.registry.position_at(v, ready.stamp_ns) for v in active])
-            vehicles = VehicleState(positions[:, :2],
-                                    np.array([self.registry.entries[v].heading_rad for v in active]),
-                                    np.array([c.speed_mps for c in cfgs]), np.array([c.altitude_m for c in cfgs]))
+            vehicles = self.registry.vehicle_state(active, ready.stamp_ns)
             config = self._subset(tuple(self.roster.index(v) for v in active))
             state, turn_rates, diagnostics = plan(config, self._state_for(active, estimate), vehicles, self.rng,
                                                   now=self._data_clock(ready, now))
             self._remember(active, state, turn_rates)
             self.counters["decisions"] += 1
             result = diagnostics.plan
-            self._command(active, vehicles, turn_rates, result.controls, ready.stamp_ns)
+            self._command(active, vehicles, config, result.controls, ready.stamp_ns)
         decision_s = None if result is None else result.elapsed_s * self.options.plan_fraction / self.loop.data_rate
         self._record(ready, active, estimate, decision_s)
 
@@ -357,20 +351,17 @@ class Daemon:
                 self.loop.plan_rows[vehicle_id] = state.plan[slot]
             self.loop.turn_rate[vehicle_id] = float(turn_rates[slot])
 
-    def _command(self, active: list[str], vehicles: VehicleState, turn_rates: np.ndarray, controls: np.ndarray,
+    def _command(self, active: list[str], vehicles: VehicleState, config: TrackerConfig, controls: np.ndarray,
                  stamp_ns: int) -> None:
         dt = self.scenario.time.step_s
-        path, _ = rollout(vehicles, controls, dt, self.tracker.max_turn_rate[[self.roster.index(v) for v in active]])
-        for slot, vehicle_id in enumerate(active):
-            cfg = self.vehicle_config[vehicle_id]
-            heading = wrap_angle(float(vehicles.heading[slot] + turn_rates[slot] * dt))
-            self.loop.aims[vehicle_id] = _Aim(path[slot, -1].copy(), heading, cfg.altitude_m, cfg.speed_mps,
-                                              cfg.speed_mps * dt)
-            self.loop.plan_seq += 1
-            self.zenoh.publish_plan(PlanCommand(
-                vehicle_id=vehicle_id, seq=self.loop.plan_seq, stamp_ns=stamp_ns, heading_rad=heading,
-                turn_rate_rad_s=float(turn_rates[slot]), airspeed_mps=cfg.speed_mps, altitude_m=cfg.altitude_m,
-                planned_path_enu_m=tuple((float(x), float(y)) for x, y in path[slot]), planner=self.planner_name))
+        commands = plan_commands(vehicles, [self.vehicle_config[v] for v in active], controls, config.max_turn_rate,
+                                 dt, stamp_ns, self.loop.plan_seq + 1, self.planner_name)
+        self.loop.plan_seq += len(commands)
+        for command in commands:
+            self.loop.aims[command.vehicle_id] = _Aim(np.array(command.planned_path_enu_m[-1]), command.heading_rad,
+                                                      command.altitude_m, command.airspeed_mps,
+                                                      command.airspeed_mps * dt)
+            self.zenoh.publish_plan(command)
 
     def _steer(self) -> None:
         """Turn each vehicle's aim into a heading command from its latest MAVLink position.

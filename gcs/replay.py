@@ -6,8 +6,8 @@
 * ``gcs replay FILE [--rate R | --fast]`` republishes the recorded inputs
   (reports, nav, truth; liveliness as tokens) so that a running daemon consumes
   them, keeping their recorded spacing divided by ``R``, or as fast as possible.
-* ``gcs replay FILE --process [--out TRACKS.mcap|.csv]`` runs the estimator on
-  the file directly, without Zenoh: the same validation, step assembly and
+* ``gcs replay FILE --process [--plan] [--out TRACKS.mcap|.csv]`` runs the
+  estimator (and the planner) on the file directly, without Zenoh: the same validation, step assembly and
   fusion as the daemon (:mod:`gcs.daemon.fusion`), so a recording of a live run
   gives back the daemon's tracks bit for bit, provided no report was late in the
   live run (the daemon's ``rejected.late`` counter is zero).
@@ -29,23 +29,28 @@ from collections import Counter
 from collections.abc import Iterator
 from pathlib import Path
 
+import numpy as np
 import zenoh
 
 from gcs.adapters.recording import LIVELINESS_ENCODING, Recorded, Recorder, RecordingError, read_recording
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, settings_from_arguments
 from gcs.config import Scenario, ScenarioError
 from gcs.adapters.zenoh_io import Received
-from gcs.daemon.fusion import fuse_step, track_message
+from gcs.daemon.fusion import fuse_step, plan_commands, track_message
 from gcs.daemon.ingest import Ingest
 from gcs.daemon.steps import StepAssembler
-from gcs.scenarios import DEFAULT_SCENARIO, load_scenario
-from gcs.tracking import tracker_config
+from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
+from gcs.core.tracker import TrackerState, plan
+from gcs.core.world import World
+from gcs.daemon.registry import Registry
+from gcs.tracking import scenario_planner, subset_config, tracker_config
+from gcs.world_loader import build_world
 from protocols.codec import encode
 from protocols.errors import ProtocolError
-from protocols.keys import DEFAULT_PREFIX, KEY_KINDS, parse_key, track_key, validate_prefix
-from protocols.messages import SensorReport, TrackEstimate
+from protocols.keys import DEFAULT_PREFIX, parse_key, plan_key, track_key, validate_prefix
+from protocols.messages import NavReport, PlanCommand, SensorReport, TrackEstimate
 
-__all__ = ["add_record", "add_replay", "process", "summarise", "INPUT_KINDS"]
+__all__ = ["add_record", "add_replay", "process", "summarise", "write_outputs", "INPUT_KINDS"]
 
 log = logging.getLogger(__name__)
 
@@ -103,52 +108,79 @@ def summarise(path: Path) -> dict:
 
 # ---------------------------------------------------------------- --process
 
-def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX) -> tuple[list[TrackEstimate], Counter]:
-    """The daemon's estimation on a recording: its tracks, and the ingest/step counters.
+def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world: World | None = None,
+            seed: int = 0) -> tuple[list[TrackEstimate], list[PlanCommand], Counter]:
+    """The daemon's estimation (and planning, with a ``world``) on a recording.
 
     Messages go through the same :class:`Ingest` and :class:`StepAssembler` as in
     the daemon, in recorded order, with the recorded receive times as the clock;
     a step is released once every vehicle that is alive (its recorded liveliness
     token) or has reported so far has reported for it, or when its wait expires,
-    as live.
+    as live. With a ``world`` every step is also planned for the vehicles alive
+    then, as the daemon plans, but to the end of every generation (no deadline),
+    so the plans are reproducible; the daemon's own plans stop at its deadline.
+
+    Returns the tracks, the plans (empty without a world) and the counters.
     """
-    config = tracker_config(scenario, world=None, planner="ga_k5")
+    planning = world is not None
+    config = tracker_config(scenario, world, scenario_planner(scenario))
     roster = [v.id for v in scenario.vehicles]
     ingest = Ingest(set(roster), prefix)
     steps = StepAssembler(round(scenario.time.step_s * NS_PER_S))
+    registry = Registry(list(scenario.vehicles), heartbeat_age=lambda vehicle, now: None)
+    rng = np.random.default_rng(seed)
     reporters: set[str] = set()
-    estimate, tracks = None, []
+    tracks: list[TrackEstimate] = []
+    plans: list[PlanCommand] = []
+    memory: dict[str, np.ndarray] = {}
+    estimate = None
 
-    def release(ready_steps) -> None:
+    def release(ready_steps, now: float) -> None:
         nonlocal estimate
         for ready in ready_steps:
             estimate, detections = fuse_step(config, estimate, ready, roster)
-            if estimate is not None:
-                contributing = sorted({roster[d.vehicle] for d in detections})
-                tracks.append(track_message(config, estimate, scenario.target.id, scenario.estimator.model,
-                                            len(tracks) + 1, contributing))
+            if estimate is None:
+                continue
+            contributing = sorted({roster[d.vehicle] for d in detections})
+            tracks.append(track_message(config, estimate, scenario.target.id, scenario.estimator.model,
+                                        len(tracks) + 1, contributing))
+            active = registry.plannable(now)
+            if planning and active:
+                vehicles = registry.vehicle_state(active, ready.stamp_ns)
+                subset = subset_config(config, tuple(roster.index(v) for v in active))
+                warm = np.stack([memory[v] for v in active]) if all(v in memory for v in active) else None
+                turn = np.array([memory[v][0] if v in memory else 0.0 for v in active])
+                state, _, _ = plan(subset, TrackerState(estimate, warm, turn), vehicles, rng)
+                memory.update({v: state.plan[slot] for slot, v in enumerate(active)})
+                plans.extend(plan_commands(vehicles, [registry.entries[v].config for v in active], state.plan,
+                                           subset.max_turn_rate, scenario.time.step_s, ready.stamp_ns,
+                                           len(plans) + 1, scenario_planner(scenario)))
 
     now = 0.0
-    alive: set[str] = set()
     for record in read_recording(path):
         kind, ident = _kind(record.key)
+        now = record.log_time_ns / NS_PER_S
         if kind == "alive" and record.encoding == LIVELINESS_ENCODING:  # as the daemon's registry saw it
-            (alive.add if record.payload == b"alive" else alive.discard)(ident)
+            registry.on_liveliness(ident, record.payload == b"alive", now)
             continue
         if kind not in ("report", "nav", "truth"):
             continue  # the daemon's own outputs
-        now = record.log_time_ns / NS_PER_S
         message = ingest.accept(Received("sample", record.key, record.payload, record.encoding, record.log_time_ns))
-        if isinstance(message, SensorReport):
+        if isinstance(message, NavReport):
+            registry.on_nav(message)
+        elif isinstance(message, SensorReport):
+            registry.on_report(message)
             reporters.add(message.vehicle_id)
             steps.add(message, now)
-            release(steps.ready(alive | reporters, now))
-    release(steps.ready(reporters, math.inf))
-    return tracks, Counter(ingest.counters) + steps.counters
+            alive = {v for v, entry in registry.entries.items() if entry.token}
+            release(steps.ready(alive | reporters, now), now)
+    release(steps.ready(reporters, math.inf), now)
+    return tracks, plans, Counter(ingest.counters) + steps.counters
 
 
-def write_tracks(tracks: list[TrackEstimate], out: Path, prefix: str = DEFAULT_PREFIX) -> None:
-    """Tracks to MCAP (one channel per target key, like a recording) or CSV (by the suffix)."""
+def write_outputs(tracks: list[TrackEstimate], plans: list[PlanCommand], out: Path,
+                  prefix: str = DEFAULT_PREFIX) -> None:
+    """Tracks (and plans) to MCAP, one channel per key like a recording, or tracks to CSV (by the suffix)."""
     if out.suffix == ".csv":
         with open(out, "w", newline="") as stream:
             writer = csv.writer(stream)
@@ -160,9 +192,11 @@ def write_tracks(tracks: list[TrackEstimate], out: Path, prefix: str = DEFAULT_P
                                  repr(t.covariance[0]), repr(t.covariance[n + 1]), " ".join(t.contributing_vehicles)])
         return
     with Recorder(out) as recorder:
-        for t in tracks:
-            payload, encoding = encode(t)
-            recorder.write(track_key(t.target_id, prefix), payload, encoding, t.stamp_ns)
+        for message in sorted([*tracks, *plans], key=lambda m: m.stamp_ns):
+            key = (track_key(message.target_id, prefix) if isinstance(message, TrackEstimate)
+                   else plan_key(message.vehicle_id, prefix))
+            payload, encoding = encode(message)
+            recorder.write(key, payload, encoding, message.stamp_ns)
 
 
 # -------------------------------------------------------------- republish
@@ -305,6 +339,10 @@ def add_replay(sub: argparse._SubParsersAction) -> None:
     mode.add_argument("--fast", action="store_true", help="republish as fast as possible")
     parser.add_argument("--scenario", default=DEFAULT_SCENARIO, help="scenario of the recorded run (--process)")
     parser.add_argument("--out", type=Path, metavar="TRACKS", help="--process: write tracks (.mcap or .csv)")
+    parser.add_argument("--plan", action="store_true",
+                        help="--process: also plan every step (every GA generation, no deadline); plans go to an "
+                             ".mcap --out")
+    parser.add_argument("--seed", type=int, default=0, help="--process --plan: the planner's seed (default 0)")
     parser.add_argument("--json", action="store_true", help="--info: print JSON")
     add_zenoh_arguments(parser, listen=(), connect=(DEFAULT_ENDPOINT,))
     parser.set_defaults(handler=_cmd_replay)
@@ -323,11 +361,13 @@ def _cmd_replay(args: argparse.Namespace) -> int:
                     print(f"  {channel['messages']:>8}  {channel['key']}  [{channel['encoding']}]")
             return 0
         if args.process:
-            tracks, counters = process(args.file, load_scenario(args.scenario), args.prefix)
+            scenario = load_scenario(args.scenario)
+            world = build_world(scenario, scenario_base_dir(args.scenario)) if args.plan else None
+            tracks, plans, counters = process(args.file, scenario, args.prefix, world, args.seed)
             if args.out is not None:
-                write_tracks(tracks, args.out, args.prefix)
-            print(f"{len(tracks)} track estimates from {args.file}"
-                  + (f" -> {args.out}" if args.out else "") + "; "
+                write_outputs(tracks, plans, args.out, args.prefix)
+            print(f"{len(tracks)} track estimates" + (f" and {len(plans)} plan commands" if args.plan else "")
+                  + f" from {args.file}" + (f" -> {args.out}" if args.out else "") + "; "
                   + ", ".join(f"{k} {v}" for k, v in sorted(counters.items())))
             return 0
         validate_prefix(args.prefix)

@@ -6,6 +6,8 @@ filter and planner for the same scenario.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from gcs.config import Scenario
@@ -16,7 +18,7 @@ from gcs.core.planners import GeneticPlanner, OrbitPlanner, PursuitPlanner, RhcW
 from gcs.core.tracker import TrackerConfig
 from gcs.core.world import VisibilityMaps, World
 
-__all__ = ["PLANNERS", "FROM_SCENARIO", "filter_sensor_models", "tracker_config", "scenario_planner"]
+__all__ = ["PLANNERS", "FROM_SCENARIO", "filter_sensor_models", "tracker_config", "scenario_planner", "subset_config"]
 
 PLANNERS = ("ga_k5", "ga_k0", "orbit", "pursuit")
 """GA-RHC on k+5 predictions or on the current estimate (k+0, the paper's
@@ -85,3 +87,9 @@ def tracker_config(scenario: Scenario, world: World | None, planner: str, genera
         initial_position_std_m=scenario.estimator.initial_position_std_m,
         initial_velocity_std_mps=scenario.estimator.initial_velocity_std_mps,
     )
+
+
+def subset_config(config: TrackerConfig, indices: tuple[int, ...]) -> TrackerConfig:
+    """The tracker for some of the roster's vehicles (their sensors and turn limits), e.g. those alive now."""
+    return replace(config, sensors=tuple(config.sensors[i] for i in indices),
+                   max_turn_rate=config.max_turn_rate[list(indices)])

@@ -67,7 +67,7 @@ def run_benchmark(scenario: Scenario, world: World, duration_s: float = 300.0, r
         times, tracks = [], 0
         for _ in range(repeats):
             start = time.perf_counter()
-            result, _ = process(path, scenario)
+            result, _, _ = process(path, scenario)
             times.append(time.perf_counter() - start)
             tracks = len(result)
     median = statistics.median(times)

@@ -1,4 +1,4 @@
-"""Fusing one decision step into a track message: shared by the daemon and ``gcs replay --process``.
+"""One decision step into wire messages: shared by the daemon and ``gcs replay --process``.
 
 Both call :func:`fuse_step` on the same steps and get the same ``TrackEstimate``
 bit for bit: detections are taken in roster order (not arrival order) from
@@ -13,11 +13,14 @@ from collections.abc import Sequence
 import numpy as np
 
 from gcs.core.filters.uif import GaussianEstimate
+from gcs.core.geometry import wrap_angle
+from gcs.core.kinematics import VehicleState, rollout
 from gcs.core.tracker import Detection, TrackerConfig, fuse, prediction
 from gcs.daemon.steps import ReadyStep
-from protocols.messages import PredictedPoint, SensorReport, TrackEstimate
+from gcs.config import VehicleConfig
+from protocols.messages import PlanCommand, PredictedPoint, SensorReport, TrackEstimate
 
-__all__ = ["step_detections", "fuse_step", "track_message"]
+__all__ = ["step_detections", "fuse_step", "track_message", "plan_commands"]
 
 
 def _measurement(report: SensorReport, components: tuple[str, ...]) -> np.ndarray | None:
@@ -67,3 +70,20 @@ def fuse_step(config: TrackerConfig, estimate: GaussianEstimate | None, ready: R
     """The estimate after one step, and the detections that went into it."""
     detections = step_detections(ready, roster, config)
     return fuse(config, estimate, ready.stamp_ns, detections), detections
+
+
+def plan_commands(vehicles: VehicleState, configs: Sequence[VehicleConfig], controls: np.ndarray,
+                  max_turn_rate: np.ndarray, step_s: float, stamp_ns: int, first_seq: int, planner: str
+                  ) -> list[PlanCommand]:
+    """One ``PlanCommand`` per planned vehicle: the heading at the end of the step
+    (``psi + u T``), the first turn rate and the planned path over the horizon."""
+    path, _ = rollout(vehicles, controls, step_s, max_turn_rate)
+    commands = []
+    for slot, cfg in enumerate(configs):
+        turn_rate = float(controls[slot, 0])
+        commands.append(PlanCommand(
+            vehicle_id=cfg.id, seq=first_seq + slot, stamp_ns=stamp_ns,
+            heading_rad=wrap_angle(float(vehicles.heading[slot] + turn_rate * step_s)), turn_rate_rad_s=turn_rate,
+            airspeed_mps=cfg.speed_mps, altitude_m=cfg.altitude_m,
+            planned_path_enu_m=tuple((float(x), float(y)) for x, y in path[slot]), planner=planner))
+    return commands

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gcs.config import VehicleConfig
+from gcs.core.kinematics import VehicleState
 from protocols.messages import NavReport, SensorReport
 
 __all__ = ["VehicleEntry", "Registry", "LOST_AFTER_S"]
@@ -98,6 +99,14 @@ class Registry:
         """Alive vehicles with a known position and heading, in roster order."""
         return [vid for vid, e in self.entries.items()
                 if self.alive(vid, now_s) and e.position_enu_m is not None and e.heading_rad is not None]
+
+    def vehicle_state(self, vehicle_ids: list[str], stamp_ns: int) -> VehicleState:
+        """The planner's view of these vehicles at ``stamp_ns``: reported positions and nav headings,
+        the scenario's speeds and altitudes (wang2012 eq. 1 holds them constant)."""
+        configs = [self.entries[v].config for v in vehicle_ids]
+        positions = np.array([self.position_at(v, stamp_ns) for v in vehicle_ids])
+        return VehicleState(positions[:, :2], np.array([self.entries[v].heading_rad for v in vehicle_ids]),
+                            np.array([c.speed_mps for c in configs]), np.array([c.altitude_m for c in configs]))
 
     def position_at(self, vehicle_id: str, stamp_ns: int) -> np.ndarray:
         """Position (3,) at ``stamp_ns``: the last reported one, moved on with the velocity if older."""

@@ -38,6 +38,17 @@ def test_processing_a_recorded_demo_reproduces_the_daemons_tracks_bit_for_bit(tm
         rows = list(csv.DictReader(stream))
     assert len(rows) == len(live) and float(rows[-1]["x_m"]) == json.loads(live[-1])["state"][0]
 
+    planned = tmp_path / "planned.mcap"
+    done = subprocess.run([script("gcs"), "replay", str(recording), "--process", "--plan", "--out", str(planned)],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    live_plans = [r.key for r in read_recording(recording) if "/plan/" in r.key]
+    replayed_plans = [r.key for r in read_recording(planned) if "/plan/" in r.key]
+    assert _tracks(planned) == live  # planning does not change the estimates
+    assert sorted(set(replayed_plans)) == ["gcs/plan/uav1", "gcs/plan/uav2", "gcs/plan/uav3"]
+    # every step with a track and plannable vehicles is planned (live, a daemon behind its data only fuses some)
+    assert 3 * (len(live) - 2) <= len(replayed_plans) <= 3 * len(live) and len(live_plans) <= len(replayed_plans)
+
     info = subprocess.run([script("gcs"), "replay", str(recording), "--info", "--json"], capture_output=True,
                           text=True, timeout=60)
     summary = json.loads(info.stdout)

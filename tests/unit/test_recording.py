@@ -118,8 +118,8 @@ def test_processing_counts_what_it_rejects_and_skips_nothing_silently(tmp_path) 
                 recorder.write(report_key(vehicle), *encode(_report(seq, vehicle)), seq * S)
         recorder.write(report_key("uav1"), b"not json", "application/json;gcs.SensorReport/1", 11 * S)
         recorder.write(report_key("intruder"), *encode(_report(12, "intruder")), 12 * S)
-    tracks, counters = process(path, scenario)
-    assert tracks == []  # nothing detected: no track
+    tracks, plans, counters = process(path, scenario)
+    assert tracks == [] and plans == []  # nothing detected: no track
     assert counters["accepted.report"] == 30
     assert counters["rejected.malformed"] == 1 and counters["rejected.unknown_vehicle"] == 1
     assert os.path.getsize(path) > 0
