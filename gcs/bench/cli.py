@@ -7,6 +7,7 @@ tables (progress goes to stderr) and writes ``--json`` files.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 
@@ -51,10 +52,63 @@ def _cmd_urban(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_daemon(args: argparse.Namespace) -> int:
+    import cProfile
+
+    from gcs.bench import daemon
+    from gcs.scenarios import load_scenario
+    from gcs.world_loader import build_world
+
+    scenario = load_scenario(args.scenario)
+    command = (f"gcs bench daemon --scenario {args.scenario} --vehicles {' '.join(map(str, args.vehicles))} "
+               f"--seconds {args.seconds:g} --solve-steps {args.solve_steps}")
+    profiler = cProfile.Profile() if args.profile else None
+    report = daemon.run_benchmark(scenario, build_world(scenario), vehicle_counts=args.vehicles, seconds=args.seconds,
+                                  solve_steps=args.solve_steps, command=command, progress=_progress, profiler=profiler)
+    print(daemon.format_report(report))
+    if args.json:
+        daemon.write_json(report, args.json)
+        print(f"wrote {args.json}")
+    if profiler is not None:
+        profiler.dump_stats(args.profile)
+        print(f"wrote {args.profile} (python -m pstats {args.profile}; the profiler slows the daemon, so rates "
+              "measured with it are lower)")
+    return 0
+
+
+def _cmd_replay(args: argparse.Namespace) -> int:
+    from gcs.bench import replay
+    from gcs.scenarios import load_scenario
+    from gcs.world_loader import build_world
+
+    scenario = load_scenario(args.scenario)
+    report = replay.run_benchmark(scenario, build_world(scenario), duration_s=args.duration, repeats=args.repeats,
+                                  seed=args.seed)
+    print(replay.format_report(report))
+    if args.json:
+        args.json.write_text(json.dumps(report, indent=2))
+        print(f"wrote {args.json}")
+    return 0
+
+
 def _positive_int(text: str) -> int:
     value = int(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
+def _positive_float(text: str) -> float:
+    value = float(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    return value
+
+
+def _non_negative_int(text: str) -> int:
+    value = int(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
     return value
 
 
@@ -97,3 +151,33 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     urb.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     urb.add_argument("--plots", type=Path, metavar="DIR", help="write PNG plots into DIR")
     urb.set_defaults(handler=_cmd_urban, planner=None)
+
+    dmn = benches.add_parser(
+        "daemon",
+        help="the daemon over Zenoh: report-to-command latency and the highest report rate with no loss",
+        description="Feeds the daemon (real Zenoh on 127.0.0.1, no MAVLink) sensor reports from a separate "
+                    "process for 10, 50 and 100 vehicles, searches the highest aggregate report rate it keeps "
+                    "up with and nothing dropped, and measures report-to-command latency without the planner's "
+                    "solve time (orbit planner), then the GA's solve time with reports in real time.",
+    )
+    dmn.add_argument("--scenario", default="wang2012_urban", help="shipped name or .toml path (default wang2012_urban)")
+    dmn.add_argument("--vehicles", type=_positive_int, nargs="+", default=[10, 50, 100], metavar="N",
+                     help="vehicle counts to measure (default 10 50 100)")
+    dmn.add_argument("--seconds", type=_positive_float, default=3.0, help="seconds per rate trial (default 3)")
+    dmn.add_argument("--solve-steps", type=_non_negative_int, default=5,
+                     help="real-time decision steps to time the GA's solve over, 0 to skip (default 5)")
+    dmn.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
+    dmn.add_argument("--profile", type=Path, metavar="FILE",
+                     help="profile the daemon's loop (cProfile) during the rate searches and write the stats to FILE")
+    dmn.set_defaults(handler=_cmd_daemon)
+
+    rpl = benches.add_parser(
+        "replay", help="gcs replay --process speed in multiples of real time (goal 1000x)",
+        description="Simulates the scenario's reports into an MCAP file, then times the estimator on it "
+                    "(gcs replay --process, reading included) and reports the speed in multiples of real time.")
+    rpl.add_argument("--scenario", default="wang2012_urban", help="shipped name or .toml path (default wang2012_urban)")
+    rpl.add_argument("--duration", type=_positive_float, default=300.0, help="simulated seconds (default 300)")
+    rpl.add_argument("--repeats", type=_positive_int, default=5, help="timed runs; the median is reported (default 5)")
+    rpl.add_argument("--seed", type=int, default=0, help="seed of the simulated scene (default 0)")
+    rpl.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
+    rpl.set_defaults(handler=_cmd_replay)

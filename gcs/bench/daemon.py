@@ -1,0 +1,474 @@
+"""``gcs bench daemon``: the daemon's report-to-command latency and the highest report rate it keeps up with.
+
+Two processes on 127.0.0.1, joined by a Zenoh TCP link (peers, multicast off,
+a free port; no MAVLink): the **load** (:mod:`gcs.bench.daemon_load`, a spawned
+process) plays N vehicles; the **daemon** (:class:`gcs.app.Daemon`, in this
+process, running its own loop :meth:`~gcs.app.Daemon.run`) consumes their
+reports. The daemon's ``on_step`` hook notes the wall time at which each
+decision step finished (its ``TrackEstimate`` and ``PlanCommand`` messages put) and
+the planner's solve time; the world handed to it times its visibility maps.
+Sender and daemon read the same clock (``time.time_ns``, one machine).
+
+For each vehicle count:
+
+1. **Rate search** with the cheap ``orbit`` planner: trials of ``seconds`` at
+   1,250, 2,500, 5,000 ... reports/s (evenly spaced), doubling until a trial
+   fails, then bisecting to within 15%. A trial **passes** ("processed with
+   nothing dropped") when the load achieved the rate, every published report
+   was accepted by ingest (``accepted.report``) with no rejection, no late
+   report and no failed decision, and the daemon had accepted the last report
+   within :data:`GRACE_S` of its send. With reliable Zenoh and an unbounded
+   inbox nothing is ever *dropped*: a daemon too slow for the rate falls
+   behind instead, and its latency grows without bound; the grace detects that.
+2. **Latency** of a step: the wall time its commands were put, minus the send
+   time of the step's last report (the one that completed it), minus the
+   planner's solve time (``StepRecord.decision_s``). A step the daemon only
+   fused (it was behind, and planned a newer step in the same pass) is served
+   by that newer step's command. Quoted from the trial at the goal rate
+   (5,000 reports/s) when it passed, else from the fastest passing trial; also
+   without the visibility maps' time (the other cost of planning).
+3. **Solve time** of the GA (the scenario's planner, ``ga_k5`` by default) from
+   a second daemon fed in real time (one burst of N reports per decision step
+   of wall time, so that the GA gets its real deadline); the latency there is
+   the daemon's at its real operating point.
+"""
+
+from __future__ import annotations
+
+import cProfile
+import json
+import multiprocessing
+import os
+import platform
+import time
+from collections import Counter
+from collections.abc import Callable, Generator, Iterable, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from gcs.adapters.ports import LOCALHOST, free_tcp_port
+from gcs.adapters.zenoh_session import ZenohSettings
+from gcs.app import Daemon, DaemonOptions, StepRecord
+from gcs.bench.daemon_load import Fleet, publisher_main
+from gcs.bench.urban import with_vehicles
+from gcs.config import Scenario
+from gcs.core.world import World
+from gcs.tracking import scenario_planner
+
+__all__ = ["GOAL_REPORTS_PER_S", "GOAL_LATENCY_MS_P99", "GRACE_S", "Trial", "StepTiming", "step_latencies_ms",
+           "next_rate", "run_benchmark", "format_report", "write_json"]
+
+NS_PER_S = 1_000_000_000
+GOAL_REPORTS_PER_S = 5000
+GOAL_LATENCY_MS_P99 = 20.0
+GRACE_S = 0.1
+"""A trial passes only if the daemon accepted the last report within this much wall time of its send."""
+START_RATE = GOAL_REPORTS_PER_S / 4
+RESOLUTION = 1.15
+"""The rate search stops when the slowest failing rate is within 15% of the fastest passing one."""
+MAX_TRIALS = 9
+LATENCY_PLANNER = "orbit"
+
+
+@dataclass(frozen=True)
+class Trial:
+    """One trial at one target rate (times in ms; None where there was nothing to measure)."""
+
+    rate_per_s: float
+    achieved_per_s: float
+    published: int
+    accepted: int
+    rejected: int
+    late: int
+    decision_errors: int
+    lag_s: float | None
+    daemon_cpu: float
+    load_cpu: float
+    steps: int
+    planned_steps: int
+    latency_ms_p50: float | None
+    latency_ms_p99: float | None
+    latency_without_visibility_ms_p50: float | None
+    latency_without_visibility_ms_p99: float | None
+    visibility_ms_median: float | None
+    solve_ms_median: float | None
+    solve_ms_p99: float | None
+    passed: bool | None
+
+
+@dataclass(frozen=True)
+class StepTiming:
+    """One decision step as the daemon's ``on_step`` saw it; ``solve_s`` None when it was fused only."""
+
+    stamp_ns: int
+    done_ns: int
+    solve_s: float | None
+    visibility_s: float
+
+
+def step_latencies_ms(last_sent_ns: dict[int, int], log: Iterable[StepTiming], visibility: bool = True
+                      ) -> list[float]:
+    """Latency (ms) of every step of ``last_sent_ns`` (stamp -> send time of its last report) found in ``log``.
+
+    Latency = the time the command was put - the send time of the step's last report
+    - the planner's solve time (and the visibility maps' time too, if not ``visibility``).
+    A step that was only fused is served by the next planned step's command.
+    """
+    out, waiting = [], []
+    for step in log:
+        if step.stamp_ns in last_sent_ns:
+            waiting.append(last_sent_ns[step.stamp_ns])
+        if step.solve_s is not None:
+            excluded_s = step.solve_s + (0.0 if visibility else step.visibility_s)
+            out += [(step.done_ns - sent) / 1e6 - excluded_s * 1e3 for sent in waiting]
+            waiting = []
+    return out
+
+
+def _percentiles(values: Sequence[float]) -> tuple[float | None, float | None]:
+    """(median, 99th percentile), or (None, None) for no values."""
+    if not values:
+        return None, None
+    return float(np.median(values)), float(np.percentile(values, 99))
+
+
+class _TimedWorld:
+    """The scenario's world, adding up the time its visibility maps take (the planning problem's main cost)."""
+
+    def __init__(self, world: World) -> None:
+        self._world = world
+        self.spent_s = 0.0
+
+    def __getattr__(self, name: str):
+        return getattr(self._world, name)
+
+    def visibility_maps(self, *args, **kwargs):
+        start = time.perf_counter()
+        try:
+            return self._world.visibility_maps(*args, **kwargs)
+        finally:
+            self.spent_s += time.perf_counter() - start
+
+    def take(self) -> float:
+        """Time spent since the last call."""
+        spent, self.spent_s = self.spent_s, 0.0
+        return spent
+
+
+class _Run:
+    """One daemon fed by the load: its own loop (:meth:`Daemon.run`) drives a generator script.
+
+    A script yields False while the daemon should keep turning and returns its
+    result when done; the loop calls it once per pass (the ``until`` hook).
+    """
+
+    def __init__(self, scenario: Scenario, world: World, planner: str, endpoint: str, conn,
+                 profiler: cProfile.Profile | None = None) -> None:
+        self.conn, self.profiler = conn, profiler
+        self.roster = [v.id for v in scenario.vehicles]
+        self.log: list[StepTiming] = []
+        self.world = _TimedWorld(world)
+        options = DaemonOptions(zenoh=ZenohSettings(mode="peer", listen=(), connect=(endpoint,)), planner=planner)
+        self.daemon = Daemon(scenario, self.world, options, on_step=self._on_step)
+
+    def _on_step(self, record: StepRecord) -> None:
+        self.log.append(StepTiming(record.stamp_ns, time.time_ns(), record.decision_s, self.world.take()))
+
+    def run(self, script: Generator[bool, None, object]) -> object:
+        result = []
+
+        def until() -> bool:
+            try:
+                return next(script)
+            except StopIteration as done:
+                result.append(done.value)
+                return True
+
+        if self.profiler is not None:
+            self.profiler.enable()
+        try:
+            self.daemon.run(until=until)
+        finally:
+            if self.profiler is not None:
+                self.profiler.disable()
+        if not result:
+            raise RuntimeError("the daemon stopped before the benchmark finished")
+        return result[0]
+
+    def _call(self, *command) -> Generator[bool, None, dict]:
+        """Send a command to the load and keep the daemon turning until it answers."""
+        self.conn.send(command)
+        while not self.conn.poll():
+            yield False
+        try:
+            reply = self.conn.recv()
+        except EOFError:
+            raise RuntimeError(f"the load process died during {command[0]!r}") from None
+        if "error" in reply:
+            raise RuntimeError(f"the load process failed during {command[0]!r}: {reply['error']}")
+        return reply
+
+    def _counts(self) -> Counter:
+        ingest, steps = self.daemon.ingest.counters, self.daemon.steps.counters
+        return Counter({"accepted": ingest["accepted.report"],
+                        "rejected": sum(v for k, v in ingest.items() if k.startswith("rejected.")),
+                        "late": steps["rejected.late"], "errors": self.daemon.counters["errors.decision"]})
+
+    def _wait(self, condition: Callable[[], bool], timeout_s: float, what: str) -> Generator[bool, None, None]:
+        deadline = time.monotonic() + timeout_s
+        while not condition():
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"benchmark: timed out waiting for {what}")
+            yield False
+
+    def pause(self, seconds: float) -> Generator[bool, None, None]:
+        """Keep turning for ``seconds``."""
+        until = time.monotonic() + seconds
+        yield from self._wait(lambda: time.monotonic() >= until, seconds + 1.0, "a pause")
+
+    def warm_up(self) -> Generator[bool, None, None]:
+        """Every vehicle alive and plannable, one step decided, and nothing else in flight."""
+        registry = self.daemon.registry
+        yield from self._wait(lambda: all(registry.alive(v, 0.0) for v in self.roster), 10.0, "liveliness tokens")
+        yield from self._call("warmup")
+        yield from self._wait(lambda: len(registry.plannable(0.0)) == len(self.roster) and self.log, 10.0,
+                              "the warm-up step")
+        yield from self.pause(0.2)
+
+    def trial(self, rate: float, seconds: float, burst: bool = False, scored: bool = True
+              ) -> Generator[bool, None, Trial]:
+        """Publish at ``rate`` for ``seconds``, wait until everything is accepted (or stalls), and measure.
+
+        ``passed`` is None unless ``scored``. CPU is in cores (CPU seconds per wall second)
+        of this process (every thread: the loop, Zenoh's) and of the load process.
+        """
+        before, first_record = self._counts(), len(self.log)
+        started, cpu = time.perf_counter(), time.process_time()
+        reply = yield from self._call("run", rate, seconds, burst)
+        published, last_sent = reply["published"], reply["last_sent_ns"][-1]
+        progress, stalled_at = -1, time.monotonic()
+        while True:
+            counts = self._counts() - before
+            if counts["accepted"] + counts["rejected"] >= published:
+                lag_s = (time.time_ns() - last_sent) / NS_PER_S
+                break
+            if counts["accepted"] != progress:
+                progress, stalled_at = counts["accepted"], time.monotonic()
+            elif time.monotonic() - stalled_at > 1.0:
+                lag_s = None
+                break
+            yield False
+        wall = time.perf_counter() - started
+        sent = dict(zip(reply["stamps"], reply["last_sent_ns"]))
+        log = [step for step in self.log[first_record:] if step.stamp_ns >= reply["stamps"][0]]
+        planned = [step for step in log if step.solve_s is not None]
+        achieved = (published - 1) / reply["elapsed_s"] if published > 1 and reply["elapsed_s"] > 0 else float(rate)
+        passed = (counts["accepted"] == published and counts["rejected"] == counts["late"] == counts["errors"] == 0
+                  and lag_s is not None and lag_s <= GRACE_S and achieved >= 0.97 * rate)
+        return Trial(float(rate), achieved, published, counts["accepted"], counts["rejected"], counts["late"],
+                     counts["errors"], lag_s, (time.process_time() - cpu) / wall, reply["cpu_s"] / wall,
+                     sum(step.stamp_ns in sent for step in log), len(planned),
+                     *_percentiles(step_latencies_ms(sent, log)),
+                     *_percentiles(step_latencies_ms(sent, log, visibility=False)),
+                     _percentiles([step.visibility_s * 1e3 for step in planned])[0],
+                     *_percentiles([step.solve_s * 1e3 for step in planned]), passed if scored else None)
+
+
+def next_rate(trials: Sequence[Trial], minimum: float) -> float | None:
+    """The rate to try next: doubling until a failure, then bisection to :data:`RESOLUTION`; None when done."""
+    best = max((t.rate_per_s for t in trials if t.passed), default=None)
+    worst = min((t.rate_per_s for t in trials if not t.passed), default=None)
+    if len(trials) >= MAX_TRIALS:
+        return None
+    if worst is None:
+        return 2 * best if best is not None else START_RATE
+    if best is None:
+        return worst / 2 if worst / 2 >= minimum else None
+    return (best + worst) / 2 if worst / best > RESOLUTION else None
+
+
+def _search(run: _Run, seconds: float, minimum: float, say: Callable[[str], None]) -> Generator[bool, None, list]:
+    yield from run.warm_up()
+    trials: list[Trial] = []
+    while (rate := next_rate(trials, minimum)) is not None:
+        trial = yield from run.trial(round(rate), seconds)
+        trials.append(trial)
+        say(f"{len(run.roster)} vehicles, {trial.rate_per_s:,.0f} reports/s: "
+            f"{'kept up' if trial.passed else 'FAILED'} (achieved {trial.achieved_per_s:,.0f}/s, "
+            f"accepted {trial.accepted}/{trial.published}, lag {_fmt(trial.lag_s, 3)} s, "
+            f"latency p50/p99 {_fmt(trial.latency_ms_p50)}/{_fmt(trial.latency_ms_p99)} ms, "
+            f"visibility maps {_fmt(trial.visibility_ms_median, 1)} ms, "
+            f"CPU cores daemon {trial.daemon_cpu:.2f} load {trial.load_cpu:.2f})")
+    return trials
+
+
+def _realtime(run: _Run, steps: int, step_s: float) -> Generator[bool, None, Trial]:
+    yield from run.warm_up()
+    yield from run.pause(step_s)  # so that data time advances as fast as wall time from the first step on
+    return (yield from run.trial(len(run.roster) / step_s, steps * step_s, burst=True, scored=False))
+
+
+def _fmt(value: float | None, digits: int = 2) -> str:
+    return "-" if value is None else f"{value:.{digits}f}"
+
+
+def _measure(scenario: Scenario, world: World, seconds: float, solve_steps: int, ga_planner: str,
+             say: Callable[[str], None], profiler: cProfile.Profile | None) -> dict:
+    """The rate search (orbit) and the GA's solve time for one scenario, against one load process."""
+    endpoint = f"tcp/{LOCALHOST}:{free_tcp_port()}"
+    context = multiprocessing.get_context("spawn")
+    ours, theirs = context.Pipe()
+    load = context.Process(target=publisher_main, args=(theirs, endpoint, Fleet.of(scenario)), daemon=True)
+    load.start()
+    theirs.close()  # so that a dead load process reads as EOF here
+    try:
+        if not ours.poll(30.0):
+            raise RuntimeError("the load process did not start")
+        try:
+            ours.recv()
+        except EOFError:
+            raise RuntimeError("the load process died while starting") from None
+        count = len(scenario.vehicles)
+        search = _Run(scenario, world, LATENCY_PLANNER, endpoint, ours, profiler)
+        trials = search.run(_search(search, seconds, count / scenario.time.step_s, say))
+        ga = None
+        if solve_steps > 0:
+            realtime = _Run(scenario, world, ga_planner, endpoint, ours)
+            ga = realtime.run(_realtime(realtime, solve_steps, scenario.time.step_s))
+            say(f"{count} vehicles, {ga_planner} in real time: solve median {_fmt(ga.solve_ms_median, 1)} ms, "
+                f"p99 {_fmt(ga.solve_ms_p99, 1)} ms over {ga.planned_steps} steps; latency p50/p99 "
+                f"{_fmt(ga.latency_ms_p50)}/{_fmt(ga.latency_ms_p99)} ms")
+        ours.send(("stop",))
+        load.join(10.0)
+    finally:
+        if load.is_alive():
+            load.terminate()
+            load.join(5.0)
+    return _summary(trials, ga)
+
+
+def _summary(trials: list[Trial], ga: Trial | None) -> dict:
+    passed = [t for t in trials if t.passed]
+    best = max(passed, key=lambda t: t.rate_per_s, default=None)
+    quoted = next((t for t in passed if t.rate_per_s == GOAL_REPORTS_PER_S), best)
+    return {
+        "max_reports_per_s_no_loss": best.rate_per_s if best else 0.0,
+        # The planner's solve time is the whole planning call: its problem (the visibility regions of the
+        # predicted points, eq. 22) and the search. The required keys exclude both; the latency with the
+        # visibility regions inside is kept beside them.
+        "latency_ms_p50": quoted.latency_without_visibility_ms_p50 if quoted else None,
+        "latency_ms_p99": quoted.latency_without_visibility_ms_p99 if quoted else None,
+        "latency_at_reports_per_s": quoted.rate_per_s if quoted else None,
+        "latency_with_visibility_ms_p50": quoted.latency_ms_p50 if quoted else None,
+        "latency_with_visibility_ms_p99": quoted.latency_ms_p99 if quoted else None,
+        "visibility_ms_median": quoted.visibility_ms_median if quoted else None,
+        "latency_ms_p99_at_max": best.latency_ms_p99 if best else None,
+        "solve_ms_median": ga.solve_ms_median if ga else None,
+        "solve_ms_p99": ga.solve_ms_p99 if ga else None,
+        "solve_steps": ga.planned_steps if ga else 0,
+        "realtime_latency_ms_p50": ga.latency_ms_p50 if ga else None,
+        "realtime_latency_ms_p99": ga.latency_ms_p99 if ga else None,
+        "trials": [asdict(t) for t in trials],
+        "realtime_trial": asdict(ga) if ga else None,
+    }
+
+
+def machine_note() -> str:
+    """CPU count and model, Python and the system."""
+    model = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as info:
+            model = next((line.split(":", 1)[1].strip() for line in info if line.startswith("model name")), model)
+    except OSError:
+        pass
+    return f"{os.cpu_count()} CPUs ({model}), Python {platform.python_version()}, {platform.system()} {platform.release()}"
+
+
+def _load_average() -> str:
+    """The 1, 5 and 15 minute load averages: the machine is shared, so say how busy it was."""
+    return "/".join(f"{x:.2f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "?"
+
+
+def run_benchmark(scenario: Scenario, world: World, vehicle_counts: Sequence[int] = (10, 50, 100),
+                  seconds: float = 3.0, solve_steps: int = 5, command: str = "",
+                  progress: Callable[[str], None] | None = None, profiler: cProfile.Profile | None = None) -> dict:
+    """Measure every vehicle count; returns the report (see :func:`write_json`).
+
+    ``profiler`` (optional) profiles the daemon's loop during the rate searches.
+    """
+    say = progress or (lambda _msg: None)
+    planner = scenario_planner(scenario)
+    ga_planner = planner if planner.startswith("ga_") else "ga_k5"
+    note, load_start = machine_note(), _load_average()
+    started = time.monotonic()
+    per_count = {str(count): _measure(with_vehicles(scenario, count), world, seconds, solve_steps, ga_planner, say,
+                                      profiler) for count in vehicle_counts}
+    largest = str(max(vehicle_counts))
+    rates = [row["max_reports_per_s_no_loss"] for row in per_count.values()]
+    at_goal = [row["latency_at_reports_per_s"] == GOAL_REPORTS_PER_S for row in per_count.values()]
+    p99s = [row["latency_ms_p99"] for row in per_count.values()]
+    return {
+        "scenario": scenario.name, "command": command, "machine": note,
+        "load_average": {"start": load_start, "end": _load_average()},
+        "latency_planner": LATENCY_PLANNER, "solve_planner": ga_planner,
+        "seconds_per_trial": seconds, "grace_s": GRACE_S, "wall_s": time.monotonic() - started,
+        "vehicles": per_count,
+        "max_reports_per_s_no_loss": min(rates),
+        "latency_ms_p50": per_count[largest]["latency_ms_p50"],
+        "latency_ms_p99": per_count[largest]["latency_ms_p99"],
+        "latency_vehicles": int(largest),
+        "goals": {"reports_per_s": GOAL_REPORTS_PER_S, "latency_ms_p99": GOAL_LATENCY_MS_P99,
+                  "rate_met": min(rates) >= GOAL_REPORTS_PER_S,
+                  "latency_met": all(at_goal) and all(p is not None and p <= GOAL_LATENCY_MS_P99 for p in p99s)},
+    }
+
+
+def format_report(report: dict) -> str:
+    """The table, the goals, and what was measured how, on what."""
+    lines = [
+        f"daemon benchmark: {report['command'] or 'gcs bench daemon'}",
+        f"machine: {report['machine']}; load average {report['load_average']['start']} at start, "
+        f"{report['load_average']['end']} at the end (1/5/15 min)",
+        f"scenario {report['scenario']}; load in a separate process over Zenoh TCP on 127.0.0.1; "
+        f"{report['seconds_per_trial']:g} s per trial; no loss = every report accepted and the daemon within "
+        f"{report['grace_s']:g} s of the last one; latency = last report of a step sent -> its commands put, "
+        f"less the {report['latency_planner']} planner's solve time (at 5,000 reports/s, else at the max); "
+        f"solve time of {report['solve_planner']} with reports in real time",
+        "",
+        "latency p50/p99 excludes the whole planning call (visibility regions + search); 'with visibility' "
+        "keeps the visibility regions in",
+        f"{'vehicles':>8}{'max reports/s':>15}{'latency p50':>13}{'p99 ms':>8}{'at reports/s':>14}"
+        f"{'visibility ms':>15}{'p50/p99 with':>17}{'solve ms median':>17}{'p99':>8}",
+    ]
+    for count, row in report["vehicles"].items():
+        with_maps = "/".join(_fmt(row[f"latency_with_visibility_ms_{q}"], 1) for q in ("p50", "p99"))
+        lines.append(f"{count:>8}{row['max_reports_per_s_no_loss']:>15,.0f}{_fmt(row['latency_ms_p50']):>13}"
+                     f"{_fmt(row['latency_ms_p99']):>8}{_fmt(row['latency_at_reports_per_s'], 0):>14}"
+                     f"{_fmt(row['visibility_ms_median'], 1):>15}{with_maps:>17}"
+                     f"{_fmt(row['solve_ms_median'], 1):>17}{_fmt(row['solve_ms_p99'], 1):>8}")
+    realtime = {count: row["realtime_trial"] for count, row in report["vehicles"].items() if row["realtime_trial"]}
+    if realtime:
+        lines += ["", f"in real time (one round per decision step), {report['solve_planner']}: latency less its solve "
+                      "time, and less the visibility maps too",
+                  f"{'vehicles':>8}{'latency p50':>13}{'p99 ms':>8}{'visibility ms':>15}{'p50/p99 without':>17}"]
+    for count, trial in realtime.items():
+        without = "/".join(_fmt(trial[f"latency_without_visibility_ms_{q}"], 1) for q in ("p50", "p99"))
+        lines.append(f"{count:>8}{_fmt(trial['latency_ms_p50']):>13}{_fmt(trial['latency_ms_p99']):>8}"
+                     f"{_fmt(trial['visibility_ms_median'], 1):>15}{without:>17}")
+    goals = report["goals"]
+    lines += [
+        "",
+        f"goal >= {goals['reports_per_s']:,} reports/s with no loss at every count: "
+        f"{'met' if goals['rate_met'] else 'NOT met'} (lowest max {report['max_reports_per_s_no_loss']:,.0f}/s)",
+        f"goal p99 <= {goals['latency_ms_p99']:g} ms at {goals['reports_per_s']:,} reports/s: "
+        f"{'met' if goals['latency_met'] else 'NOT met'} ({report['latency_vehicles']} vehicles: "
+        f"p50 {_fmt(report['latency_ms_p50'])} ms, p99 {_fmt(report['latency_ms_p99'])} ms)",
+    ]
+    return "\n".join(lines)
+
+
+def write_json(report: dict, path: Path) -> None:
+    """JSON with ``max_reports_per_s_no_loss``, ``latency_ms_p50``, ``latency_ms_p99`` and ``vehicles.<n>.*``."""
+    path.write_text(json.dumps(report, indent=2) + "\n")

@@ -1,0 +1,173 @@
+"""The load of ``gcs bench daemon``: N vehicles' reports over Zenoh from a process of their own.
+
+:func:`publisher_main` runs in a spawned process. It listens on a loopback
+endpoint (the daemons under test connect to it, one after the other), declares
+a liveliness token and report and nav publishers (reliable, ``BLOCK``) per
+vehicle, and obeys commands from a pipe:
+
+* ``warmup``: once the daemon's subscribers match, one ``NavReport`` per
+  vehicle (heading and velocity: the vehicle becomes plannable) and one round
+  of reports;
+* ``run(rate, seconds, burst)``: whole rounds at an aggregate rate. Round k
+  carries one ``SensorReport`` per vehicle stamped ``T_0 + k * step``: one
+  decision step of data time per round, every (vehicle, stamp) unique. The
+  reply holds each round's stamp and the wall time (``time.time_ns``) its last
+  report was put, and the process's CPU time;
+* ``stop``.
+
+Every report is a range/azimuth/elevation detection, without noise, of a target
+standing where the scenario's target starts, by a vehicle where the scenario
+(:func:`gcs.bench.urban.with_vehicles` for more of them) starts it.
+"""
+
+from __future__ import annotations
+
+import math
+import signal
+import time
+from dataclasses import dataclass
+
+from gcs.adapters.zenoh_session import ZenohSettings, declare_publisher, open_session, publish
+from gcs.config import Scenario
+from protocols.keys import alive_key, nav_key, report_key
+from protocols.messages import NavReport, SensorReport
+
+__all__ = ["FIRST_STAMP_NS", "Vehicle", "Fleet", "Load", "publisher_main"]
+
+NS_PER_S = 1_000_000_000
+FIRST_STAMP_NS = 1_000 * NS_PER_S
+"""Stamp of the first round (any positive time: stamps are data time)."""
+
+
+@dataclass(frozen=True)
+class Vehicle:
+    """What the load needs of one vehicle: id, position (ENU, m), heading, speed, its detection of the target."""
+
+    id: str
+    position_enu_m: tuple[float, float, float]
+    heading_rad: float
+    speed_mps: float
+    range_m: float
+    azimuth_rad: float
+    elevation_rad: float
+
+
+@dataclass(frozen=True)
+class Fleet:
+    """The load's vehicles, sensor noise, decision step and key prefix (picklable, for the spawned process)."""
+
+    vehicles: tuple[Vehicle, ...]
+    std: tuple[float, float, float]
+    step_ns: int
+    prefix: str = "gcs"
+
+    @classmethod
+    def of(cls, scenario: Scenario, prefix: str = "gcs") -> Fleet:
+        """Every vehicle of the scenario where it starts, seeing the target where it starts (on the ground)."""
+        tx, ty = scenario.target.start_enu_m
+        vehicles = []
+        for v in scenario.vehicles:
+            (x, y), z = (float(c) for c in v.start_enu_m), float(v.altitude_m)  # plain floats for msgspec
+            dx, dy, dz = tx - x, ty - y, -z
+            vehicles.append(Vehicle(v.id, (x, y, z), float(v.start_heading_rad), float(v.speed_mps),
+                                    math.sqrt(dx * dx + dy * dy + dz * dz), math.atan2(dy, dx),
+                                    math.atan2(dz, math.hypot(dx, dy))))
+        sensor = scenario.sensor_for(scenario.vehicles[0])
+        std = (sensor.range_std_m, sensor.azimuth_std_rad, sensor.elevation_std_rad)
+        return cls(tuple(vehicles), std, round(scenario.time.step_s * NS_PER_S), prefix)
+
+
+class Load:
+    """The publishing side: liveliness tokens, nav reports and paced rounds of sensor reports."""
+
+    def __init__(self, session, fleet: Fleet) -> None:
+        self.fleet = fleet
+        self.session = session
+        prefix = fleet.prefix
+        self.reports = [declare_publisher(session, report_key(v.id, prefix), SensorReport) for v in fleet.vehicles]
+        self.navs = [declare_publisher(session, nav_key(v.id, prefix), NavReport) for v in fleet.vehicles]
+        self.tokens = [session.liveliness().declare_token(alive_key(v.id, prefix)) for v in fleet.vehicles]
+        self.next_round = 0
+        self.seq = 0
+
+    def close(self) -> None:
+        """Withdraw the tokens and the publishers."""
+        for entity in self.tokens + self.reports + self.navs:
+            entity.undeclare()
+
+    def _stamp(self) -> int:
+        stamp = FIRST_STAMP_NS + self.next_round * self.fleet.step_ns
+        self.next_round += 1
+        return stamp
+
+    def _report(self, slot: int, stamp_ns: int) -> None:
+        v, (r_std, a_std, e_std) = self.fleet.vehicles[slot], self.fleet.std
+        self.seq += 1
+        publish(self.reports[slot], SensorReport(
+            vehicle_id=v.id, seq=self.seq, stamp_ns=stamp_ns, vehicle_position_enu_m=v.position_enu_m,
+            detected=True, range_m=v.range_m, azimuth_rad=v.azimuth_rad, elevation_rad=v.elevation_rad,
+            range_std_m=r_std, azimuth_std_rad=a_std, elevation_std_rad=e_std))
+
+    def warmup(self, timeout_s: float = 5.0) -> dict:
+        """Once the daemon's subscribers match: a nav report and one round of reports per vehicle."""
+        deadline = time.monotonic() + timeout_s
+        while not all(p.matching_status.matching for p in self.reports + self.navs) and time.monotonic() < deadline:
+            time.sleep(0.01)
+        stamp = self._stamp()
+        for slot, v in enumerate(self.fleet.vehicles):
+            self.seq += 1
+            velocity = (v.speed_mps * math.cos(v.heading_rad), v.speed_mps * math.sin(v.heading_rad), 0.0)
+            publish(self.navs[slot], NavReport(vehicle_id=v.id, seq=self.seq, stamp_ns=stamp,
+                                               velocity_enu_mps=velocity, heading_rad=v.heading_rad))
+        for slot in range(len(self.fleet.vehicles)):
+            self._report(slot, stamp)
+        return {"stamp_ns": stamp}
+
+    def run(self, rate: float, seconds: float, burst: bool = False) -> dict:
+        """Whole rounds at ``rate`` reports/s for about ``seconds``; the send time of each round's last report.
+
+        Reports are evenly spaced, or with ``burst`` a round's reports all go at
+        the round's start (as vehicles reporting at the same data time would).
+        """
+        count = len(self.fleet.vehicles)
+        rounds = max(1, round(rate * seconds / count))
+        interval = 1.0 / rate
+        stamps, last_sent_ns = [], []
+        start, cpu = time.perf_counter(), time.process_time()
+        for k in range(rounds):
+            stamp = self._stamp()
+            for slot in range(count):
+                ahead = start + (k * count + (0 if burst else slot)) * interval - time.perf_counter()
+                if ahead > 0:
+                    time.sleep(ahead)
+                self._report(slot, stamp)
+            last_sent_ns.append(time.time_ns())
+            stamps.append(stamp)
+        elapsed = time.perf_counter() - start
+        return {"published": rounds * count, "elapsed_s": elapsed, "stamps": stamps, "last_sent_ns": last_sent_ns,
+                "cpu_s": time.process_time() - cpu}
+
+
+def publisher_main(conn, endpoint: str, fleet: Fleet) -> None:
+    """The load process: listen on ``endpoint`` and obey ``(command, *args)`` from ``conn`` until ``stop``."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the benchmark process stops us through the pipe
+    session = open_session(ZenohSettings(mode="peer", listen=(endpoint,), connect=()))
+    load = None
+    try:
+        load = Load(session, fleet)
+        conn.send({"ready": True})
+        while True:
+            command, *args = conn.recv()
+            if command == "stop":
+                break
+            try:
+                conn.send(getattr(load, command)(*args))
+            except Exception as error:  # tell the benchmark, which raises it; then stop
+                conn.send({"error": f"{type(error).__name__}: {error}"})
+                raise
+    except EOFError:  # the benchmark process is gone
+        pass
+    finally:
+        if load is not None:
+            load.close()
+        session.close()

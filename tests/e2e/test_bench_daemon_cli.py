@@ -1,0 +1,52 @@
+"""`gcs bench daemon` runs as a process: a load process feeds the daemon over loopback Zenoh; the documented JSON.
+
+Timing goals are never asserted (conventions: speed is measured and recorded, not
+tested); what is checked is that the run is sound: nothing is lost at the rates
+tried, the search found a rate the daemon keeps up with, and every latency and
+solve time is positive.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+PER_COUNT_KEYS = {"max_reports_per_s_no_loss", "latency_ms_p50", "latency_ms_p99", "solve_ms_median", "solve_ms_p99"}
+
+
+def test_bench_daemon_writes_the_documented_json(tmp_path: Path) -> None:
+    out = tmp_path / "daemon.json"
+    done = subprocess.run(
+        [sys.executable, "-m", "gcs.cli", "bench", "daemon", "--vehicles", "3", "--seconds", "0.5",
+         "--solve-steps", "2", "--json", str(out)],
+        capture_output=True, text=True, timeout=300,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "max reports/s" in done.stdout and "goal >= 5,000 reports/s" in done.stdout
+    report = json.loads(out.read_text())
+    assert {"max_reports_per_s_no_loss", "latency_ms_p50", "latency_ms_p99", "latency_vehicles", "machine",
+            "goals"} <= set(report)
+    assert set(report["vehicles"]) == {"3"} and report["latency_vehicles"] == 3
+    row = report["vehicles"]["3"]
+    assert PER_COUNT_KEYS <= set(row)
+    assert report["max_reports_per_s_no_loss"] == row["max_reports_per_s_no_loss"] > 0
+    assert (report["latency_ms_p50"], report["latency_ms_p99"]) == (row["latency_ms_p50"], row["latency_ms_p99"])
+    assert 0 < row["latency_ms_p50"] <= row["latency_ms_p99"]
+    assert 0 < row["solve_ms_median"] <= row["solve_ms_p99"] and 1 <= row["solve_steps"] <= 2
+    assert isinstance(report["goals"]["rate_met"], bool) and isinstance(report["goals"]["latency_met"], bool)
+    trials = row["trials"]
+    assert trials[0]["rate_per_s"] == 1250 and any(t["passed"] for t in trials)
+    for trial in trials + [row["realtime_trial"]]:  # reliable Zenoh: nothing lost even when the daemon fell behind
+        assert trial["accepted"] == trial["published"] > 0
+        assert trial["rejected"] == trial["late"] == trial["decision_errors"] == 0
+        assert trial["steps"] == trial["published"] // 3
+    assert row["realtime_trial"]["passed"] is None
+
+
+def test_bench_daemon_rejects_a_bad_argument() -> None:
+    done = subprocess.run([sys.executable, "-m", "gcs.cli", "bench", "daemon", "--seconds", "0"],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2
+    assert "--seconds" in done.stderr

@@ -1,0 +1,69 @@
+"""The daemon benchmark's pure parts: the latency bookkeeping, the rate search and the load's geometry."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import fields
+
+import pytest
+
+from gcs.bench.daemon import GOAL_REPORTS_PER_S, MAX_TRIALS, StepTiming, Trial, next_rate, step_latencies_ms
+from gcs.bench.daemon_load import Fleet
+from gcs.bench.urban import with_vehicles
+from gcs.scenarios import load_scenario
+
+MS = 1_000_000
+
+
+def _trial(rate: float, passed: bool) -> Trial:
+    return Trial(**{f.name: 1 for f in fields(Trial)} | {"rate_per_s": rate, "passed": passed})
+
+
+def test_a_fused_only_step_waits_for_the_next_command_and_the_solve_is_not_counted() -> None:
+    sent = {100: 0, 200: 5 * MS, 300: 6 * MS}
+    log = [
+        StepTiming(50, 1 * MS, 0.001, 0.0),  # warm-up step: not one of the trial's
+        StepTiming(100, 12 * MS, None, 0.0),  # fused only: served by step 200's command
+        StepTiming(200, 20 * MS, 0.004, 0.003),
+        StepTiming(300, 30 * MS, 0.010, 0.002),
+    ]
+    assert step_latencies_ms(sent, log) == pytest.approx([16.0, 11.0, 14.0])
+    assert step_latencies_ms(sent, log, visibility=False) == pytest.approx([13.0, 8.0, 12.0])
+
+
+def test_a_step_never_planned_has_no_latency() -> None:
+    assert step_latencies_ms({100: 0}, [StepTiming(100, 5 * MS, None, 0.0)]) == []
+
+
+def test_the_rate_search_doubles_from_a_quarter_of_the_goal_then_bisects() -> None:
+    assert next_rate([], minimum=10) == GOAL_REPORTS_PER_S / 4
+    trials = [_trial(1250, True), _trial(2500, True)]
+    assert next_rate(trials, minimum=10) == 5000
+    trials.append(_trial(5000, False))
+    assert next_rate(trials, minimum=10) == 3750
+    trials += [_trial(3750, True), _trial(4375, True)]
+    assert next_rate(trials, minimum=10) is None  # 5000 / 4375 is within the 15% resolution
+
+
+def test_the_rate_search_halves_after_a_first_failure_down_to_the_minimum() -> None:
+    assert next_rate([_trial(1250, False)], minimum=10) == 625
+    assert next_rate([_trial(1250, False), _trial(625, False)], minimum=400) is None
+
+
+def test_the_rate_search_stops_after_the_last_trial() -> None:
+    trials = [_trial(1250 * 2**k, True) for k in range(MAX_TRIALS)]
+    assert next_rate(trials, minimum=10) is None
+
+
+def test_every_simulated_report_points_at_the_target() -> None:
+    scenario = with_vehicles(load_scenario("wang2012_urban"), 12)
+    fleet = Fleet.of(scenario)
+    tx, ty = scenario.target.start_enu_m
+    assert len(fleet.vehicles) == 12 and fleet.step_ns == 1_000_000_000
+    for v in fleet.vehicles:
+        x, y, z = v.position_enu_m
+        ground = v.range_m * math.cos(v.elevation_rad)
+        assert x + ground * math.cos(v.azimuth_rad) == pytest.approx(tx)
+        assert y + ground * math.sin(v.azimuth_rad) == pytest.approx(ty)
+        assert z + v.range_m * math.sin(v.elevation_rad) == pytest.approx(0.0, abs=1e-9)
+        assert all(type(c) is float for c in v.position_enu_m)  # msgspec cannot encode numpy scalars
