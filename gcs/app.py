@@ -62,6 +62,8 @@ log = logging.getLogger(__name__)
 
 NS_PER_S = 1_000_000_000
 AUTOPILOT_NAMES = {3: "ArduPilot", 12: "PX4"}
+MAX_RECORDS = 100_000
+"""Step records kept in memory (about a day of 1 s steps)."""
 STEER_RATE_HZ = 4.0
 """How often the headings toward the planned paths are recomputed (the carrot rate)."""
 
@@ -393,6 +395,8 @@ class Daemon:
             seen[report.vehicle_id] = seen[report.vehicle_id] or report.detected
         record = StepRecord(ready.index, ready.stamp_ns, seen, estimate_xy, error, decision_s, tuple(active))
         self.records.append(record)
+        if len(self.records) > MAX_RECORDS:  # a daemon runs for days: keep the newest
+            del self.records[: MAX_RECORDS // 2]
         if self.on_step is not None:
             self.on_step(record)
 

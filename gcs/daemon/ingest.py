@@ -11,6 +11,9 @@ flood of bad input cannot flood the log); nothing raises. Reasons:
 * ``unknown_vehicle``: not in the scenario's roster;
 * ``out_of_order``: a stamp not newer than the last accepted one of the same
   kind from the same vehicle (duplicates included);
+* ``future``: a stamp more than :data:`MAX_AHEAD_NS` after the newest accepted
+  one from anybody (a clock gone wrong must not make that vehicle's later
+  reports look old, nor hold the decision steps back);
 * ``unexpected_kind``: a key of the key space the daemon does not consume.
 
 Accepted messages are counted under ``accepted.<kind>``.
@@ -35,6 +38,8 @@ WARN_FIRST = 5
 """Rejections of each reason logged at WARNING before the rest go to DEBUG."""
 
 _CONSUMED = {"report", "nav", "truth"}
+MAX_AHEAD_NS = 60 * 1_000_000_000
+"""How far a stamp may run ahead of the newest accepted one (a minute of data time)."""
 MAX_CACHED_KEYS = 4096
 """Parsed keys remembered (a few per vehicle); a flood of made-up keys cannot grow the cache beyond this."""
 
@@ -48,6 +53,7 @@ class Ingest:
         self.counters: Counter = Counter()
         self._last_stamp: dict[tuple[str, str], int] = {}
         self._keys: dict[str, ParsedKey] = {}
+        self._newest_ns: int | None = None
 
     def reject(self, reason: str, detail: str) -> None:
         """Count and log one rejection."""
@@ -89,6 +95,11 @@ class Ingest:
         if last is not None and message.stamp_ns <= last:
             self.reject("out_of_order", f"{received.key}: stamp {message.stamp_ns} not after {last}")
             return None
+        if self._newest_ns is not None and message.stamp_ns > self._newest_ns + MAX_AHEAD_NS:
+            self.reject("future", f"{received.key}: stamp {message.stamp_ns} is more than "
+                                  f"{MAX_AHEAD_NS // 1_000_000_000} s after the newest ({self._newest_ns})")
+            return None
         self._last_stamp[(parsed.kind, source)] = message.stamp_ns
+        self._newest_ns = message.stamp_ns if self._newest_ns is None else max(self._newest_ns, message.stamp_ns)
         self.counters[f"accepted.{parsed.kind}"] += 1
         return message

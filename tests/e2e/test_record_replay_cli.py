@@ -59,14 +59,22 @@ def test_processing_a_recorded_demo_reproduces_the_daemons_tracks_bit_for_bit(tm
 def test_record_finishes_on_sigint_and_replay_feeds_a_running_daemon(tmp_path) -> None:
     vehicles_endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
     recording = tmp_path / "vehicles.mcap"
+    # the vehicles listen and wait (up to 60 s) for a subscriber before their clock starts: nothing is lost
+    vehicles = subprocess.Popen([script("sim-vehicles"), "run", "--duration", "15", "--rate", "10", "--mavlink",
+                                 "none", "--zenoh-listen", vehicles_endpoint, "--zenoh-connect", vehicles_endpoint,
+                                 "--wait-for-gcs", "60"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     recorder = subprocess.Popen([script("gcs"), "record", "-o", str(recording), "--zenoh-connect", vehicles_endpoint],
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    flown = subprocess.run([script("sim-vehicles"), "run", "--duration", "15", "--rate", "10", "--mavlink", "none",
-                            "--zenoh-listen", vehicles_endpoint, "--zenoh-connect", vehicles_endpoint],
-                           capture_output=True, text=True, timeout=120)
+    try:
+        vehicles.communicate(timeout=120)
+    finally:
+        if vehicles.poll() is None:
+            vehicles.kill()
+            vehicles.communicate()
+    flown = vehicles
     recorder.send_signal(signal.SIGINT)
     stdout, stderr = recorder.communicate(timeout=30)
-    assert flown.returncode == 0, flown.stderr
+    assert flown.returncode == 0
     assert recorder.returncode == 0, stderr
     assert "recorded" in stdout
     with open(recording, "rb") as stream:  # finished: the summary is there

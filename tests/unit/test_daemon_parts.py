@@ -111,6 +111,15 @@ def test_steps_time_out_in_order_and_late_reports_are_counted() -> None:
     assert steps.counters["rejected.late"] == 1
 
 
+def test_a_report_from_a_clock_gone_wrong_is_rejected_and_the_vehicle_keeps_its_place() -> None:
+    ingest = _ingest()
+    assert ingest.accept(_received(report_key("uav1"), _report("uav1", 100 * S))) is not None
+    assert ingest.accept(_received(report_key("uav2"), _report("uav2", 10_000 * S))) is None  # hours ahead
+    assert ingest.accept(_received(report_key("uav2"), _report("uav2", 100 * S, seq=2))) is not None
+    assert ingest.accept(_received(report_key("uav2"), _report("uav2", 150 * S, seq=3))) is not None  # within
+    assert ingest.counters["rejected.future"] == 1 and ingest.counters["accepted.report"] == 3
+
+
 def _registry(ages: dict[str, float | None]) -> Registry:
     return Registry(list(SCENARIO.vehicles), lambda vehicle, now: ages.get(vehicle))
 
