@@ -6,6 +6,8 @@ import json
 import signal
 import subprocess
 
+from mcap.reader import make_reader
+
 from tests.e2e.processes import script
 from tests.loopback import free_tcp_port, free_udp_port
 
@@ -22,9 +24,9 @@ def test_demo_runs_daemon_and_vehicles_and_writes_the_summary(tmp_path) -> None:
     assert "seen by at least one UAV" in done.stdout and "demo: wang2012_urban" in done.stdout
 
 
-def test_run_answers_status_and_stops_cleanly_on_sigint() -> None:
-    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
-    daemon = subprocess.Popen([script("gcs"), "run", "--zenoh-listen", endpoint,
+def test_run_answers_status_and_stops_cleanly_on_sigint_finishing_its_recording(tmp_path) -> None:
+    endpoint, recording = f"tcp/127.0.0.1:{free_tcp_port()}", tmp_path / "run.mcap"
+    daemon = subprocess.Popen([script("gcs"), "run", "--zenoh-listen", endpoint, "--record", str(recording),
                                "--mavlink", f"udpin:127.0.0.1:{free_udp_port()}"],
                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
@@ -43,6 +45,8 @@ def test_run_answers_status_and_stops_cleanly_on_sigint() -> None:
     assert {v["link"] for v in shown["vehicles"]} == {"unknown"}
     assert daemon.returncode == 0, stderr[-3000:]
     assert "daemon stopped" in stderr
+    with open(recording, "rb") as stream:  # finished on SIGINT: the summary is written
+        assert make_reader(stream).get_summary() is not None
 
 
 def test_status_without_a_daemon_fails_clearly() -> None:
