@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from gcs.core.models.motion import LinearMotionModel
 from gcs.core.models.sensor import SensorModel
 
-__all__ = ["measurement_information", "pcrlb"]
+__all__ = ["information_recursion", "measurement_information", "pcrlb"]
 
 
 def measurement_information(
@@ -98,12 +98,24 @@ def pcrlb(
     n = motion.dim
     f, q = motion.matrices(step_s)
     j_z = measurement_information(sensors, vehicle_xyz, detected, target_states, n)
-    bounds = np.empty_like(j_z)
-    information = np.linalg.inv(initial_cov)
-    for k in range(j_z.shape[0]):
+    return information_recursion(f, q, np.linalg.inv(initial_cov), j_z)
+
+
+def information_recursion(f: NDArray[np.float64], q: NDArray[np.float64], initial_information: NDArray[np.float64],
+                          measurement_info: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The Tichavsky recursion for linear Gaussian motion: ``J_0 = J_prior + J_z(0)``,
+    ``J_{k+1} = (Q + F J_k^{-1} F^T)^{-1} + J_z(k+1)``; returns the bounds ``J_k^{-1}`` (K, n, n).
+
+    ``measurement_info`` (K, n, n) is each step's expected measurement information
+    (:func:`measurement_information` here, the generalised information of
+    :func:`gcs.core.gcrlb.fisher_information` for zuo2021).
+    """
+    bounds = np.empty_like(measurement_info)
+    information = np.array(initial_information, dtype=np.float64)
+    for k in range(measurement_info.shape[0]):
         if k > 0:
-            information = np.linalg.inv(q + f @ np.linalg.inv(information) @ f.T)
-        information = information + j_z[k]
+            information = np.linalg.inv(q + f @ bounds[k - 1] @ f.T)
+        information = information + measurement_info[k]
         bound = np.linalg.inv(information)
         bounds[k] = 0.5 * (bound + bound.T)
     return bounds
