@@ -186,12 +186,13 @@ class Runner:
             self._wait_for_subscriber()
 
     def _wait_for_subscriber(self) -> None:
-        deadline = self.clock() + self.options.wait_for_subscriber_s
         publishers = list(self.publishers.values())
+        if not publishers or self.options.wait_for_subscriber_s <= 0:
+            return
+        deadline = self.clock() + self.options.wait_for_subscriber_s
         while publishers and not all(p.matching_status.matching for p in publishers):
             if self.clock() >= deadline or self.stop_event.is_set():
-                if self.options.wait_for_subscriber_s > 0:
-                    log.info("not every key has a subscriber yet; flying anyway")
+                log.info("not every key has a subscriber yet; flying anyway")
                 return
             self.stop_event.wait(0.02)
         log.info("every key has a subscriber")

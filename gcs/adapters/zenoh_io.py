@@ -21,8 +21,8 @@ import zenoh
 
 from gcs.adapters.zenoh_session import ZenohSettings, declare_publisher, open_session
 from protocols.codec import encode
-from protocols.keys import alive_selector, navs_selector, plan_key, reports_selector, status_key, track_key, \
-    tracks_selector, truth_selector
+from protocols.keys import (alive_selector, navs_selector, plan_key, reports_selector, status_key, track_key,
+                            tracks_selector, truth_selector)
 from protocols.messages import DaemonStatus, Message, PlanCommand, TrackEstimate
 
 __all__ = ["Received", "ZenohIO"]

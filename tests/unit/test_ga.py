@@ -7,7 +7,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from gcs.core.kinematics import VehicleState, step_vehicles
+from gcs.core.kinematics import step_vehicles
 from gcs.core.planners import GeneticPlanner, OrbitPlanner, PursuitPlanner, evaluate, shift_plan
 from tests.unit.test_planner_cost import _problem
 
