@@ -102,7 +102,8 @@ class SensorConfig(_Config):
     """Target sensor on a vehicle (wang2012 eq. 3-4; zuo2021 eq. 2 for distance-dependent noise).
 
     ``kind``: ``range_bearing`` measures range, azimuth and elevation;
-    ``bearing_only`` measures azimuth (and elevation when ``elevation_std_rad`` is set).
+    ``bearing_only`` measures azimuth (and elevation when ``elevation`` is true and
+    ``elevation_std_rad`` is set).
     ``noise``: ``constant`` standard deviations, or ``distance_dependent``
     (zuo2021 eq. 2: sigma^2 = sigma0^2 r^2 / r0^2 beyond ``reference_range_m``).
     """
@@ -114,12 +115,14 @@ class SensorConfig(_Config):
     max_range_m: Positive = 5000.0
     noise: Literal["constant", "distance_dependent"] = "constant"
     reference_range_m: Positive = 1500.0
+    elevation: bool = True
+    """Whether a ``bearing_only`` sensor also measures elevation (TOML cannot unset ``elevation_std_rad``)."""
 
     def layout(self) -> tuple[tuple[str, ...], tuple[float, ...]]:
         """Measured components and their standard deviations, in measurement-vector order.
 
         ``range_bearing``: range, azimuth, elevation; ``bearing_only``: azimuth,
-        plus elevation when ``elevation_std_rad`` is set.
+        plus elevation when ``elevation`` is true and ``elevation_std_rad`` is set.
 
         Raises
         ------
@@ -130,7 +133,7 @@ class SensorConfig(_Config):
             if self.range_std_m is None or self.elevation_std_rad is None:
                 raise ValueError("a range_bearing sensor needs range_std_m and elevation_std_rad")
             return ("range", "azimuth", "elevation"), (self.range_std_m, self.azimuth_std_rad, self.elevation_std_rad)
-        if self.elevation_std_rad is None:
+        if self.elevation_std_rad is None or not self.elevation:
             return ("azimuth",), (self.azimuth_std_rad,)
         return ("azimuth", "elevation"), (self.azimuth_std_rad, self.elevation_std_rad)
 
@@ -168,9 +171,11 @@ class TargetConfig(_Config):
 
 
 class EstimatorConfig(_Config):
-    """Target estimator. ``duif``: wang2012 section 3; ``model`` names the state layout."""
+    """Target estimator. ``duif``: wang2012 section 3 (range-bearing sensors); ``vgukf``:
+    zuo2021's ML initialisation and variable-gain UKF (bearing-only sensors). ``model``
+    names the state layout."""
 
-    kind: Literal["duif"] = "duif"
+    kind: Literal["duif", "vgukf"] = "duif"
     model: Literal["cv2d", "ca2d"] = "cv2d"
     accel_psd_m2_s3: NonNegative = 1.96
     initial_position_std_m: Positive = 50.0

@@ -12,6 +12,7 @@ import numpy as np
 
 from gcs.config import Scenario
 from gcs.core.filters.uif import UnscentedInformationFilter
+from gcs.core.filters.vgukf import VariableGainUKF
 from gcs.core.models.motion import motion_model
 from gcs.core.models.sensor import SensorModel
 from gcs.core.planners import GeneticPlanner, OrbitPlanner, PursuitPlanner, RhcWeights
@@ -67,13 +68,14 @@ def tracker_config(scenario: Scenario, world: World | None, planner: str, genera
     restricted airspace for the planner), e.g. ``gcs replay --process``.
     """
     cfg = scenario.planner
+    motion = motion_model(scenario.estimator.model, scenario.estimator.accel_psd_m2_s3)
     altitude = min(v.altitude_m for v in scenario.vehicles)  # wang2012: visibility at the lowest UAV's height
     max_range = min(scenario.sensor_for(v).max_range_m for v in scenario.vehicles)
     weights = RhcWeights(w_vis=cfg.w_vis, u_max_rad_s=cfg.u_max_rad_s, w_u=cfg.w_u, w_res=cfg.w_res,
                          standoff_m=cfg.standoff_m, control_weight=cfg.control_weight,
                          standoff_weight=cfg.standoff_weight)
     return TrackerConfig(
-        uif=UnscentedInformationFilter(motion_model(scenario.estimator.model, scenario.estimator.accel_psd_m2_s3)),
+        uif=UnscentedInformationFilter(motion),
         sensors=filter_sensor_models(scenario),
         planner=_planner(planner, scenario, generations, stall),
         max_turn_rate=np.array([v.max_turn_rate_rad_s for v in scenario.vehicles]),
@@ -86,6 +88,7 @@ def tracker_config(scenario: Scenario, world: World | None, planner: str, genera
         restricted=world.in_restricted if world is not None and len(world.airspace) else None,
         initial_position_std_m=scenario.estimator.initial_position_std_m,
         initial_velocity_std_mps=scenario.estimator.initial_velocity_std_mps,
+        bearing_filter=VariableGainUKF(motion) if scenario.estimator.kind == "vgukf" else None,
     )
 
 

@@ -24,8 +24,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
+from gcs.core.filters.aoa_init import ml_initialise
 from gcs.core.filters.prediction import HorizonPrediction, predict_horizon
 from gcs.core.filters.uif import NS_PER_S, GaussianEstimate, UnscentedInformationFilter
+from gcs.core.filters.vgukf import VariableGainUKF
 from gcs.core.kinematics import VehicleState
 from gcs.core.models.sensor import AZIMUTH, ELEVATION, RANGE, SensorModel
 from gcs.core.planners.problem import PlanningProblem, PlanResult, RhcWeights, Visibility
@@ -73,6 +75,8 @@ class TrackerConfig:
     restricted: Callable[[NDArray[np.float64]], NDArray[np.bool_]] | None = None
     initial_position_std_m: float = 50.0
     initial_velocity_std_mps: float = 10.0
+    bearing_filter: VariableGainUKF | None = None
+    """zuo2021's VG-UKF: set for bearing-only sensors, replacing the DUIF in :func:`fuse`."""
 
 
 @dataclass(frozen=True)
@@ -123,11 +127,14 @@ def fuse(config: TrackerConfig, estimate: GaussianEstimate | None, stamp_ns: int
          detections: Sequence[Detection]) -> GaussianEstimate | None:
     """Step 2 of ASRTP alone: the DUIF update of the estimate with one step's detections (eq. 14-15).
 
-    The track starts from the first range-bearing detection. Detections index
+    The track starts from the first range-bearing detection (bearing-only sensors:
+    zuo2021's ML initialisation and VG-UKF, when ``config.bearing_filter`` is set). Detections index
     ``config.sensors`` by their ``vehicle``. Deterministic: the same estimate and
     detections give the same result bit for bit (the daemon and ``gcs replay
     --process`` rely on it). None while nothing has been seen.
     """
+    if config.bearing_filter is not None:
+        return _fuse_bearings(config, estimate, stamp_ns, detections)
     if estimate is None:
         if not detections:
             return None
@@ -144,6 +151,23 @@ def fuse(config: TrackerConfig, estimate: GaussianEstimate | None, stamp_ns: int
         for sensor, group in groups.items()
     ]
     return config.uif.update(prior, contributions)
+
+
+def _fuse_bearings(config: TrackerConfig, estimate: GaussianEstimate | None, stamp_ns: int,
+                   detections: Sequence[Detection]) -> GaussianEstimate | None:
+    """zuo2021's estimator for bearing-only sensors: ML initialisation from the first scan of at
+    least two bearings (section 2.3 (1)), then the variable-gain UKF (eq. 5-14) on every scan."""
+    sensors = [config.sensors[d.vehicle] for d in detections]
+    values = [d.values for d in detections]
+    positions = np.stack([d.vehicle_xyz for d in detections]) if detections else None
+    if estimate is None:
+        if len(detections) < 2:
+            return None
+        return ml_initialise(sensors, values, positions, stamp_ns, config.initial_velocity_std_mps)
+    prior = config.bearing_filter.predict(estimate, stamp_ns)
+    if not detections:
+        return prior
+    return config.bearing_filter.update(prior, sensors, values, positions)
 
 
 def prediction(config: TrackerConfig, estimate: GaussianEstimate) -> HorizonPrediction:

@@ -54,3 +54,14 @@ def test_status_without_a_daemon_fails_clearly() -> None:
                            "--timeout", "1"], capture_output=True, text=True, timeout=60)
     assert done.returncode == 1
     assert "no daemon answered" in done.stderr
+
+
+def test_demo_in_the_bearing_only_mode(tmp_path) -> None:
+    out = tmp_path / "aoa.json"
+    done = subprocess.run([script("gcs"), "demo", "--scenario", "zuo2021_aoa", "--duration", "40", "--rate", "10",
+                           "--json", str(out)], capture_output=True, text=True, timeout=180)
+    assert done.returncode == 0, done.stderr[-3000:]
+    summary = json.loads(out.read_text())
+    assert summary["steps"] == 40 and summary["seen_any"] == 40  # an open field: always in sight
+    # tracks from the bearings alone (ML start, then the VG-UKF), nearer than the 9 km the target is away
+    assert summary["scored_steps"] >= 35 and summary["rmse_m"] < 9000.0

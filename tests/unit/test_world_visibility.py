@@ -170,3 +170,11 @@ def test_stacked_maps_answer_like_each_map() -> None:
         stacked.visible(xy[..., :5, :])
     with pytest.raises(ValueError, match="same Buildings"):
         VisibilityMaps((maps[0], visibility_map(STARS, (500.0, 500.0), 200.0, 5000.0)))
+
+
+def test_maps_of_an_open_field_see_everything_within_range() -> None:
+    from gcs.core.world import Buildings, VisibilityMaps, visibility_maps
+
+    maps = VisibilityMaps(visibility_maps(Buildings.empty(), np.array([[0.0, 0.0], [100.0, 0.0]]), 100.0, 1000.0))
+    seen = maps.visible(np.array([[[500.0, 0.0], [100.0, 2000.0]]]))
+    assert seen.tolist() == [[True, False]]

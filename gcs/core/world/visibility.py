@@ -208,7 +208,7 @@ class VisibilityMaps:
             "_ranges": np.array([m.max_range_m for m in maps]),
             "_near": np.concatenate([m.near_m for m in maps]),
             "_far": np.concatenate([m.far_m for m in maps]),
-            "_candidates": candidates.reshape(-1, width),
+            "_candidates": candidates.reshape(len(maps) * maps[0].bins, width),  # width may be 0: no buildings
         }
         object.__setattr__(self, "maps", maps)
         for name, array in stacked.items():
