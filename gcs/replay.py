@@ -33,16 +33,16 @@ import numpy as np
 import zenoh
 
 from gcs.adapters.recording import LIVELINESS_ENCODING, Recorded, Recorder, RecordingError, read_recording
+from gcs.adapters.zenoh_io import Received
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, settings_from_arguments
 from gcs.config import Scenario, ScenarioError
-from gcs.adapters.zenoh_io import Received
-from gcs.daemon.fusion import fuse_step, plan_commands, track_message
-from gcs.daemon.ingest import Ingest
-from gcs.daemon.steps import StepAssembler
-from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
 from gcs.core.tracker import TrackerState, plan
 from gcs.core.world import World
+from gcs.daemon.fusion import fuse_step, plan_commands, track_message
+from gcs.daemon.ingest import Ingest
 from gcs.daemon.registry import Registry
+from gcs.daemon.steps import StepAssembler
+from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
 from gcs.tracking import scenario_planner, subset_config, tracker_config
 from gcs.world_loader import build_world
 from protocols.codec import encode
