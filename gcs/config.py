@@ -183,9 +183,11 @@ class EstimatorConfig(_Config):
 
 
 class PlannerConfig(_Config):
-    """Heading planner. ``ga_rhc``: wang2012 section 4 (RHC cost eq. 20-26, GA eq. 27-29)."""
+    """Heading planner. ``ga_rhc``: wang2012 section 4 (RHC cost eq. 20-26, GA eq. 27-29);
+    ``gcrlb_lm``: zuo2021 section 4 (tr GCRLB, penalty + Levenberg-Marquardt); ``crlb_lm``
+    (Dogancay's constant-noise CRLB) and ``straight`` are zuo2021's baselines."""
 
-    kind: Literal["ga_rhc", "k0", "orbit", "pursuit"] = "ga_rhc"
+    kind: Literal["ga_rhc", "k0", "orbit", "pursuit", "gcrlb_lm", "crlb_lm", "straight"] = "ga_rhc"
     horizon_steps: Annotated[int, msgspec.Meta(ge=1, le=100)] = 5
     population: Annotated[int, msgspec.Meta(ge=2, le=10_000)] = 50
     generations: Annotated[int, msgspec.Meta(ge=1, le=100_000)] = 200

@@ -15,20 +15,27 @@ from gcs.core.filters.uif import UnscentedInformationFilter
 from gcs.core.filters.vgukf import VariableGainUKF
 from gcs.core.models.motion import motion_model
 from gcs.core.models.sensor import SensorModel
-from gcs.core.planners import GeneticPlanner, OrbitPlanner, PursuitPlanner, RhcWeights
+from gcs.core.planners import (GeneticPlanner, LmGcrlbPlanner, OneStepHeadingPlanner, OrbitPlanner, PursuitPlanner,
+                               RhcWeights, StraightLinePlanner, crlb_planner)
 from gcs.core.tracker import TrackerConfig
 from gcs.core.world import VisibilityMaps, World
 
-__all__ = ["PLANNERS", "FROM_SCENARIO", "filter_sensor_models", "tracker_config", "scenario_planner", "subset_config"]
+__all__ = ["PLANNERS", "URBAN_PLANNERS", "AOA_PLANNERS", "FROM_SCENARIO", "filter_sensor_models", "tracker_config", "scenario_planner", "subset_config"]
 
-PLANNERS = ("ga_k5", "ga_k0", "orbit", "pursuit")
-"""GA-RHC on k+5 predictions or on the current estimate (k+0, the paper's
+URBAN_PLANNERS = ("ga_k5", "ga_k0", "orbit", "pursuit")
+"""wang2012: GA-RHC on k+5 predictions or on the current estimate (k+0, the paper's
 comparison), stand-off orbit, straight-line pursuit."""
+AOA_PLANNERS = ("gcrlb_lm", "crlb_lm", "straight")
+"""zuo2021: the GCRLB-LM heading planner, Dogancay's constant-noise CRLB planner,
+straight flight at the target."""
+PLANNERS = URBAN_PLANNERS + AOA_PLANNERS
+"""Every planner a scenario or ``gcs run --planner`` may name."""
 
 FROM_SCENARIO = "scenario"
 """Default of ``stall``: take ``planner.stall_generations`` from the scenario."""
 
-_PLANNER_BY_KIND = {"ga_rhc": "ga_k5", "k0": "ga_k0", "orbit": "orbit", "pursuit": "pursuit"}
+_PLANNER_BY_KIND = {"ga_rhc": "ga_k5", "k0": "ga_k0", "orbit": "orbit", "pursuit": "pursuit",
+                    "gcrlb_lm": "gcrlb_lm", "crlb_lm": "crlb_lm", "straight": "straight"}
 
 
 def scenario_planner(scenario: Scenario) -> str:
@@ -53,6 +60,10 @@ def _planner(name: str, scenario: Scenario, generations: int | None, stall: int 
         return GeneticPlanner(population=cfg.population, generations=generations or cfg.generations,
                               deadline_s=cfg.deadline_s,
                               stall=cfg.stall_generations if stall == FROM_SCENARIO else stall)
+    if name in ("gcrlb_lm", "crlb_lm", "straight"):
+        solver = {"gcrlb_lm": LmGcrlbPlanner, "crlb_lm": crlb_planner, "straight": StraightLinePlanner}[name]()
+        max_range = min(scenario.sensor_for(v).max_range_m for v in scenario.vehicles)
+        return OneStepHeadingPlanner(solver, max_detection_range_m=max_range)
     if name == "orbit":
         return OrbitPlanner()
     if name == "pursuit":

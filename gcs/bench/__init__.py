@@ -1,5 +1,5 @@
 """Reproductions of the papers' experiments and speed benchmarks (``gcs bench ...``)."""
 
-from gcs.tracking import PLANNERS
+from gcs.tracking import URBAN_PLANNERS as PLANNERS
 
-__all__ = ["PLANNERS"]
+__all__ = ["PLANNERS"]  # the planners of gcs bench urban

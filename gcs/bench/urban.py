@@ -37,7 +37,8 @@ from gcs.core.kinematics import VehicleState, step_vehicles
 from gcs.core.models.sensor import SensorModel
 from gcs.core.tracker import Detection, StepInputs, TrackerState, step
 from gcs.core.world import World
-from gcs.tracking import FROM_SCENARIO, PLANNERS, filter_sensor_models, tracker_config
+from gcs.tracking import FROM_SCENARIO, filter_sensor_models, tracker_config
+from gcs.tracking import URBAN_PLANNERS as PLANNERS
 from sim_vehicles.truth.sensor import TargetSensor
 from sim_vehicles.truth.target import start_state, target_model
 
