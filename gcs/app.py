@@ -46,7 +46,7 @@ from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
 from gcs.core.kinematics import VehicleState
 from gcs.core.filters.uif import GaussianEstimate
-from gcs.core.tracker import TrackerConfig, TrackerState, plan
+from gcs.core.tracker import TrackerConfig, TrackerState, plan, prediction
 from gcs.daemon.fusion import fuse_step, plan_commands, track_message
 from gcs.core.world import World
 from gcs.daemon.ingest import Ingest
@@ -295,12 +295,15 @@ class Daemon:
         unless a newer step is already waiting."""
         estimate, detections = fuse_step(self.tracker, self.loop.estimate, ready, self.roster)
         self.loop.estimate = estimate
+        predicted = None
         if estimate is not None:
+            predicted = prediction(self.tracker, estimate)  # published with the track, and planned on
             self.loop.track_seq += 1
             self.loop.last_track_stamp_ns = ready.stamp_ns
             contributing = sorted({self.roster[d.vehicle] for d in detections})
             self.zenoh.publish_track(track_message(self.tracker, estimate, self.scenario.target.id,
-                                                   self.scenario.estimator.model, self.loop.track_seq, contributing))
+                                                   self.scenario.estimator.model, self.loop.track_seq, contributing,
+                                                   predicted))
         active = self.registry.plannable(now)
         result = None
         if not active:
@@ -311,7 +314,7 @@ class Daemon:
             vehicles = self.registry.vehicle_state(active, ready.stamp_ns)
             config = self._subset(tuple(self.roster.index(v) for v in active))
             state, turn_rates, diagnostics = plan(config, self._state_for(active, estimate), vehicles, self.rng,
-                                                  now=self._data_clock(ready, now))
+                                                  now=self._data_clock(ready, now), predicted=predicted)
             self._remember(active, state, turn_rates)
             self.counters["decisions"] += 1
             result = diagnostics.plan

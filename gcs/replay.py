@@ -36,7 +36,7 @@ from gcs.adapters.recording import LIVELINESS_ENCODING, Recorded, Recorder, Reco
 from gcs.adapters.zenoh_io import Received
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, settings_from_arguments
 from gcs.config import Scenario, ScenarioError
-from gcs.core.tracker import TrackerState, plan
+from gcs.core.tracker import TrackerState, plan, prediction
 from gcs.core.world import World
 from gcs.daemon.fusion import fuse_step, plan_commands, track_message
 from gcs.daemon.ingest import Ingest
@@ -142,15 +142,16 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
             if estimate is None:
                 continue
             contributing = sorted({roster[d.vehicle] for d in detections})
+            predicted = prediction(config, estimate)
             tracks.append(track_message(config, estimate, scenario.target.id, scenario.estimator.model,
-                                        len(tracks) + 1, contributing))
+                                        len(tracks) + 1, contributing, predicted))
             active = registry.plannable(now)
             if planning and active:
                 vehicles = registry.vehicle_state(active, ready.stamp_ns)
                 subset = subset_config(config, tuple(roster.index(v) for v in active))
                 warm = np.stack([memory[v] for v in active]) if all(v in memory for v in active) else None
                 turn = np.array([memory[v][0] if v in memory else 0.0 for v in active])
-                state, _, _ = plan(subset, TrackerState(estimate, warm, turn), vehicles, rng)
+                state, _, _ = plan(subset, TrackerState(estimate, warm, turn), vehicles, rng, predicted=predicted)
                 memory.update({v: state.plan[slot] for slot, v in enumerate(active)})
                 plans.extend(plan_commands(vehicles, [registry.entries[v].config for v in active], state.plan,
                                            subset.max_turn_rate, scenario.time.step_s, ready.stamp_ns,

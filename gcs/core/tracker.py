@@ -187,16 +187,19 @@ def plan(
     vehicles: VehicleState,
     rng: np.random.Generator,
     now: Callable[[], float] | None = None,
+    predicted: HorizonPrediction | None = None,
 ) -> tuple[TrackerState, NDArray[np.float64], StepDiagnostics]:
     """Steps 3-5 of ASRTP for the state's (already fused) estimate: predict, plan, first commands (V,).
 
     ``config`` describes the V vehicles of ``vehicles`` (its sensors and turn
     limits), which may be a subset of the roster the estimate was fused with.
+    ``predicted`` is :func:`prediction` of the estimate when the caller has it already.
     """
     estimate = state.estimate
     if estimate is None:  # nothing seen yet: hold course
         return state, state.turn_rate, StepDiagnostics(None, None, None, 0)
-    predicted = prediction(config, estimate)
+    if predicted is None:
+        predicted = prediction(config, estimate)
     problem = PlanningProblem(
         vehicles=vehicles,
         current_turn_rate=state.turn_rate,

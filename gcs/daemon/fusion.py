@@ -12,6 +12,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from gcs.core.filters.prediction import HorizonPrediction
 from gcs.core.filters.uif import GaussianEstimate
 from gcs.core.geometry import wrap_angle
 from gcs.core.kinematics import VehicleState, rollout
@@ -52,9 +53,10 @@ def _symmetric(matrix: np.ndarray) -> np.ndarray:
 
 
 def track_message(config: TrackerConfig, estimate: GaussianEstimate, target_id: str, model: str, seq: int,
-                  contributing: Sequence[str]) -> TrackEstimate:
-    """The wire message of an estimate, with the k+1..k+n prediction."""
-    predicted = prediction(config, estimate)
+                  contributing: Sequence[str], predicted: HorizonPrediction | None = None) -> TrackEstimate:
+    """The wire message of an estimate, with the k+1..k+n prediction (computed unless given)."""
+    if predicted is None:
+        predicted = prediction(config, estimate)
     points = tuple(
         PredictedPoint(stamp_ns=int(stamp), position_enu_m=(float(mean[0]), float(mean[1])),
                        position_cov_m2=tuple(float(c) for c in _symmetric(cov[:2, :2]).ravel()))
