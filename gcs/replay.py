@@ -213,17 +213,23 @@ def republish(path: Path, settings, prefix: str, rate: float | None, stop: threa
               wait_for_subscriber_s: float = 5.0) -> Counter:
     """Put the recorded inputs back on Zenoh under ``prefix``; ``rate`` None is as fast as possible.
 
-    Publishers for every recorded input key are declared first, and up to
+    Publishers for every recorded input key, and the liveliness tokens of every
+    vehicle alive in the recording, are declared first, and up to
     ``wait_for_subscriber_s`` is given for a subscriber (the daemon) to match
     them, so that the first messages are not published before anyone listens.
     """
     counts: Counter = Counter()
-    keys = sorted({record.key for record, kind, _ in _inputs(path) if kind != "alive"})
+    inputs = [(record.key, kind, record.payload) for record, kind, _ in _inputs(path)]
+    keys = sorted({key for key, kind, _ in inputs if kind != "alive"})
+    alive = sorted({key for key, kind, payload in inputs if kind == "alive" and payload == b"alive"})
     with open_session(settings) as session:
         publishers = {key: session.declare_publisher(prefix + key[len(_prefix_of(key)):],
                                                      congestion_control=zenoh.CongestionControl.BLOCK)
                       for key in keys}
-        tokens: dict[str, zenoh.LivelinessToken] = {}
+        # every vehicle that was alive in the recording is declared first, so that a daemon expects its
+        # reports from the first step even when they are replayed as fast as possible
+        tokens = {prefix + key[len(_prefix_of(key)):]: session.liveliness().declare_token(
+            prefix + key[len(_prefix_of(key)):]) for key in alive}
         deadline = time.monotonic() + wait_for_subscriber_s
         while not all(p.matching_status.matching for p in publishers.values()) and time.monotonic() < deadline:
             if stop.wait(0.02):

@@ -6,6 +6,7 @@ import csv
 import json
 import signal
 import subprocess
+import time
 
 from mcap.reader import make_reader
 
@@ -91,7 +92,12 @@ def test_record_finishes_on_sigint_and_replay_feeds_a_running_daemon(tmp_path) -
         assert query_status(ZenohSettings(connect=(daemon_endpoint,)), "gcs", 30.0) is not None
         replayed = subprocess.run([script("gcs"), "replay", str(recording), "--fast", "--zenoh-connect",
                                    daemon_endpoint], capture_output=True, text=True, timeout=60)
-        status = query_status(ZenohSettings(connect=(daemon_endpoint,)), "gcs", 10.0)
+        deadline = time.monotonic() + 30.0  # --fast returns once published; let the daemon drain its inbox
+        while True:
+            status = query_status(ZenohSettings(connect=(daemon_endpoint,)), "gcs", 10.0)
+            if status.counters.get("accepted.report", 0) >= 45 or time.monotonic() > deadline:
+                break
+            time.sleep(0.2)
     finally:
         daemon.send_signal(signal.SIGINT)
         daemon.communicate(timeout=30)
