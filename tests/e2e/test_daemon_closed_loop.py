@@ -28,7 +28,7 @@ from tests.e2e.processes import script
 from tests.loopback import free_tcp_port, free_udp_port
 
 DURATION_S = 120
-RATE = 4.0
+RATE = 2.0
 SEED = 0
 
 
