@@ -57,6 +57,8 @@ log = logging.getLogger(__name__)
 INPUT_KINDS = ("report", "nav", "truth", "alive")
 """Key kinds that are inputs of the daemon (the rest, tracks, plans and status, are its outputs)."""
 NS_PER_S = 1_000_000_000
+TOKEN_SETTLE_S = 0.5
+"""Wait after declaring the recorded vehicles' liveliness tokens, before republishing data."""
 
 
 def _prefix_of(key: str) -> str | None:
@@ -234,6 +236,8 @@ def republish(path: Path, settings, prefix: str, rate: float | None, stop: threa
         while not all(p.matching_status.matching for p in publishers.values()) and time.monotonic() < deadline:
             if stop.wait(0.02):
                 break
+        if tokens:
+            stop.wait(TOKEN_SETTLE_S)  # liveliness travels apart from the data: let the tokens arrive first
         start_wall, start_log = time.monotonic(), None
         try:
             for record, kind, _ in _inputs(path):
