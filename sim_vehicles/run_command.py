@@ -44,6 +44,9 @@ def add_run(sub: argparse._SubParsersAction) -> None:
     parser.add_argument("--wait-for-gcs", type=float, default=5.0, metavar="S",
                         help="wait up to S wall seconds for a subscriber to the reports before starting, so the "
                              "first reports are not lost while the connection comes up (default 5; 0: don't)")
+    parser.add_argument("--start-at", type=float, default=None, metavar="UNIX_TIME",
+                        help="start the simulation clock at this Unix time (seconds), e.g. to keep vehicles flown "
+                             "by several processes on one clock")
     parser.add_argument("--json", type=Path, metavar="FILE", help="write the closing summary as JSON")
     parser.set_defaults(handler=_cmd_run)
 
@@ -56,7 +59,8 @@ def _options(args: argparse.Namespace, vehicle_ids: list[str]) -> RunOptions:
     epoch = args.epoch_ns if args.epoch_ns is not None else (time.time_ns() // 1_000_000_000) * 1_000_000_000
     return RunOptions(rate=args.rate, duration_s=args.duration, seed=args.seed, epoch_ns=epoch, mavlink=mavlink,
                       signing_key=key, zenoh=zenoh, prefix=args.prefix,
-                      only=None if args.only is None else tuple(args.only), wait_for_subscriber_s=args.wait_for_gcs)
+                      only=None if args.only is None else tuple(args.only), wait_for_subscriber_s=args.wait_for_gcs,
+                      start_at_ns=None if args.start_at is None else round(args.start_at * 1e9))
 
 
 def _cmd_run(args: argparse.Namespace) -> int:

@@ -75,6 +75,9 @@ class RunOptions:
     only : tuple of vehicle ids, or None
         Fly only these vehicles (e.g. one per process); the target's truth is
         published by the process that flies the scenario's first vehicle.
+    start_at_ns : int or None
+        Start the simulation clock at this Unix time (ns), after the waits above, so
+        that vehicles flown by several processes keep one clock.
     wait_for_subscriber_s : float
         Before the clock starts, wait up to this long (wall time) for subscribers
         to every key (a ground station), so that the first reports are not
@@ -91,6 +94,7 @@ class RunOptions:
     prefix: str = "gcs"
     only: tuple[str, ...] | None = None
     wait_for_subscriber_s: float = 0.0
+    start_at_ns: int | None = None
 
 
 @dataclass
@@ -235,6 +239,8 @@ class Runner:
         heartbeat, telemetry = _Timer(1.0), _Timer(sim.telemetry_rate_hz)
         reports, navs = _Timer(sim.report_rate_hz), _Timer(sim.nav_rate_hz)
         progress = _Timer(1.0 / 30.0)
+        if self.options.start_at_ns is not None:
+            self.stop_event.wait(max(0.0, (self.options.start_at_ns - time.time_ns()) / 1e9))
         wall_start = self.clock()
         steps_total = None if self.options.duration_s is None else round(self.options.duration_s / dt)
         while not self.stop_event.is_set() and (steps_total is None or self.summary.steps < steps_total):
