@@ -46,8 +46,8 @@ from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
 from gcs.core.kinematics import VehicleState
 from gcs.core.filters.uif import GaussianEstimate
-from gcs.core.tracker import TrackerConfig, TrackerState, plan, prediction
-from gcs.daemon.fusion import fuse_step, plan_commands, track_message
+from gcs.core.tracker import TrackerConfig, plan, prediction
+from gcs.daemon.fusion import PlanMemory, fuse_step, plan_commands, track_message
 from gcs.core.world import World
 from gcs.daemon.ingest import Ingest
 from gcs.daemon.registry import Registry
@@ -132,8 +132,7 @@ class _Loop:
     """The daemon's mutable memory between steps (estimate, plan, commands)."""
 
     estimate: GaussianEstimate | None = None
-    plan_rows: dict[str, np.ndarray] = field(default_factory=dict)
-    turn_rate: dict[str, float] = field(default_factory=dict)
+    memory: PlanMemory = field(default_factory=PlanMemory)
     track_seq: int = 0
     plan_seq: int = 0
     last_track_stamp_ns: int | None = None
@@ -313,9 +312,9 @@ class Daemon:
         elif estimate is not None:
             vehicles = self.registry.vehicle_state(active, ready.stamp_ns)
             config = self._subset(tuple(self.roster.index(v) for v in active))
-            state, turn_rates, diagnostics = plan(config, self._state_for(active, estimate), vehicles, self.rng,
+            state, turn_rates, diagnostics = plan(config, self.loop.memory.state_for(active, estimate), vehicles, self.rng,
                                                   now=self._data_clock(ready, now), predicted=predicted)
-            self._remember(active, state, turn_rates)
+            self.loop.memory.remember(active, state, turn_rates)
             self.counters["decisions"] += 1
             result = diagnostics.plan
             self._command(active, vehicles, config, result.controls, ready.stamp_ns)
@@ -343,18 +342,6 @@ class Daemon:
         self.loop.data_rate = rate
         clock, scale = self.clock, rate / self.options.plan_fraction
         return lambda: clock() * scale
-
-    def _state_for(self, active: list[str], estimate) -> TrackerState:
-        rows = [self.loop.plan_rows.get(v) for v in active]
-        warm = np.stack(rows) if all(r is not None for r in rows) else None
-        turn = np.array([self.loop.turn_rate.get(v, 0.0) for v in active])
-        return TrackerState(estimate, warm, turn)
-
-    def _remember(self, active: list[str], state: TrackerState, turn_rates: np.ndarray) -> None:
-        for slot, vehicle_id in enumerate(active):
-            if state.plan is not None:
-                self.loop.plan_rows[vehicle_id] = state.plan[slot]
-            self.loop.turn_rate[vehicle_id] = float(turn_rates[slot])
 
     def _command(self, active: list[str], vehicles: VehicleState, config: TrackerConfig, controls: np.ndarray,
                  stamp_ns: int) -> None:

@@ -36,9 +36,9 @@ from gcs.adapters.recording import LIVELINESS_ENCODING, Recorded, Recorder, Reco
 from gcs.adapters.zenoh_io import Received
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, settings_from_arguments
 from gcs.config import Scenario, ScenarioError
-from gcs.core.tracker import TrackerState, plan, prediction
+from gcs.core.tracker import plan, prediction
 from gcs.core.world import World
-from gcs.daemon.fusion import fuse_step, plan_commands, track_message
+from gcs.daemon.fusion import PlanMemory, fuse_step, plan_commands, track_message
 from gcs.daemon.ingest import Ingest
 from gcs.daemon.registry import Registry
 from gcs.daemon.steps import StepAssembler
@@ -134,7 +134,7 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
     reporters: set[str] = set()
     tracks: list[TrackEstimate] = []
     plans: list[PlanCommand] = []
-    memory: dict[str, np.ndarray] = {}
+    memory = PlanMemory()
     estimate = None
 
     def release(ready_steps, now: float) -> None:
@@ -151,10 +151,9 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
             if planning and active:
                 vehicles = registry.vehicle_state(active, ready.stamp_ns)
                 subset = subset_config(config, tuple(roster.index(v) for v in active))
-                warm = np.stack([memory[v] for v in active]) if all(v in memory for v in active) else None
-                turn = np.array([memory[v][0] if v in memory else 0.0 for v in active])
-                state, _, _ = plan(subset, TrackerState(estimate, warm, turn), vehicles, rng, predicted=predicted)
-                memory.update({v: state.plan[slot] for slot, v in enumerate(active)})
+                state, turn_rates, _ = plan(subset, memory.state_for(active, estimate), vehicles, rng,
+                                            predicted=predicted)
+                memory.remember(active, state, turn_rates)
                 plans.extend(plan_commands(vehicles, [registry.entries[v].config for v in active], state.plan,
                                            subset.max_turn_rate, scenario.time.step_s, ready.stamp_ns,
                                            len(plans) + 1, scenario_planner(scenario)))

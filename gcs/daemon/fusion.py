@@ -9,6 +9,7 @@ planned for, and the prediction is the tracker's own (eq. 16-17).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -16,12 +17,12 @@ from gcs.core.filters.prediction import HorizonPrediction
 from gcs.core.filters.uif import GaussianEstimate
 from gcs.core.geometry import wrap_angle
 from gcs.core.kinematics import VehicleState, rollout
-from gcs.core.tracker import Detection, TrackerConfig, fuse, prediction
+from gcs.core.tracker import Detection, TrackerConfig, TrackerState, fuse, prediction
 from gcs.daemon.steps import ReadyStep
 from gcs.config import VehicleConfig
 from protocols.messages import PlanCommand, PredictedPoint, SensorReport, TrackEstimate
 
-__all__ = ["step_detections", "fuse_step", "track_message", "plan_commands"]
+__all__ = ["step_detections", "fuse_step", "track_message", "plan_commands", "PlanMemory"]
 
 
 def _measurement(report: SensorReport, components: tuple[str, ...]) -> np.ndarray | None:
@@ -89,3 +90,25 @@ def plan_commands(vehicles: VehicleState, configs: Sequence[VehicleConfig], cont
             airspeed_mps=cfg.speed_mps, altitude_m=cfg.altitude_m,
             planned_path_enu_m=tuple((float(x), float(y)) for x, y in path[slot]), planner=planner))
     return commands
+
+
+@dataclass
+class PlanMemory:
+    """Each vehicle's last planned row (the GA's warm start) and the turn rate it is flying,
+    kept by vehicle id so that a planning subset can change from step to step."""
+
+    rows: dict[str, np.ndarray] = field(default_factory=dict)
+    turn_rate: dict[str, float] = field(default_factory=dict)
+
+    def state_for(self, active: Sequence[str], estimate: GaussianEstimate) -> TrackerState:
+        """The tracker state for the vehicles planned now (a warm start only if every one has a row)."""
+        rows = [self.rows.get(v) for v in active]
+        warm = np.stack(rows) if all(r is not None for r in rows) else None
+        return TrackerState(estimate, warm, np.array([self.turn_rate.get(v, 0.0) for v in active]))
+
+    def remember(self, active: Sequence[str], state: TrackerState, turn_rates: np.ndarray) -> None:
+        """Keep the new plan's rows and commands."""
+        for slot, vehicle_id in enumerate(active):
+            if state.plan is not None:
+                self.rows[vehicle_id] = state.plan[slot]
+            self.turn_rate[vehicle_id] = float(turn_rates[slot])
