@@ -1,8 +1,9 @@
 """The ``gcs`` daemon: reports in over Zenoh, the pure tracker step, headings out over MAVLink.
 
-One thread runs the loop (functional core, imperative shell: everything that
-decides is :func:`gcs.core.tracker.fuse` and :func:`gcs.core.tracker.plan`; this module gathers their inputs and
-applies its outputs):
+One thread runs the loop and one plans beside it (functional core, imperative
+shell: everything that decides is :func:`gcs.core.tracker.fuse` and
+:func:`gcs.core.tracker.plan`; this module gathers their inputs and applies their
+outputs, always on the loop thread):
 
 1. drain the Zenoh inbox (callbacks only enqueued): validate and count
    (:class:`~gcs.daemon.ingest.Ingest`), file reports into decision steps
@@ -11,15 +12,19 @@ applies its outputs):
 2. read MAVLink (heartbeats, telemetry) through the commander;
 3. for every decision step that is ready: fuse every roster vehicle's reports
    (:mod:`gcs.daemon.fusion`, the same code ``gcs replay --process`` runs) and
-   publish the ``TrackEstimate``; predict and plan for the vehicles alive now (a
-   lost vehicle is planned without; it rejoins when it returns) and publish each
+   publish the ``TrackEstimate`` with its k+1..k+n prediction; hand the newest
+   step's planning, for the vehicles alive now (a lost vehicle is planned
+   without; it rejoins when it returns), to the planner thread
+   (:class:`~gcs.daemon.planning.PlannerWorker`), so that a plan never holds up
+   the reports and tracks behind it;
+4. apply the plans the planner thread has finished: publish each
    ``PlanCommand`` (heading ``psi + u T``, the heading at the end of the step,
-   and the planned path);
-4. steer every vehicle toward the end of its planned path from its latest
+   and the planned path) and keep the plan as the next warm start;
+5. steer every vehicle toward the end of its planned path from its latest
    MAVLink position (:meth:`Daemon._steer`), and let the commander stream what
    is due (GCS heartbeat, GUIDED requests, position-target carrots, ArduPilot
    heading commands on change);
-5. answer queries, publish ``DaemonStatus`` once a second.
+6. answer queries, publish ``DaemonStatus`` once a second.
 
 Stop with :meth:`Daemon.stop` (SIGINT/SIGTERM in the CLI): the loop returns and
 everything is closed.
@@ -30,9 +35,9 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections import Counter
+from collections import Counter, deque
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -46,17 +51,18 @@ from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
 from gcs.core.kinematics import VehicleState
 from gcs.core.filters.uif import GaussianEstimate
-from gcs.core.tracker import TrackerConfig, plan, prediction
+from gcs.core.tracker import TrackerConfig, prediction
 from gcs.daemon.fusion import PlanMemory, fuse_step, plan_commands, track_message
 from gcs.core.world import World
 from gcs.daemon.ingest import Ingest
+from gcs.daemon.planning import PlanJob, PlannerWorker, PlanOutcome
 from gcs.daemon.registry import Registry
 from gcs.daemon.steps import ReadyStep, StepAssembler
 from gcs.tracking import scenario_planner, subset_config, tracker_config
 from protocols.keys import parse_key
 from protocols.messages import DaemonStatus, NavReport, SensorReport, TargetTruth, VehicleStatus
 
-__all__ = ["DaemonOptions", "Daemon", "StepRecord"]
+__all__ = ["DaemonOptions", "Daemon", "StepRecord", "PlanRecord"]
 
 log = logging.getLogger(__name__)
 
@@ -64,6 +70,8 @@ NS_PER_S = 1_000_000_000
 AUTOPILOT_NAMES = {3: "ArduPilot", 12: "PX4"}
 MAX_RECORDS = 100_000
 """Step records kept in memory (about a day of 1 s steps)."""
+TRUTH_WAIT_S = 0.5
+"""Wall time a step record waits for the simulator's truth at its stamp before it is emitted unscored."""
 STEER_RATE_HZ = 4.0
 """How often the headings toward the planned paths are recomputed (the carrot rate)."""
 
@@ -90,6 +98,9 @@ class DaemonOptions:
     record : Path or None
         Record everything received and published to this MCAP file
         (:mod:`gcs.adapters.recording`), finished when the daemon stops.
+    plan_in_background : bool
+        Plan on a thread beside the loop (the default). False plans inside the
+        loop, each plan applied before the next step is fused.
     """
 
     zenoh: ZenohSettings
@@ -101,19 +112,44 @@ class DaemonOptions:
     max_wait_s: float = 0.5
     plan_fraction: float = 0.6
     record: Path | None = None
+    plan_in_background: bool = True
 
 
 @dataclass(frozen=True)
 class StepRecord:
-    """What one decision step did, for the demo's summary and for tests."""
+    """What fusing one decision step did, for the demo's summary and for tests.
+
+    ``vehicles`` are those alive (planned for) when the step was fused, at
+    ``fused_ns`` (``time.time_ns``); ``error_m`` is against the simulator's truth,
+    when there is one.
+    """
 
     index: int
     stamp_ns: int
     seen: dict[str, bool]
     estimate_xy: tuple[float, float] | None
     error_m: float | None
-    decision_s: float | None
     vehicles: tuple[str, ...]
+    fused_ns: int
+
+
+@dataclass(frozen=True)
+class PlanRecord:
+    """One plan the daemon applied (its commands were just put), in wall seconds.
+
+    ``waited_s``: from the step's fusion to the planner starting on it (the planner
+    was busy with the previous plan); ``planning_s``: visibility regions and
+    solve; ``solve_s``: the planner's solve alone; ``finished_ns``: ``time.time_ns``
+    when the planner finished (the commands were put after it, when the loop took the plan).
+    """
+
+    index: int
+    stamp_ns: int
+    vehicles: tuple[str, ...]
+    waited_s: float
+    planning_s: float
+    solve_s: float
+    finished_ns: int
 
 
 @dataclass(frozen=True)
@@ -146,11 +182,11 @@ class Daemon:
     """The ground-station loop for one scenario; see the module docstring."""
 
     def __init__(self, scenario: Scenario, world: World, options: DaemonOptions,
-                 clock: Callable[[], float] = time.monotonic, on_step: Callable[[StepRecord], None] | None = None
-                 ) -> None:
+                 clock: Callable[[], float] = time.monotonic, on_step: Callable[[StepRecord], None] | None = None,
+                 on_plan: Callable[[PlanRecord], None] | None = None) -> None:
         self.scenario, self.world, self.options = scenario, world, options
         self.clock = clock
-        self.on_step = on_step
+        self.on_step, self.on_plan = on_step, on_plan
         self.frame = LocalFrame(scenario.origin.lat_deg, scenario.origin.lon_deg, scenario.origin.height_m)
         self.roster = [v.id for v in scenario.vehicles]
         self.vehicle_config = {v.id: v for v in scenario.vehicles}
@@ -165,6 +201,9 @@ class Daemon:
         self.registry = Registry(list(scenario.vehicles), self._heartbeat_age)
         self.loop = _Loop()
         self.records: list[StepRecord] = []
+        self._unscored: deque[tuple[StepRecord, float]] = deque()
+        self.plans: list[PlanRecord] = []
+        self.planner: PlannerWorker | None = None
         self.counters: Counter = Counter()
         self._stopping = False
         self._started_s = clock()
@@ -189,7 +228,8 @@ class Daemon:
             self.recorder.write(key, payload, encoding, time_ns)
 
     def open(self) -> None:
-        """Open the recording, Zenoh and MAVLink."""
+        """Open the recording, Zenoh and MAVLink, and start the planner thread."""
+        self.planner = PlannerWorker(self.rng, self.clock, threaded=self.options.plan_in_background)
         if self.options.record is not None:
             self.recorder = Recorder(self.options.record, library=f"gcs {__version__}")
         self.zenoh.open()
@@ -203,7 +243,11 @@ class Daemon:
                  list(self.options.zenoh.connect), sorted(set((self.options.mavlink or {}).values())) or "off")
 
     def close(self) -> None:
-        """Close MAVLink and Zenoh and finish the recording (idempotent). The commander's last view stays readable."""
+        """Stop the planner, close MAVLink and Zenoh and finish the recording (idempotent).
+        The commander's last view stays readable."""
+        if self.planner is not None:
+            self.planner.close()
+        self._score(flush=True)
         if self.commander is not None and not self._closed:
             self.commander.close()
         self._closed = True
@@ -212,7 +256,7 @@ class Daemon:
             self.recorder.finish()
             log.info("recorded %d messages to %s", self.recorder.messages, self.recorder.path)
 
-    def run(self, until: Callable[[], bool] | None = None, idle_s: float = 0.002) -> None:
+    def run(self, until: Callable[[], bool] | None = None, idle_s: float = 0.001) -> None:
         """Loop until :meth:`stop` (or ``until()`` returns True); always closes what it opened."""
         try:
             self.open()
@@ -224,14 +268,15 @@ class Daemon:
                     self.zenoh.publish_status(self.status(now))
                     next_status = now + 1.0
                 if not busy:
-                    time.sleep(idle_s)
+                    self.zenoh.wait(idle_s)
         finally:
             self.close()
 
     # ------------------------------------------------------------------ loop
 
     def turn(self, now: float) -> bool:
-        """One pass of the loop; True when something was received or decided."""
+        """One pass of the loop; True when something was received, fused or planned."""
+        planned = self._apply_finished_plans()
         received = self.zenoh.drain()
         for item in received:
             self._handle(item, now)
@@ -245,13 +290,16 @@ class Daemon:
             except Exception:  # a bug in one step must not take the ground station down
                 self.counters["errors.decision"] += 1
                 log.exception("decision step %d failed; continuing", step_.index)
+            planned += self._apply_finished_plans()
+        self._score(flush=False)
+        planned += self._apply_finished_plans()
         if self.commander is not None:
             if now >= self._next_steer_s:
                 self._steer()
                 self._next_steer_s = now + 1.0 / STEER_RATE_HZ
             self.commander.service(now)
         self.zenoh.answer_queries(status=lambda: self.status(now))
-        return bool(received or ready)
+        return bool(received or ready or planned)
 
     def _handle(self, item, now: float) -> None:
         if self.recorder is not None:
@@ -290,8 +338,8 @@ class Daemon:
         return config
 
     def _decide(self, ready: ReadyStep, now: float, plan_now: bool = True) -> None:
-        """Fuse one step's reports (every roster vehicle's); plan for the vehicles alive now,
-        unless a newer step is already waiting."""
+        """Fuse one step's reports (every roster vehicle's) and publish the track; hand the
+        planning for the vehicles alive now to the planner, unless a newer step is already waiting."""
         estimate, detections = fuse_step(self.tracker, self.loop.estimate, ready, self.roster)
         self.loop.estimate = estimate
         predicted = None
@@ -304,33 +352,53 @@ class Daemon:
                                                    self.scenario.estimator.model, self.loop.track_seq, contributing,
                                                    predicted))
         active = self.registry.plannable(now)
-        result = None
+        scale = self._clock_scale(ready, now)
         if not active:
             self.counters["steps_without_vehicles"] += 1
         elif not plan_now:
             self.counters["steps_fused_only"] += 1
         elif estimate is not None:
-            vehicles = self.registry.vehicle_state(active, ready.stamp_ns)
             config = self._subset(tuple(self.roster.index(v) for v in active))
-            state, turn_rates, diagnostics = plan(config, self.loop.memory.state_for(active, estimate), vehicles, self.rng,
-                                                  now=self._data_clock(ready, now), predicted=predicted)
-            self.loop.memory.remember(active, state, turn_rates)
-            self.counters["decisions"] += 1
-            result = diagnostics.plan
-            self._command(active, vehicles, config, result.controls, ready.stamp_ns)
-        decision_s = None if result is None else result.elapsed_s * self.options.plan_fraction / self.loop.data_rate
-        self._record(ready, active, estimate, decision_s)
+            self.planner.submit(PlanJob(
+                index=ready.index, stamp_ns=ready.stamp_ns, active=tuple(active), config=config,
+                state=self.loop.memory.state_for(active, estimate),
+                vehicles=self.registry.vehicle_state(active, ready.stamp_ns), predicted=predicted,
+                clock_scale=scale, submitted_s=now))
+        self._record(ready, active, estimate)
 
-    def _data_clock(self, ready: ReadyStep, now: float) -> Callable[[], float]:
-        """The planner's clock in data time: wall time multiplied by how fast stamps advance.
+    def _apply_finished_plans(self) -> int:
+        """Apply what the planner has finished (checked several times a pass, so that a plan waits little)."""
+        outcomes = self.planner.take()
+        for outcome in outcomes:
+            self._apply(outcome)
+        return len(outcomes)
+
+    def _apply(self, outcome: PlanOutcome) -> None:
+        """A finished plan: keep it as the warm start, command the vehicles, publish the plans."""
+        job = outcome.job
+        if outcome.error is not None:
+            self.counters["errors.planning"] += 1
+            return
+        self.loop.memory.remember(job.active, outcome.state, outcome.turn_rates)
+        self.counters["decisions"] += 1
+        self._command(list(job.active), job.vehicles, job.config, outcome.result.controls, job.stamp_ns)
+        record = PlanRecord(job.index, job.stamp_ns, job.active, outcome.waited_s, outcome.planning_s,
+                            outcome.solve_s, outcome.finished_ns)
+        self.plans.append(record)
+        if len(self.plans) > MAX_RECORDS:
+            del self.plans[: MAX_RECORDS // 2]
+        if self.on_plan is not None:
+            self.on_plan(record)
+
+    def _clock_scale(self, ready: ReadyStep, now: float) -> float:
+        """How much faster than the wall clock the planner's clock runs (data time, over ``plan_fraction``).
 
         The planner's deadline is a fraction of a decision step of *data* time. Live,
-        stamps advance as fast as the wall clock and this is the wall clock; against
-        vehicles simulated R times faster than real time the GA gets 1/R of the wall
-        time, so that its command still arrives within the step it was planned for.
-        The rate is measured over the last few released steps and never below 1.
-        The planner's deadline is further shrunk to ``plan_fraction`` of itself, leaving
-        the rest of the step for fusion, visibility maps and I/O.
+        stamps advance as fast as the wall clock; against vehicles simulated R times
+        faster than real time the GA gets 1/R of the wall time, so that its command
+        still arrives within the step it was planned for. The rate is measured over
+        the last few released steps and never below 1. The deadline is further shrunk
+        to ``plan_fraction`` of itself, leaving the rest of the step for fusion and I/O.
         """
         history = self.loop.step_times
         history.append((now, ready.stamp_ns))
@@ -340,8 +408,7 @@ class Daemon:
         if wall_1 - wall_0 > 1e-3:
             rate = max(1.0, (stamp_1 - stamp_0) / NS_PER_S / (wall_1 - wall_0))
         self.loop.data_rate = rate
-        clock, scale = self.clock, rate / self.options.plan_fraction
-        return lambda: clock() * scale
+        return rate / self.options.plan_fraction
 
     def _command(self, active: list[str], vehicles: VehicleState, config: TrackerConfig, controls: np.ndarray,
                  stamp_ns: int) -> None:
@@ -373,22 +440,41 @@ class Daemon:
                     heading = math.atan2(dy, dx)
             self.commander.command(vehicle_id, HeadingCommand(heading, aim.altitude_m, aim.airspeed_mps))
 
-    def _record(self, ready: ReadyStep, active: list[str], estimate, decision_s: float | None) -> None:
-        estimate_xy, error = None, None
-        if estimate is not None:
-            estimate_xy = (float(estimate.mean[0]), float(estimate.mean[1]))
-            truth = self._truth_near(ready.stamp_ns)
-            if truth is not None:
-                error = math.hypot(estimate_xy[0] - truth[0], estimate_xy[1] - truth[1])
+    def _record(self, ready: ReadyStep, active: list[str], estimate) -> None:
+        """Note what the step did; it is scored against the simulator's truth once that is in (:meth:`_score`)."""
+        estimate_xy = None if estimate is None else (float(estimate.mean[0]), float(estimate.mean[1]))
         seen = {v: False for v in self.roster}
         for report in ready.reports:
             seen[report.vehicle_id] = seen[report.vehicle_id] or report.detected
-        record = StepRecord(ready.index, ready.stamp_ns, seen, estimate_xy, error, decision_s, tuple(active))
-        self.records.append(record)
-        if len(self.records) > MAX_RECORDS:  # a daemon runs for days: keep the newest
-            del self.records[: MAX_RECORDS // 2]
-        if self.on_step is not None:
-            self.on_step(record)
+        record = StepRecord(ready.index, ready.stamp_ns, seen, estimate_xy, None, tuple(active), time.time_ns())
+        self._unscored.append((record, self.clock() + TRUTH_WAIT_S))
+        self._score(flush=False)
+
+    def _score(self, flush: bool) -> None:
+        """Emit the step records, in order, each scored against the truth at its stamp.
+
+        The simulator publishes its truth beside the reports, and it may arrive
+        after the step was fused: a record waits for it until truth of a later stamp
+        has come in, or :data:`TRUTH_WAIT_S` has passed (then it is left unscored).
+        Without a truth source (real vehicles) nothing waits.
+        """
+        latest = max(self.loop.truth, default=None)
+        while self._unscored:
+            record, deadline = self._unscored[0]
+            truth = None if record.estimate_xy is None else self._truth_near(record.stamp_ns)
+            waiting = (record.estimate_xy is not None and truth is None and latest is not None
+                       and latest < record.stamp_ns + self.steps.step_ns and self.clock() < deadline)
+            if waiting and not flush:
+                return
+            self._unscored.popleft()
+            if truth is not None:
+                error = math.hypot(record.estimate_xy[0] - truth[0], record.estimate_xy[1] - truth[1])
+                record = replace(record, error_m=error)
+            self.records.append(record)
+            if len(self.records) > MAX_RECORDS:  # a daemon runs for days: keep the newest
+                del self.records[: MAX_RECORDS // 2]
+            if self.on_step is not None:
+                self.on_step(record)
 
     def _truth_near(self, stamp_ns: int) -> tuple[float, float] | None:
         """The simulator's truth at a stamp (within a tenth of a step), if it published one."""
@@ -413,6 +499,8 @@ class Daemon:
                                           last_report_stamp_ns=entry.last_report_stamp_ns, reports=entry.reports,
                                           autopilot=autopilot))
         counters = Counter(self.ingest.counters) + self.steps.counters + self.counters
+        if self.planner is not None:
+            counters["plans_superseded"] = self.planner.superseded
         if self.commander is not None:
             counters.update({f"mavlink.{k}": v for k, v in self.commander.counters().items()})
         return DaemonStatus(stamp_ns=time.time_ns(), uptime_s=max(now - self._started_s, 0.0),

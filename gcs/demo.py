@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from gcs.adapters.ports import free_tcp_port, free_udp_port
-from gcs.app import Daemon, StepRecord
+from gcs.app import Daemon, PlanRecord, StepRecord
 from gcs.config import ScenarioError
 from gcs.daemon.cli import add_daemon_arguments, build_daemon
 from protocols.errors import ProtocolError
@@ -50,10 +50,10 @@ def add_demo(sub: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=_cmd_demo)
 
 
-def summarise(records: list[StepRecord], vehicles: list[str]) -> dict:
-    """The demo's summary of the daemon's decision steps."""
+def summarise(records: list[StepRecord], plans: list[PlanRecord], vehicles: list[str]) -> dict:
+    """The demo's summary of the daemon's decision steps and of its plans (``decision_ms``: the planner's solve)."""
     errors = np.array([r.error_m for r in records if r.error_m is not None])
-    decisions = np.array([r.decision_s for r in records if r.decision_s is not None]) * 1e3
+    decisions = np.array([p.solve_s for p in plans]) * 1e3
     return {
         "steps": len(records),
         "seen_any": sum(any(r.seen.values()) for r in records),
@@ -73,6 +73,10 @@ class _Progress:
         self.tty = stream.isatty()
         self.seen = self.steps = 0
         self.squares, self.scored = 0.0, 0
+        self.solve_s: float | None = None
+
+    def planned(self, record: PlanRecord) -> None:
+        self.solve_s = record.solve_s
 
     def __call__(self, record: StepRecord) -> None:
         self.steps += 1
@@ -81,7 +85,7 @@ class _Progress:
             self.squares += record.error_m**2
             self.scored += 1
         rmse = f"{math.sqrt(self.squares / self.scored):6.1f} m" if self.scored else "     - "
-        decision = f"{record.decision_s * 1e3:5.0f} ms" if record.decision_s is not None else "    - "
+        decision = f"{self.solve_s * 1e3:5.0f} ms" if self.solve_s is not None else "    - "
         line = (f"step {self.steps:4d}/{self.duration_s:.0f}  seen by any {self.seen:4d}  RMSE {rmse}  "
                 f"decision {decision}  UAVs {len(record.vehicles)}")
         if self.tty:
@@ -113,7 +117,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         return 2
     duration = args.duration if args.duration is not None else daemon.scenario.time.duration_s
     progress = _Progress(sys.stderr, duration)
-    daemon.on_step = progress
+    daemon.on_step, daemon.on_plan = progress, progress.planned
     log_file = Path(tempfile.gettempdir()) / f"gcs-demo-sim-vehicles-{mavlink_port}.log"
     command = [sys.executable, "-m", "sim_vehicles.cli", "--log-level", "WARNING", "run", "--scenario", args.scenario,
                "--rate", str(args.rate), "--duration", str(duration), "--seed", str(args.seed),
@@ -122,7 +126,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
           f"zenoh {endpoint}, MAVLink udpin:127.0.0.1:{mavlink_port}; simulator log {log_file}", flush=True)
     stopped = _run_together(daemon, command, log_file)
     progress.end()
-    summary = summarise(daemon.records, daemon.roster)
+    summary = summarise(daemon.records, daemon.plans, daemon.roster)
     summary.update({"scenario": daemon.scenario.name, "planner": daemon.planner_name, "rate": args.rate,
                     "duration_s": duration, "rejected": {k: v for k, v in daemon.status(time.monotonic()).counters
                                                          .items() if k.startswith("rejected.")}})

@@ -54,6 +54,7 @@ class ZenohIO:
         self._entities: list = []
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._latest: dict[str, tuple[bytes, str]] = {}
+        self._held: list[Received] = []
 
     def open(self) -> None:
         """Open the session and declare every subscriber and queryable."""
@@ -74,9 +75,23 @@ class ZenohIO:
         kind = "alive" if sample.kind == zenoh.SampleKind.PUT else "gone"
         self.inbox.put(Received(kind, str(sample.key_expr), b"", "", self.clock_ns()))
 
+    def wait(self, timeout_s: float) -> bool:
+        """Block until something is received or ``timeout_s`` passes; True if something was.
+
+        What arrived is kept for the next :meth:`drain`, so an idle loop wakes as
+        soon as a report lands instead of sleeping out a fixed tick.
+        """
+        if self._held:
+            return True
+        try:
+            self._held.append(self.inbox.get(timeout=timeout_s))
+        except queue.Empty:
+            return False
+        return True
+
     def drain(self, limit: int = 100_000) -> list[Received]:
         """Everything received so far (up to ``limit``), in arrival order."""
-        out = []
+        out, self._held = self._held, []
         while len(out) < limit:
             try:
                 out.append(self.inbox.get_nowait())
@@ -89,7 +104,7 @@ class ZenohIO:
         publisher = self._publishers.get(key)
         if publisher is None:
             publisher = self._publishers[key] = declare_publisher(self.session, key, type(message))
-        publisher.put(payload, encoding=zenoh.Encoding(encoding))
+        publisher.put(payload)  # the publisher was declared with this type's encoding
         self._latest[key] = (payload, encoding)
         if self.tap is not None:
             self.tap(key, payload, encoding, self.clock_ns())

@@ -7,7 +7,8 @@ from dataclasses import fields
 
 import pytest
 
-from gcs.bench.daemon import GOAL_REPORTS_PER_S, MAX_TRIALS, StepTiming, Trial, next_rate, step_latencies_ms
+from gcs.bench.daemon import (GOAL_REPORTS_PER_S, MAX_TRIALS, PlanTiming, StepTiming, Trial, next_rate,
+                              step_latencies_ms, track_latencies_ms)
 from gcs.bench.daemon_load import Fleet
 from gcs.bench.urban import with_vehicles
 from gcs.scenarios import load_scenario
@@ -19,20 +20,28 @@ def _trial(rate: float, passed: bool) -> Trial:
     return Trial(**{f.name: 1 for f in fields(Trial)} | {"rate_per_s": rate, "passed": passed})
 
 
-def test_a_fused_only_step_waits_for_the_next_command_and_the_solve_is_not_counted() -> None:
+def test_a_step_fused_while_the_planner_was_busy_is_served_by_the_next_plan_less_the_planners_share() -> None:
     sent = {100: 0, 200: 5 * MS, 300: 6 * MS}
-    log = [
-        StepTiming(50, 1 * MS, 0.001, 0.0),  # warm-up step: not one of the trial's
-        StepTiming(100, 12 * MS, None, 0.0),  # fused only: served by step 200's command
-        StepTiming(200, 20 * MS, 0.004, 0.003),
-        StepTiming(300, 30 * MS, 0.010, 0.002),
+    steps = [StepTiming(50, 0), StepTiming(100, 1 * MS), StepTiming(200, 7 * MS), StepTiming(300, 8 * MS)]
+    plans = [
+        PlanTiming(50, 1 * MS, 2 * MS, 0.001, 0.001),  # warm-up plan: serves none of the trial's steps
+        PlanTiming(200, 18 * MS, 20 * MS, 0.004, 0.003),  # serves 100 (planned without) and 200
+        PlanTiming(300, 29 * MS, 30 * MS, 0.010, 0.008),
     ]
-    assert step_latencies_ms(sent, log) == pytest.approx([16.0, 11.0, 14.0])
-    assert step_latencies_ms(sent, log, visibility=False) == pytest.approx([13.0, 8.0, 12.0])
+    # (fused - sent) + (put - finished)
+    assert step_latencies_ms(sent, steps, plans) == pytest.approx([1.0 + 2.0, 2.0 + 2.0, 2.0 + 1.0])
+    assert step_latencies_ms(sent, steps, plans, planner=True) == pytest.approx([20.0, 15.0, 24.0])
 
 
-def test_a_step_never_planned_has_no_latency() -> None:
-    assert step_latencies_ms({100: 0}, [StepTiming(100, 5 * MS, None, 0.0)]) == []
+def test_a_step_never_planned_or_never_fused_has_no_latency() -> None:
+    plans = [PlanTiming(50, 4 * MS, 5 * MS, 0.001, 0.001)]
+    assert step_latencies_ms({100: 0}, [StepTiming(100, 1 * MS)], plans) == []
+    assert step_latencies_ms({10: 0}, [], plans) == []
+
+
+def test_the_track_latency_is_from_the_last_report_to_the_steps_fusion() -> None:
+    steps = [StepTiming(50, 1 * MS), StepTiming(100, 3 * MS), StepTiming(200, 7 * MS)]
+    assert track_latencies_ms({100: 1 * MS, 200: 5 * MS}, steps) == pytest.approx([2.0, 2.0])
 
 
 def test_the_rate_search_doubles_from_a_quarter_of_the_goal_then_bisects() -> None:

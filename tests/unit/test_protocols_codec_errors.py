@@ -7,6 +7,8 @@ import math
 
 import msgspec
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from protocols import (
     MAX_PAYLOAD_BYTES,
@@ -21,6 +23,7 @@ from protocols import (
     encode,
     encoding_for,
 )
+from protocols.codec import _all_finite, _check_finite
 
 # ---------------------------------------------------------------- named-field errors
 REPORT = SensorReport(
@@ -101,6 +104,31 @@ def test_encode_rejects_non_finite_floats_naming_the_path(bad: float) -> None:
         encode(point)
     with pytest.raises(ProtocolError, match=r"\$\.uptime_s"):
         encode(status)
+
+
+_floats = st.floats(allow_nan=True, allow_infinity=True) | st.floats(min_value=1e307, max_value=1.7e308)
+_nested = st.recursive(_floats | st.integers() | st.text(max_size=3),
+                       lambda inner: st.lists(inner, max_size=4) | st.lists(inner, max_size=4).map(tuple)
+                       | st.dictionaries(st.text(max_size=2), inner, max_size=3), max_leaves=20)
+
+
+def _has_non_finite(value: object) -> bool:
+    if isinstance(value, float):
+        return not math.isfinite(value)
+    items = value.values() if isinstance(value, dict) else value if isinstance(value, (list, tuple)) else ()
+    return any(_has_non_finite(item) for item in items)
+
+
+@settings(max_examples=300, deadline=None)
+@given(_nested)
+def test_the_quick_finite_check_never_passes_a_non_finite_float(value: object) -> None:
+    # the encoder trusts the quick check when it says "all finite" and asks the exact one otherwise
+    if _has_non_finite(value):
+        assert not _all_finite(value)
+        with pytest.raises(ProtocolError, match="non-finite float"):
+            _check_finite(value, "$")
+    else:
+        _check_finite(value, "$")  # huge finite values may fail the quick check, never the exact one
 
 
 def test_encode_refuses_what_decode_would_reject() -> None:
