@@ -1,6 +1,6 @@
 """The ``gcs`` daemon: reports in over Zenoh, the pure tracker step, headings out over MAVLink.
 
-One thread runs the loop and one plans beside it (functional core, imperative
+One thread runs the loop and a planner process plans beside it (functional core, imperative
 shell: everything that decides is :func:`gcs.core.tracker.fuse` and
 :func:`gcs.core.tracker.plan`; this module gathers their inputs and applies their
 outputs, always on the loop thread):
@@ -14,10 +14,10 @@ outputs, always on the loop thread):
    (:mod:`gcs.daemon.fusion`, the same code ``gcs replay --process`` runs) and
    publish the ``TrackEstimate`` with its k+1..k+n prediction; hand the newest
    step's planning, for the vehicles alive now (a lost vehicle is planned
-   without; it rejoins when it returns), to the planner thread
-   (:class:`~gcs.daemon.planning.PlannerWorker`), so that a plan never holds up
-   the reports and tracks behind it;
-4. apply the plans the planner thread has finished: publish each
+   without; it rejoins when it returns), to the planner
+   (:mod:`gcs.daemon.planning`), so that a plan never holds up the reports and
+   tracks behind it;
+4. apply the plans the planner has finished: publish each
    ``PlanCommand`` (heading ``psi + u T``, the heading at the end of the step,
    and the planned path) and keep the plan as the next warm start;
 5. steer every vehicle toward the end of its planned path from its latest
@@ -55,7 +55,7 @@ from gcs.core.tracker import TrackerConfig, prediction
 from gcs.daemon.fusion import PlanMemory, fuse_step, plan_commands, track_message
 from gcs.core.world import World
 from gcs.daemon.ingest import Ingest
-from gcs.daemon.planning import PlanJob, PlannerWorker, PlanOutcome
+from gcs.daemon.planning import Planner, PlanJob, PlanOutcome, start_planner
 from gcs.daemon.registry import Registry
 from gcs.daemon.steps import ReadyStep, StepAssembler
 from gcs.tracking import scenario_planner, subset_config, tracker_config
@@ -98,9 +98,11 @@ class DaemonOptions:
     record : Path or None
         Record everything received and published to this MCAP file
         (:mod:`gcs.adapters.recording`), finished when the daemon stops.
-    plan_in_background : bool
-        Plan on a thread beside the loop (the default). False plans inside the
-        loop, each plan applied before the next step is fused.
+    planner_mode : str
+        Where plans are made (:mod:`gcs.daemon.planning`): ``process`` (the
+        default: a child process, so that planning never takes the interpreter
+        from the loop), ``thread``, or ``inline`` (in the loop, each plan applied
+        before the next step is fused).
     """
 
     zenoh: ZenohSettings
@@ -112,7 +114,7 @@ class DaemonOptions:
     max_wait_s: float = 0.5
     plan_fraction: float = 0.6
     record: Path | None = None
-    plan_in_background: bool = True
+    planner_mode: str = "process"
 
 
 @dataclass(frozen=True)
@@ -194,7 +196,6 @@ class Daemon:
         self.steps = StepAssembler(round(scenario.time.step_s * NS_PER_S), options.max_wait_s)
         self.planner_name = options.planner or scenario_planner(scenario)
         self.tracker: TrackerConfig = tracker_config(scenario, world, self.planner_name)
-        self.rng = np.random.default_rng(options.seed)
         self.recorder: Recorder | None = None
         self.zenoh = ZenohIO(options.zenoh, options.prefix, tap=self._record_published)
         self.commander: MavlinkCommander | None = None
@@ -203,7 +204,7 @@ class Daemon:
         self.records: list[StepRecord] = []
         self._unscored: deque[tuple[StepRecord, float]] = deque()
         self.plans: list[PlanRecord] = []
-        self.planner: PlannerWorker | None = None
+        self.planner: Planner | None = None
         self.counters: Counter = Counter()
         self._stopping = False
         self._started_s = clock()
@@ -229,7 +230,8 @@ class Daemon:
 
     def open(self) -> None:
         """Open the recording, Zenoh and MAVLink, and start the planner thread."""
-        self.planner = PlannerWorker(self.rng, self.clock, threaded=self.options.plan_in_background)
+        self.planner = start_planner(self.options.planner_mode, self.scenario, self.world, self.planner_name,
+                                     self.options.seed, self._subset)
         if self.options.record is not None:
             self.recorder = Recorder(self.options.record, library=f"gcs {__version__}")
         self.zenoh.open()
@@ -358,12 +360,12 @@ class Daemon:
         elif not plan_now:
             self.counters["steps_fused_only"] += 1
         elif estimate is not None:
-            config = self._subset(tuple(self.roster.index(v) for v in active))
             self.planner.submit(PlanJob(
-                index=ready.index, stamp_ns=ready.stamp_ns, active=tuple(active), config=config,
+                index=ready.index, stamp_ns=ready.stamp_ns, active=tuple(active),
+                indices=tuple(self.roster.index(v) for v in active),
                 state=self.loop.memory.state_for(active, estimate),
                 vehicles=self.registry.vehicle_state(active, ready.stamp_ns), predicted=predicted,
-                clock_scale=scale, submitted_s=now))
+                clock_scale=scale, submitted_s=time.monotonic()))
         self._record(ready, active, estimate)
 
     def _apply_finished_plans(self) -> int:
@@ -381,7 +383,8 @@ class Daemon:
             return
         self.loop.memory.remember(job.active, outcome.state, outcome.turn_rates)
         self.counters["decisions"] += 1
-        self._command(list(job.active), job.vehicles, job.config, outcome.result.controls, job.stamp_ns)
+        self._command(list(job.active), job.vehicles, self._subset(job.indices), outcome.result.controls,
+                      job.stamp_ns)
         record = PlanRecord(job.index, job.stamp_ns, job.active, outcome.waited_s, outcome.planning_s,
                             outcome.solve_s, outcome.finished_ns)
         self.plans.append(record)
@@ -501,6 +504,7 @@ class Daemon:
         counters = Counter(self.ingest.counters) + self.steps.counters + self.counters
         if self.planner is not None:
             counters["plans_superseded"] = self.planner.superseded
+            counters["planner_restarts"] = getattr(self.planner, "restarts", 0)
         if self.commander is not None:
             counters.update({f"mavlink.{k}": v for k, v in self.commander.counters().items()})
         return DaemonStatus(stamp_ns=time.time_ns(), uptime_s=max(now - self._started_s, 0.0),

@@ -1,9 +1,12 @@
 """The daemon's Zenoh side: subscriptions that only enqueue, publications, queryables.
 
-Subscriber and liveliness callbacks run on Zenoh's threads; they copy the
-sample into an unbounded :class:`queue.Queue` with its receive time and return
-(reference/zenoh.md: never block or call Zenoh inside a callback). The daemon's
-loop drains the queue, decodes and validates. Queries (``gcs/track/*``,
+Every subscription (reports, nav, truth, liveliness) delivers into a Zenoh
+FIFO channel (:data:`INBOX_CAPACITY` samples each): Zenoh's threads only
+enqueue, and never run Python, so they never take the interpreter from the
+loop (a Python callback per sample did, thousands of times a second). A full
+channel makes Zenoh wait, which the reliable publishers pass back to the
+senders: nothing is dropped. The daemon's loop drains the channels, stamps the
+receive time, decodes and validates. Queries (``gcs/track/*``,
 ``gcs/daemon/status``) are taken from the queryables' channels by the loop too,
 and answered from the latest published payloads.
 """
@@ -11,7 +14,6 @@ and answered from the latest published payloads.
 from __future__ import annotations
 
 import logging
-import queue
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -25,9 +27,14 @@ from protocols.keys import (alive_selector, navs_selector, plan_key, reports_sel
                             tracks_selector, truth_selector)
 from protocols.messages import DaemonStatus, Message, PlanCommand, TrackEstimate
 
-__all__ = ["Received", "ZenohIO"]
+__all__ = ["Received", "ZenohIO", "INBOX_CAPACITY"]
 
 log = logging.getLogger(__name__)
+
+INBOX_CAPACITY = 65_536
+"""Samples each subscription holds before Zenoh waits for the loop (about 13 s of 5,000 reports/s)."""
+POLL_S = 0.0005
+"""How often an idle loop looks for input."""
 
 
 @dataclass(frozen=True)
@@ -49,54 +56,54 @@ class ZenohIO:
                  tap: Callable[[str, bytes, str, int], None] | None = None) -> None:
         """``tap(key, payload, encoding, time_ns)`` sees every message this side publishes (for recording)."""
         self.settings, self.prefix, self.clock_ns, self.tap = settings, prefix, clock_ns, tap
-        self.inbox: queue.Queue[Received] = queue.Queue()
         self.session: zenoh.Session | None = None
         self._entities: list = []
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._latest: dict[str, tuple[bytes, str]] = {}
+        self._samples: list = []
+        self._liveliness = None
         self._held: list[Received] = []
 
     def open(self) -> None:
         """Open the session and declare every subscriber and queryable."""
         self.session = open_session(self.settings)
         for selector in (reports_selector(self.prefix), navs_selector(self.prefix), truth_selector(self.prefix)):
-            self._entities.append(self.session.declare_subscriber(selector, self._on_sample))
-        self._entities.append(self.session.liveliness().declare_subscriber(
-            alive_selector(self.prefix), self._on_liveliness, history=True))
+            self._samples.append(self.session.declare_subscriber(selector, zenoh.handlers.FifoChannel(INBOX_CAPACITY)))
+        self._liveliness = self.session.liveliness().declare_subscriber(
+            alive_selector(self.prefix), zenoh.handlers.FifoChannel(INBOX_CAPACITY), history=True)
         self._tracks = self.session.declare_queryable(tracks_selector(self.prefix))
         self._status = self.session.declare_queryable(status_key(self.prefix))
-        self._entities += [self._tracks, self._status]
-
-    def _on_sample(self, sample: zenoh.Sample) -> None:
-        self.inbox.put(Received("sample", str(sample.key_expr), sample.payload.to_bytes(), str(sample.encoding),
-                                self.clock_ns()))
-
-    def _on_liveliness(self, sample: zenoh.Sample) -> None:
-        kind = "alive" if sample.kind == zenoh.SampleKind.PUT else "gone"
-        self.inbox.put(Received(kind, str(sample.key_expr), b"", "", self.clock_ns()))
+        self._entities += [*self._samples, self._liveliness, self._tracks, self._status]
 
     def wait(self, timeout_s: float) -> bool:
-        """Block until something is received or ``timeout_s`` passes; True if something was.
-
-        What arrived is kept for the next :meth:`drain`, so an idle loop wakes as
-        soon as a report lands instead of sleeping out a fixed tick.
-        """
-        if self._held:
-            return True
-        try:
-            self._held.append(self.inbox.get(timeout=timeout_s))
-        except queue.Empty:
-            return False
-        return True
+        """Wait until something is received or ``timeout_s`` passes (looking every
+        :data:`POLL_S`); True if something was. What came is kept for :meth:`drain`."""
+        deadline = time.monotonic() + timeout_s
+        while not self._held:
+            self._held = self._take(100_000)
+            if self._held or time.monotonic() >= deadline:
+                break
+            time.sleep(POLL_S)
+        return bool(self._held)
 
     def drain(self, limit: int = 100_000) -> list[Received]:
-        """Everything received so far (up to ``limit``), in arrival order."""
+        """Everything received so far (up to ``limit``): liveliness first, then the samples in the
+        order each subscription received them; stamped with the time they were taken."""
         out, self._held = self._held, []
-        while len(out) < limit:
-            try:
-                out.append(self.inbox.get_nowait())
-            except queue.Empty:
-                break
+        return out + self._take(limit - len(out))
+
+    def _take(self, limit: int) -> list[Received]:
+        out: list[Received] = []
+        if self.session is None:
+            return out
+        now = self.clock_ns()
+        while len(out) < limit and (sample := self._liveliness.try_recv()) is not None:
+            kind = "alive" if sample.kind == zenoh.SampleKind.PUT else "gone"
+            out.append(Received(kind, str(sample.key_expr), b"", "", now))
+        for subscriber in self._samples:
+            while len(out) < limit and (sample := subscriber.try_recv()) is not None:
+                out.append(Received("sample", str(sample.key_expr), sample.payload.to_bytes(), str(sample.encoding),
+                                    now))
         return out
 
     def _put(self, key: str, message: Message) -> None:
@@ -152,6 +159,7 @@ class ZenohIO:
             except zenoh.ZError as error:  # already gone with a broken session
                 log.debug("undeclare failed: %s", error)
         self._entities.clear()
+        self._samples, self._liveliness = [], None
         self._publishers.clear()
         if self.session is not None:
             self.session.close()

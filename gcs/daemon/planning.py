@@ -1,48 +1,73 @@
-"""Planning beside the daemon's loop: one worker thread, the newest step wins.
+"""Planning beside the daemon's loop: one plan at a time, the newest step wins.
 
 Planning a step (the visibility regions of the k+1..k+n predictions, then the
 GA or another planner) takes tens to hundreds of milliseconds; fusing a step
-takes well under one. Run on the loop thread, every plan holds up the reports,
-tracks and queries behind it. So the loop fuses and publishes every step's track
-at once and hands the planning to :class:`PlannerWorker`:
+takes a few. Run on the loop, every plan holds up the reports, tracks and
+queries behind it. So the loop fuses and publishes every step's track at once
+and hands the planning to a planner:
 
-* a **mailbox of one**: :meth:`PlannerWorker.submit` replaces a job the worker
-  has not started yet (counted as ``superseded``). A plan made from older data
+* a **mailbox of one**: :meth:`Planner.submit` replaces a job the planner has
+  not started yet (counted as ``superseded``). A plan made from older data
   than the newest fused step is worth nothing once the newer one exists, so the
-  worker never queues behind itself;
-* the worker runs :func:`gcs.core.tracker.plan` (pure) and posts a
-  :class:`PlanOutcome`; the loop takes finished outcomes with
-  :meth:`PlannerWorker.take` and applies them (warm-start memory, commands,
-  ``PlanCommand``), so every side effect stays on the loop thread;
-* the random generator is used only by the worker, one job at a time.
+  planner never queues behind itself;
+* the planner runs :func:`gcs.core.tracker.plan` (pure) and the loop takes the
+  finished :class:`PlanOutcome` s with :meth:`Planner.take` and applies them
+  (warm-start memory, commands, ``PlanCommand``): every side effect stays on
+  the loop;
+* the random generator belongs to the planner and serves one job at a time.
 
-``threaded=False`` runs each job inside :meth:`PlannerWorker.submit`, for
-callers that want the plan before they go on (tests, deterministic runs).
+Three planners share that interface:
+
+``process`` (the daemon's default, :class:`ProcessPlanner`)
+    A child process with its own tracker, world and generator. Python runs one
+    thread at a time in a process, so a planning *thread* takes the interpreter
+    from the loop for as long as it computes; a process does not.
+``thread`` (:class:`ThreadPlanner`)
+    A thread of the daemon's process: no start-up cost, shares the interpreter.
+``inline`` (:class:`InlinePlanner`)
+    Plans inside :meth:`~Planner.submit`, before the loop goes on (deterministic).
 """
 
 from __future__ import annotations
 
 import logging
+import multiprocessing
+import os
+import signal
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from gcs.config import Scenario
 from gcs.core.filters.prediction import HorizonPrediction
 from gcs.core.kinematics import VehicleState
 from gcs.core.planners.problem import PlanResult
 from gcs.core.tracker import TrackerConfig, TrackerState, plan
+from gcs.core.world import World
 
-__all__ = ["PlanJob", "PlanOutcome", "PlannerWorker"]
+__all__ = ["PLANNER_MODES", "PlanJob", "PlanOutcome", "Planner", "InlinePlanner", "ThreadPlanner", "ProcessPlanner",
+           "start_planner"]
 
 log = logging.getLogger(__name__)
+
+PLANNER_MODES = ("process", "thread", "inline")
+PLANNER_NICENESS = 10
+"""How much lower the planner process's scheduling priority is than the daemon's.
+
+When the machine has less CPU than everything wants (more steps per second than
+plans, other programs), the loop (reports, tracks, commands) goes first and the
+plans get what is left: they come a little older, but nothing else waits. With
+CPU to spare, as at one decision step a second, it changes nothing."""
+START_TIMEOUT_S = 60.0
+"""How long a planner process may take to import, build its tracker and say it is ready."""
 
 
 @dataclass(frozen=True)
 class PlanJob:
-    """Everything one plan needs, captured on the loop thread when its step was fused.
+    """Everything one plan needs, captured on the loop when its step was fused.
 
     Attributes
     ----------
@@ -50,8 +75,8 @@ class PlanJob:
         The decision step the plan is for.
     active : tuple of str
         The vehicles planned (the rows of ``vehicles`` and of the plan).
-    config : TrackerConfig
-        The tracker for those vehicles.
+    indices : tuple of int
+        Their places in the roster (which tracker to plan with: ``subset_config``).
     state : TrackerState
         The fused estimate, the warm start and the turn rates being flown.
     vehicles : VehicleState
@@ -59,17 +84,17 @@ class PlanJob:
     predicted : HorizonPrediction
         The k+1..k+n prediction already published with the track.
     clock_scale : float
-        The planner's clock is the worker's clock times this (data time per wall
+        The planner's clock is ``time.monotonic`` times this (data time per wall
         second over the share of the step the planner may use; see
         ``Daemon._clock_scale``): its deadline is in data time.
     submitted_s : float
-        Loop clock when the job was handed over.
+        ``time.monotonic`` when the job was handed over.
     """
 
     index: int
     stamp_ns: int
     active: tuple[str, ...]
-    config: TrackerConfig
+    indices: tuple[int, ...]
     state: TrackerState
     vehicles: VehicleState
     predicted: HorizonPrediction
@@ -81,9 +106,9 @@ class PlanJob:
 class PlanOutcome:
     """A finished job: the new tracker state and first turn rates, or the error that stopped it.
 
-    ``started_s - job.submitted_s`` is the time the job waited for the worker
-    (busy with the previous plan); ``finished_s - started_s`` is the planning
-    time (visibility regions and solve). Times are the loop's clock, and
+    ``started_s - job.submitted_s`` is the time the job waited (the planner was
+    busy with the previous plan); ``finished_s - started_s`` is the planning
+    time (visibility regions and solve); both ``time.monotonic``.
     ``finished_ns`` is ``time.time_ns`` at the end (to compare with other processes).
     """
 
@@ -110,27 +135,75 @@ class PlanOutcome:
         return None if self.result is None else self.result.elapsed_s / self.job.clock_scale
 
 
-class PlannerWorker:
-    """Runs :class:`PlanJob` s one at a time on a thread of its own; see the module docstring."""
+def run_job(job: PlanJob, config: TrackerConfig, rng: np.random.Generator) -> PlanOutcome:
+    """Plan one job with the tracker for its vehicles; an exception becomes the outcome's ``error``."""
+    started, scale = time.monotonic(), job.clock_scale
+    try:
+        state, turn_rates, diagnostics = plan(config, job.state, job.vehicles, rng,
+                                              now=lambda: time.monotonic() * scale, predicted=job.predicted)
+    except Exception as error:  # a bug in one plan must not stop planning
+        log.exception("planning step %d failed; continuing", job.index)
+        return PlanOutcome(job, None, None, None, started, time.monotonic(), time.time_ns(),
+                           error=f"{type(error).__name__}: {error}")
+    return PlanOutcome(job, state, turn_rates, diagnostics.plan, started, time.monotonic(), time.time_ns())
 
-    def __init__(self, rng: np.random.Generator, clock: Callable[[], float], threaded: bool = True) -> None:
-        self.rng, self.clock, self.threaded = rng, clock, threaded
+
+class Planner:
+    """What the daemon's loop sees of a planner (see the module docstring)."""
+
+    superseded: int = 0
+
+    def submit(self, job: PlanJob) -> None:
+        """Hand over a job; it replaces one still waiting (the newest step wins)."""
+        raise NotImplementedError
+
+    def take(self) -> list[PlanOutcome]:
+        """The outcomes finished since the last call, oldest first."""
+        raise NotImplementedError
+
+    @property
+    def busy(self) -> bool:
+        """A job is waiting or being planned."""
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Stop after the job being planned (idempotent); a waiting job is dropped."""
+
+
+class InlinePlanner(Planner):
+    """Plans in :meth:`submit` (the loop waits for it)."""
+
+    def __init__(self, configs: Callable[[tuple[int, ...]], TrackerConfig], rng: np.random.Generator) -> None:
+        self.configs, self.rng = configs, rng
+        self._done: list[PlanOutcome] = []
+
+    def submit(self, job: PlanJob) -> None:
+        self._done.append(run_job(job, self.configs(job.indices), self.rng))
+
+    def take(self) -> list[PlanOutcome]:
+        done, self._done = self._done, []
+        return done
+
+    @property
+    def busy(self) -> bool:
+        return False
+
+
+class ThreadPlanner(Planner):
+    """Plans on a thread of its own, one job at a time."""
+
+    def __init__(self, configs: Callable[[tuple[int, ...]], TrackerConfig], rng: np.random.Generator) -> None:
+        self.configs, self.rng = configs, rng
         self.superseded = 0
         self._pending: PlanJob | None = None
         self._running = False
         self._done: list[PlanOutcome] = []
         self._closing = False
         self._wakeup = threading.Condition()
-        self._thread: threading.Thread | None = None
-        if threaded:
-            self._thread = threading.Thread(target=self._work, name="gcs-planner", daemon=True)
-            self._thread.start()
+        self._thread = threading.Thread(target=self._work, name="gcs-planner", daemon=True)
+        self._thread.start()
 
     def submit(self, job: PlanJob) -> None:
-        """Hand over a job; it replaces one still waiting (the newest step wins)."""
-        if not self.threaded:
-            self._done.append(self._run(job))
-            return
         with self._wakeup:
             if self._pending is not None:
                 self.superseded += 1
@@ -138,24 +211,20 @@ class PlannerWorker:
             self._wakeup.notify()
 
     def take(self) -> list[PlanOutcome]:
-        """The outcomes finished since the last call, oldest first."""
         with self._wakeup:
             done, self._done = self._done, []
         return done
 
     @property
     def busy(self) -> bool:
-        """A job is waiting or running."""
         with self._wakeup:
             return self._running or self._pending is not None
 
-    def close(self, timeout_s: float = 5.0) -> None:
-        """Stop the worker after the job it is running (idempotent); waiting jobs are dropped."""
+    def close(self, timeout_s: float = 10.0) -> None:
         with self._wakeup:
-            self._closing = True
-            self._pending = None
+            self._closing, self._pending = True, None
             self._wakeup.notify()
-        if self._thread is not None and self._thread is not threading.current_thread():
+        if self._thread is not threading.current_thread():
             self._thread.join(timeout_s)
             if self._thread.is_alive():
                 log.warning("the planner thread did not stop within %.0f s", timeout_s)
@@ -168,18 +237,178 @@ class PlannerWorker:
                 if self._closing:
                     return
                 job, self._pending, self._running = self._pending, None, True
-            outcome = self._run(job)
+            outcome = run_job(job, self.configs(job.indices), self.rng)
             with self._wakeup:
                 self._done.append(outcome)
                 self._running = False
 
-    def _run(self, job: PlanJob) -> PlanOutcome:
-        started, clock, scale = self.clock(), self.clock, job.clock_scale
+
+def _serve(conn, scenario: Scenario, world: World, planner_name: str, seed: int) -> None:
+    """The planner process: build the tracker, then plan each job received until told to stop."""
+    from gcs.tracking import subset_config, tracker_config  # the child's own imports
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group; the daemon stops us
+    if hasattr(os, "nice"):
+        os.nice(PLANNER_NICENESS)
+    try:
+        tracker = tracker_config(scenario, world, planner_name)
+    except Exception as error:
+        conn.send(("error", f"{type(error).__name__}: {error}"))
+        return
+    configs: dict[tuple[int, ...], TrackerConfig] = {}
+    rng = np.random.default_rng(seed)
+    conn.send(("ready", None))
+    while True:
         try:
-            state, turn_rates, diagnostics = plan(job.config, job.state, job.vehicles, self.rng,
-                                                  now=lambda: clock() * scale, predicted=job.predicted)
-        except Exception as error:  # a bug in one plan must not stop planning
-            log.exception("planning step %d failed; continuing", job.index)
-            return PlanOutcome(job, None, None, None, started, self.clock(), time.time_ns(),
-                               error=f"{type(error).__name__}: {error}")
-        return PlanOutcome(job, state, turn_rates, diagnostics.plan, started, self.clock(), time.time_ns())
+            job = conn.recv()
+        except (EOFError, KeyboardInterrupt):  # the daemon is gone, or Ctrl-C reached the whole group
+            return
+        if job is None:
+            return
+        config = configs.get(job.indices)
+        if config is None:
+            config = configs[job.indices] = subset_config(tracker, job.indices)
+        outcome = run_job(job, config, rng)
+        try:
+            conn.send(replace(outcome, job=None))  # the daemon has the job already
+        except (BrokenPipeError, EOFError):
+            return
+
+
+class ProcessPlanner(Planner):
+    """Plans in a child process (spawned, so no thread of the daemon's is copied into it).
+
+    The child builds its own tracker from the scenario and world, seeds its own
+    generator, and runs at a lower priority (:data:`PLANNER_NICENESS`). It is
+    started in the background: starting Python and handing it the world takes a
+    second or more, which the loop spends fusing (jobs submitted meanwhile wait,
+    the newest winning). The mailbox of one is kept here: a job is sent only when
+    the child is idle, so the child never plans a step older than the newest one
+    waiting. A child that dies is reported and started again.
+    """
+
+    def __init__(self, scenario: Scenario, world: World, planner_name: str, seed: int) -> None:
+        self._arguments = (scenario, world, planner_name, seed)
+        self.superseded = 0
+        self.restarts = 0
+        self._in_flight: PlanJob | None = None
+        self._pending: PlanJob | None = None
+        self._closed = False
+        self._begin()
+
+    # ----------------------------------------------------------- the child
+
+    def _begin(self) -> None:
+        """Start a child in the background; :meth:`take` notices when it is ready."""
+        self._ready, self._conn, self._process = False, None, None
+        self._begin_s = time.monotonic()
+        self._launcher = threading.Thread(target=self._launch, name="gcs-planner-start", daemon=True)
+        self._launcher.start()
+
+    def _launch(self) -> None:
+        context = multiprocessing.get_context("spawn")
+        conn, child = context.Pipe()
+        process = context.Process(target=_serve, args=(child, *self._arguments), name="gcs-planner", daemon=True)
+        process.start()  # blocks until the child has read its arguments
+        child.close()  # so that a dead child reads as EOF here
+        self._conn, self._process = conn, process
+
+    def _check_ready(self) -> bool:
+        if self._ready:
+            return True
+        if self._launcher.is_alive() or self._conn is None:
+            if time.monotonic() - self._begin_s > START_TIMEOUT_S:
+                raise RuntimeError(f"the planner process did not start within {START_TIMEOUT_S:.0f} s")
+            return False
+        try:
+            if not self._conn.poll():
+                if time.monotonic() - self._begin_s > START_TIMEOUT_S:
+                    raise RuntimeError(f"the planner process did not start within {START_TIMEOUT_S:.0f} s")
+                return False
+            kind, detail = self._conn.recv()
+        except (EOFError, ConnectionResetError):
+            raise RuntimeError("the planner process died while starting") from None
+        if kind != "ready":
+            raise RuntimeError(f"the planner process could not build its tracker: {detail}")
+        self._ready = True
+        self._send_pending()
+        return True
+
+    def _restart(self) -> None:
+        log.error("the planner process died (exit code %s)%s; starting it again", self._process.exitcode,
+                  f" planning step {self._in_flight.index}" if self._in_flight else "")
+        self.restarts += 1
+        self._in_flight = None
+        self._stop(timeout_s=1.0)
+        self._begin()
+
+    # ------------------------------------------------------------ the loop
+
+    def submit(self, job: PlanJob) -> None:
+        if self._pending is not None:
+            self.superseded += 1
+        self._pending = job
+        if self._in_flight is None and self._check_ready():
+            self._send_pending()
+
+    def _send_pending(self) -> None:
+        if self._pending is None:
+            return
+        job, self._pending = self._pending, None
+        try:
+            self._conn.send(job)
+        except (BrokenPipeError, ConnectionResetError, EOFError):
+            self._pending = job
+            self._restart()
+            return
+        self._in_flight = job
+
+    def take(self) -> list[PlanOutcome]:
+        done: list[PlanOutcome] = []
+        if self._closed or not self._check_ready():
+            return done
+        try:
+            while self._in_flight is not None and self._conn.poll():
+                done.append(replace(self._conn.recv(), job=self._in_flight))
+                self._in_flight = None
+                self._send_pending()
+        except (EOFError, BrokenPipeError, ConnectionResetError):
+            self._restart()
+        return done
+
+    @property
+    def busy(self) -> bool:
+        return self._in_flight is not None or self._pending is not None
+
+    def close(self, timeout_s: float = 10.0) -> None:
+        if not self._closed:
+            self._closed, self._pending = True, None
+            self._stop(timeout_s)
+
+    def _stop(self, timeout_s: float) -> None:
+        self._launcher.join(timeout_s)
+        if self._process is None:
+            return
+        if self._process.is_alive():
+            try:
+                self._conn.send(None)
+            except (BrokenPipeError, OSError):
+                pass
+            self._process.join(timeout_s)
+        if self._process.is_alive():
+            log.warning("the planner process did not stop within %.0f s; terminating it", timeout_s)
+            self._process.terminate()
+            self._process.join(5.0)
+        self._conn.close()
+
+
+def start_planner(mode: str, scenario: Scenario, world: World, planner_name: str, seed: int,
+                  configs: Callable[[tuple[int, ...]], TrackerConfig]) -> Planner:
+    """The planner of a mode in :data:`PLANNER_MODES`; ``configs`` maps roster indices to their tracker."""
+    if mode == "process":
+        return ProcessPlanner(scenario, world, planner_name, seed)
+    if mode == "thread":
+        return ThreadPlanner(configs, np.random.default_rng(seed))
+    if mode == "inline":
+        return InlinePlanner(configs, np.random.default_rng(seed))
+    raise ValueError(f"planner mode must be one of {', '.join(PLANNER_MODES)}, got {mode!r}")
