@@ -14,6 +14,7 @@ from gcs.adapters.mavlink_cli import add_mavlink_arguments, connections_from_arg
 from gcs.adapters.zenoh_session import (DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, query,
                                         settings_from_arguments)
 from gcs.config import ScenarioError
+from gcs.daemon.planning import PLANNER_MODES
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
 from gcs.tracking import PLANNERS
 from gcs.world_loader import build_world
@@ -39,6 +40,9 @@ def add_daemon_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of the planner's random generator (default 0)")
     parser.add_argument("--record", type=Path, metavar="FILE.mcap",
                         help="record everything received and published (MCAP), finished on exit")
+    parser.add_argument("--plan-in", choices=PLANNER_MODES, default="process", dest="planner_mode",
+                        help="where plans are made: a child process (default), a thread of the daemon, or inline "
+                             "in its loop (each plan before the next step is fused)")
 
 
 def add_run(sub: argparse._SubParsersAction) -> None:
@@ -65,7 +69,7 @@ def build_daemon(args: argparse.Namespace, **kwargs):
     options = DaemonOptions(zenoh=zenoh, prefix=args.prefix,
                             mavlink=connections_from_arguments(args, [v.id for v in scenario.vehicles]),
                             signing_key=signing_key_from_arguments(args), seed=args.seed, planner=args.planner,
-                            record=args.record)
+                            record=args.record, planner_mode=args.planner_mode)
     base_dir = scenario_base_dir(args.scenario)
     return Daemon(scenario, build_world(scenario, base_dir), options, **kwargs)
 
