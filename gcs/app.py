@@ -50,6 +50,7 @@ from gcs.core.tracker import TrackerConfig, plan, prediction
 from gcs.daemon.fusion import PlanMemory, fuse_step, plan_commands, track_message
 from gcs.core.world import World
 from gcs.daemon.ingest import Ingest
+from gcs.daemon.live import LiveMap
 from gcs.daemon.registry import Registry
 from gcs.daemon.steps import ReadyStep, StepAssembler
 from gcs.tracking import scenario_planner, subset_config, tracker_config
@@ -90,6 +91,9 @@ class DaemonOptions:
     record : Path or None
         Record everything received and published to this MCAP file
         (:mod:`gcs.adapters.recording`), finished when the daemon stops.
+    http : (host, port) or None
+        Serve the live map there (:mod:`gcs.daemon.live`; port 0 picks a free
+        one); None: no page.
     """
 
     zenoh: ZenohSettings
@@ -101,6 +105,7 @@ class DaemonOptions:
     max_wait_s: float = 0.5
     plan_fraction: float = 0.6
     record: Path | None = None
+    http: tuple[str, int] | None = None
 
 
 @dataclass(frozen=True)
@@ -171,6 +176,8 @@ class Daemon:
         self._subset_configs: dict[tuple[int, ...], TrackerConfig] = {}
         self._next_steer_s = 0.0
         self._closed = False
+        self._opened = False
+        self.live: LiveMap | None = None
 
     # ------------------------------------------------------------- lifecycle
 
@@ -185,11 +192,22 @@ class Daemon:
         return None if heard is None else now_s - heard
 
     def _record_published(self, key: str, payload: bytes, encoding: str, time_ns: int) -> None:
+        if self.live is not None:
+            self.live.observe_wire(payload, encoding)
         if self.recorder is not None and not key.endswith("/daemon/status"):
             self.recorder.write(key, payload, encoding, time_ns)
 
     def open(self) -> None:
-        """Open the recording, Zenoh and MAVLink."""
+        """Open the recording, Zenoh, MAVLink and the live map (idempotent: ``run`` opens if not yet open)."""
+        if self._opened:
+            return
+        self._opened = True
+        if self.options.http is not None:
+            try:
+                self.live = LiveMap.open(self.options.http, self.scenario, self.world)
+            except OSError as error:  # the map is for the operator; the vehicles are flown without it
+                self.counters["errors.http"] += 1
+                log.error("live map off: cannot serve on %s:%d: %s", *self.options.http, error)
         if self.options.record is not None:
             self.recorder = Recorder(self.options.record, library=f"gcs {__version__}")
         self.zenoh.open()
@@ -207,6 +225,8 @@ class Daemon:
         if self.commander is not None and not self._closed:
             self.commander.close()
         self._closed = True
+        if self.live is not None:
+            self.live.close()
         self.zenoh.close()
         if self.recorder is not None:
             self.recorder.finish()
@@ -251,6 +271,8 @@ class Daemon:
                 self._next_steer_s = now + 1.0 / STEER_RATE_HZ
             self.commander.service(now)
         self.zenoh.answer_queries(status=lambda: self.status(now))
+        if self.live is not None:
+            self.live.publish(now, lambda: self.status(now))
         return bool(received or ready)
 
     def _handle(self, item, now: float) -> None:
@@ -270,6 +292,8 @@ class Daemon:
                 log.info("vehicle %s %s", parsed.ident, "joined" if item.kind == "alive" else "left")
             return
         message = self.ingest.accept(item)
+        if self.live is not None:
+            self.live.observe(message)
         if isinstance(message, SensorReport):
             self.registry.on_report(message)
             self.steps.add(message, now)

@@ -118,8 +118,15 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     command = [sys.executable, "-m", "sim_vehicles.cli", "--log-level", "WARNING", "run", "--scenario", args.scenario,
                "--rate", str(args.rate), "--duration", str(duration), "--seed", str(args.seed),
                "--mavlink", f"udpout:127.0.0.1:{mavlink_port}", "--zenoh-connect", endpoint]
+    try:
+        daemon.open()  # before the vehicles start, and so that the live map's address is known
+    except RuntimeError as error:  # zenoh could not open
+        log.error("%s", error)
+        daemon.close()
+        return 1
     print(f"demo: {daemon.scenario.name}, {len(daemon.scenario.vehicles)} UAVs, {duration:g} s at {args.rate:g}x; "
           f"zenoh {endpoint}, MAVLink udpin:127.0.0.1:{mavlink_port}; simulator log {log_file}", flush=True)
+    print(f"live map: {daemon.live.url if daemon.live is not None else 'off'}", flush=True)
     stopped = _run_together(daemon, command, log_file)
     progress.end()
     summary = summarise(daemon.records, daemon.roster)

@@ -11,6 +11,7 @@ from pathlib import Path
 import msgspec
 
 from gcs.adapters.mavlink_cli import add_mavlink_arguments, connections_from_arguments, signing_key_from_arguments
+from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_session import (DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, query,
                                         settings_from_arguments)
 from gcs.config import ScenarioError
@@ -39,6 +40,7 @@ def add_daemon_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of the planner's random generator (default 0)")
     parser.add_argument("--record", type=Path, metavar="FILE.mcap",
                         help="record everything received and published (MCAP), finished on exit")
+    add_http_argument(parser, "the live map (vehicles, track, plans, status)")
 
 
 def add_run(sub: argparse._SubParsersAction) -> None:
@@ -65,7 +67,7 @@ def build_daemon(args: argparse.Namespace, **kwargs):
     options = DaemonOptions(zenoh=zenoh, prefix=args.prefix,
                             mavlink=connections_from_arguments(args, [v.id for v in scenario.vehicles]),
                             signing_key=signing_key_from_arguments(args), seed=args.seed, planner=args.planner,
-                            record=args.record)
+                            record=args.record, http=args.http)
     base_dir = scenario_base_dir(args.scenario)
     return Daemon(scenario, build_world(scenario, base_dir), options, **kwargs)
 
