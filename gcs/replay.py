@@ -6,6 +6,8 @@
 * ``gcs replay FILE [--rate R | --fast]`` republishes the recorded inputs
   (reports, nav, truth; liveliness as tokens) so that a running daemon consumes
   them, keeping their recorded spacing divided by ``R``, or as fast as possible.
+* ``gcs replay FILE --view [--rate R] [--http ADDRESS]`` shows it on the live map
+  with play/pause and speed (:mod:`gcs.replay_view`).
 * ``gcs replay FILE --process [--plan] [--out TRACKS.mcap|.csv]`` runs the
   estimator (and the planner) on the file directly, without Zenoh: the same validation, step assembly and
   fusion as the daemon (:mod:`gcs.daemon.fusion`), so a recording of a live run
@@ -33,6 +35,7 @@ import numpy as np
 import zenoh
 
 from gcs.adapters.recording import LIVELINESS_ENCODING, Recorded, Recorder, RecordingError, read_recording
+from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_io import Received
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, settings_from_arguments
 from gcs.config import Scenario, ScenarioError
@@ -354,12 +357,39 @@ def add_replay(sub: argparse._SubParsersAction) -> None:
                              ".mcap --out")
     parser.add_argument("--seed", type=int, default=0, help="--process --plan: the planner's seed (default 0)")
     parser.add_argument("--json", action="store_true", help="--info: print JSON")
+    parser.add_argument("--view", action="store_true",
+                        help="show the recording on the live map (play/pause, speed; --rate is the starting speed, "
+                             "--scenario draws the city) until Ctrl-C")
+    add_http_argument(parser, "the live map of --view")
     add_zenoh_arguments(parser, listen=(), connect=(DEFAULT_ENDPOINT,))
     parser.set_defaults(handler=_cmd_replay)
 
 
+def _cmd_view(args: argparse.Namespace) -> int:
+    from gcs.replay_view import view
+
+    if args.info or args.process or args.fast:
+        log.error("--view cannot be combined with --info, --process or --fast")
+        return 2
+    if args.http is None:
+        log.error("--view needs --http ADDRESS")
+        return 2
+    if not args.file.is_file():
+        raise ValueError(f"{args.file}: no such file")
+    scenario = load_scenario(args.scenario)
+    world = build_world(scenario, scenario_base_dir(args.scenario))
+    stop = threading.Event()
+    _stop_on_signals(stop)
+    counts = view(args.file, scenario, world, args.http, args.rate, stop,
+                  on_open=lambda url: print(f"live map: {url} (replaying {args.file}; Ctrl-C to stop)", flush=True))
+    print("shown " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
+    return 0
+
+
 def _cmd_replay(args: argparse.Namespace) -> int:
     try:
+        if args.view:
+            return _cmd_view(args)
         if args.info:
             info = summarise(args.file)
             if args.json:
