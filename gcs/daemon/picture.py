@@ -36,7 +36,7 @@ from gcs.core.world import World
 from protocols.codec import decode
 from protocols.errors import ProtocolError
 from protocols.messages import (DaemonStatus, Message, NavReport, PlanCommand, SensorReport, TargetTruth,
-                                TrackEstimate)
+                                TrackEstimate, VehicleStatus)
 
 __all__ = ["Picture", "ellipse", "world_geometry", "encode_json", "TRAIL_POINTS", "TRAIL_STEP_S", "SIGMAS"]
 
@@ -107,19 +107,34 @@ def world_geometry(scenario: Scenario, world: World) -> dict:
 
 
 class _Trail:
-    """The last :data:`TRAIL_POINTS` positions, at most one per :data:`TRAIL_STEP_S` of stamp time."""
+    """The last :data:`TRAIL_POINTS` positions, at most one per :data:`TRAIL_STEP_S` of stamp time.
+
+    A trail changes once a second at most but is sent five times a second: each
+    point is kept as its JSON text, and the trail's JSON array (:meth:`encoded`)
+    is joined from them when it has changed (600 points: tens of microseconds,
+    where encoding the floats again takes a fifth of a millisecond).
+    """
 
     def __init__(self) -> None:
-        self.points: deque[tuple[float, float]] = deque(maxlen=TRAIL_POINTS)
+        self.points: deque[bytes] = deque(maxlen=TRAIL_POINTS)
         self.last_ns: int | None = None
+        self._encoded: msgspec.Raw | None = None
+
+    def due(self, stamp_ns: int) -> bool:
+        """Whether a position at ``stamp_ns`` would be taken."""
+        return self.last_ns is None or stamp_ns - self.last_ns >= TRAIL_STEP_S * NS_PER_S or stamp_ns < self.last_ns
 
     def add(self, stamp_ns: int, x: float, y: float) -> None:
-        if self.last_ns is None or stamp_ns - self.last_ns >= TRAIL_STEP_S * NS_PER_S or stamp_ns < self.last_ns:
-            self.points.append((_r(x), _r(y)))
+        if self.due(stamp_ns):
+            self.points.append(msgspec.json.encode((_r(x), _r(y))))
             self.last_ns = stamp_ns
+            self._encoded = None
 
-    def to_list(self) -> list[list[float]]:
-        return [list(p) for p in self.points]
+    def encoded(self) -> msgspec.Raw:
+        """The points as a JSON array of ``[x, y]`` (embedded as is by :func:`encode_json`)."""
+        if self._encoded is None:
+            self._encoded = msgspec.Raw(b"[" + b",".join(self.points) + b"]")
+        return self._encoded
 
 
 @dataclass
@@ -127,6 +142,7 @@ class _Vehicle:
     """What the page knows of one vehicle."""
 
     position: tuple[float, float, float] | None = None
+    fix: tuple[float, float, float] | None = None  # a newer GPS fix (lat, lon, alt) not converted to ENU yet
     stamp_ns: int | None = None
     heading_rad: float | None = None
     detected: bool | None = None
@@ -223,8 +239,22 @@ class Picture:
 
     def _move(self, vehicle: _Vehicle, stamp_ns: int, position: tuple[float, float, float]) -> None:
         if vehicle.stamp_ns is None or stamp_ns >= vehicle.stamp_ns:
-            vehicle.position, vehicle.stamp_ns = position, stamp_ns
+            vehicle.position, vehicle.fix, vehicle.stamp_ns = position, None, stamp_ns
             vehicle.trail.add(stamp_ns, position[0], position[1])
+
+    def _enu(self, fixes: list[tuple[float, float, float]]) -> np.ndarray:
+        lat, lon, alt = np.array(fixes, dtype=np.float64).T
+        return self.frame.to_enu(lat, lon, alt).reshape(-1, 3)
+
+    def _fix(self, vehicle: _Vehicle, stamp_ns: int, fix: tuple[float, float, float]) -> None:
+        """A GPS fix: converted to ENU now if the trail takes it, else when a snapshot needs it (at
+        five times a second, not at the nav rate of every vehicle)."""
+        if vehicle.stamp_ns is not None and stamp_ns < vehicle.stamp_ns:
+            return
+        if vehicle.trail.due(stamp_ns):
+            self._move(vehicle, stamp_ns, tuple(float(v) for v in self._enu([fix])[0]))
+        else:
+            vehicle.fix, vehicle.stamp_ns = fix, stamp_ns
 
     def _on_report(self, report: SensorReport) -> None:
         vehicle = self._vehicle(report.vehicle_id)
@@ -243,8 +273,7 @@ class Picture:
         elif nav.velocity_enu_mps is not None and math.hypot(*nav.velocity_enu_mps[:2]) > 1.0:
             vehicle.heading_rad = math.atan2(nav.velocity_enu_mps[1], nav.velocity_enu_mps[0])
         if nav.gps is not None and nav.gps.fix_type >= 2:
-            enu = self.frame.to_enu(nav.gps.lat_deg, nav.gps.lon_deg, nav.gps.alt_m)
-            self._move(vehicle, nav.stamp_ns, (float(enu[0]), float(enu[1]), float(enu[2])))
+            self._fix(vehicle, nav.stamp_ns, (nav.gps.lat_deg, nav.gps.lon_deg, nav.gps.alt_m))
 
     def _target(self, target_id: str) -> _Target:
         target = self.targets.get(target_id)
@@ -289,11 +318,11 @@ class Picture:
 
     # ----------------------------------------------------------------- output
 
-    def _link(self, vehicle_id: str, vehicle: _Vehicle, status: DaemonStatus | None) -> str:
-        if status is not None:
-            for entry in status.vehicles:
-                if entry.vehicle_id == vehicle_id:
-                    return entry.link
+    def _link(self, vehicle: _Vehicle, entry: VehicleStatus | None) -> str:
+        """The daemon's word when it has one; else lost with its token withdrawn or data older than
+        :data:`LOST_AFTER_S` (in stamp time), ok with newer data or a token."""
+        if entry is not None:
+            return entry.link
         if vehicle.token is False:
             return "lost"
         if vehicle.stamp_ns is not None and self.newest_ns is not None:
@@ -306,21 +335,27 @@ class Picture:
         ``status`` is the daemon's own (link states and counters); without one
         (replay) the newest recorded ``DaemonStatus`` is used if any, and links
         are derived from liveliness tokens and data age. ``extra`` is merged
-        into the status document (e.g. the replay's clock).
+        into the status document (e.g. the replay's clock). Trails are
+        ``msgspec.Raw`` JSON arrays: :func:`encode_json` embeds them as they are.
         """
         with self._lock:
+            pending = [v for v in self.vehicles.values() if v.fix is not None]
+            if pending:  # the newest fixes, converted in one call
+                for vehicle, enu in zip(pending, self._enu([v.fix for v in pending])):
+                    vehicle.position, vehicle.fix = (float(enu[0]), float(enu[1]), float(enu[2])), None
             status = status if status is not None else self.status
+            links = {} if status is None else {entry.vehicle_id: entry for entry in status.vehicles}
             vehicles = []
             for vehicle_id, v in self.vehicles.items():
                 plan = v.plan
                 vehicles.append({
-                    "id": vehicle_id, "link": self._link(vehicle_id, v, status),
+                    "id": vehicle_id, "link": self._link(v, links.get(vehicle_id)),
                     "x": None if v.position is None else _r(v.position[0]),
                     "y": None if v.position is None else _r(v.position[1]),
                     "z": None if v.position is None else _r(v.position[2]),
                     "heading_rad": None if v.heading_rad is None else round(v.heading_rad, 4),
                     "stamp_ns": v.stamp_ns, "detected": v.detected, "reports": v.reports,
-                    "trail": v.trail.to_list(),
+                    "trail": v.trail.encoded(),
                     "plan": [] if plan is None else [[_r(x), _r(y)] for x, y in plan.planned_path_enu_m],
                     "plan_stamp_ns": None if plan is None else plan.stamp_ns,
                     "planner": None if plan is None else plan.planner,
@@ -332,7 +367,7 @@ class Picture:
                 if t.truth is not None:
                     truths.append({"target_id": target_id, "stamp_ns": t.truth.stamp_ns,
                                    "x": _r(t.truth.position_enu_m[0]), "y": _r(t.truth.position_enu_m[1]),
-                                   "trail": t.truth_trail.to_list()})
+                                   "trail": t.truth_trail.encoded()})
                 if t.scored:
                     errors[target_id] = {"rmse_m": round(math.sqrt(t.squares / t.scored), 2), "scored": t.scored,
                                          "last_error_m": round(t.last_error_m, 2)}
@@ -345,7 +380,8 @@ class Picture:
                 "first_stamp_ns": self.first_ns,
                 "uptime_s": None if status is None else round(status.uptime_s, 1),
                 "vehicles": [{"id": v["id"], "link": v["link"], "reports": v["reports"], "detected": v["detected"],
-                              **self._status_fields(v["id"], status)} for v in vehicles],
+                              "sysid": getattr(links.get(v["id"]), "sysid", None),
+                              "autopilot": getattr(links.get(v["id"]), "autopilot", None)} for v in vehicles],
                 "counters": counters,
                 "last_track_stamp_ns": max((t["stamp_ns"] for t in tracks), default=None),
                 "errors": errors,
@@ -354,14 +390,6 @@ class Picture:
         if extra:
             summary.update(extra)
         return document, summary
-
-    @staticmethod
-    def _status_fields(vehicle_id: str, status: DaemonStatus | None) -> dict:
-        if status is not None:
-            for entry in status.vehicles:
-                if entry.vehicle_id == vehicle_id:
-                    return {"sysid": entry.sysid, "autopilot": entry.autopilot}
-        return {"sysid": None, "autopilot": None}
 
     @staticmethod
     def _track(target: _Target) -> dict:
@@ -376,10 +404,10 @@ class Picture:
             "prediction": [{"stamp_ns": p.stamp_ns, "x": _r(p.position_enu_m[0]), "y": _r(p.position_enu_m[1]),
                             "ellipse": ellipse(p.position_cov_m2)} for p in track.prediction],
             "contributing": list(track.contributing_vehicles),
-            "trail": target.track_trail.to_list(),
+            "trail": target.track_trail.encoded(),
         }
 
 
 def encode_json(document: dict) -> bytes:
-    """Compact JSON bytes of a snapshot document (NaN and infinity become null)."""
+    """Compact JSON bytes of a snapshot document (NaN and infinity become null; ``msgspec.Raw`` as it is)."""
     return msgspec.json.encode(document)

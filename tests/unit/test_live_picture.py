@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -10,7 +11,7 @@ from hypothesis import strategies as st
 
 from gcs.core.geometry import LocalFrame
 from gcs.core.world import Buildings, RestrictedAirspace, World
-from gcs.daemon.picture import SIGMAS, TRAIL_STEP_S, Picture, ellipse, world_geometry
+from gcs.daemon.picture import SIGMAS, TRAIL_STEP_S, Picture, ellipse, encode_json, world_geometry
 from gcs.scenarios import load_scenario
 from protocols.codec import encode
 from protocols.messages import (DaemonStatus, GpsFix, NavReport, PlanCommand, PredictedPoint, SensorReport,
@@ -39,6 +40,11 @@ def _track(stamp: int, xy: tuple[float, float], cov_xy=(100.0, 0.0, 0.0, 25.0), 
 
 def _truth(stamp: int, xy: tuple[float, float]) -> TargetTruth:
     return TargetTruth(target_id="target", seq=1, stamp_ns=stamp, position_enu_m=xy, velocity_enu_mps=(0.0, 0.0))
+
+
+def _snapshot(picture: Picture, *args, **kwargs) -> tuple[dict, dict]:
+    """The documents as the page gets them (trails are embedded JSON until encoded)."""
+    return tuple(json.loads(encode_json(document)) for document in picture.snapshot(*args, **kwargs))
 
 
 def _vehicle(tracks: dict, vehicle_id: str) -> dict:
@@ -87,11 +93,11 @@ def test_vehicles_are_placed_from_gps_and_reports_whichever_is_newer() -> None:
     gps = GpsFix(lat_deg=float(lat), lon_deg=float(lon), alt_m=float(height), fix_type=3, h_acc_m=2.0, v_acc_m=3.0)
     picture.observe(_report("uav1", T0, (10.0, 20.0, 200.0), detected=True))
     picture.observe(NavReport(vehicle_id="uav1", seq=1, stamp_ns=T0 + NS // 5, gps=gps, heading_rad=0.7))
-    tracks, _ = picture.snapshot()
+    tracks, _ = _snapshot(picture)
     uav1 = _vehicle(tracks, "uav1")
     assert (uav1["x"], uav1["y"]) == (1234.5, -678.9) and uav1["heading_rad"] == 0.7 and uav1["detected"] is True
     picture.observe(_report("uav1", T0 - NS, (0.0, 0.0, 200.0)))  # older: does not move it back
-    tracks, _ = picture.snapshot()
+    tracks, _ = _snapshot(picture)
     assert (_vehicle(tracks, "uav1")["x"], _vehicle(tracks, "uav1")["reports"]) == (1234.5, 2)
     assert _vehicle(tracks, "uav2")["x"] is None  # never heard of: listed, not placed
 
@@ -101,7 +107,7 @@ def test_trails_take_one_point_per_trail_step_of_stamp_time() -> None:
     step = round(TRAIL_STEP_S * NS)
     for k in range(20):  # five reports per trail step
         picture.observe(_report("uav2", T0 + k * step // 5, (float(k), 0.0, 200.0)))
-    trail = _vehicle(picture.snapshot()[0], "uav2")["trail"]
+    trail = _vehicle(_snapshot(picture)[0], "uav2")["trail"]
     assert trail == [[float(k), 0.0] for k in range(0, 20, 5)]
 
 
@@ -114,7 +120,7 @@ def test_track_prediction_plan_and_truth_with_the_rmse_of_matched_stamps() -> No
     picture.observe(_track(T0, (103.0, 104.0)))  # error 5 m, truth already there
     picture.observe(_track(T0 + NS, (110.0, 100.0), seq=2))  # error 12 m, truth comes after it
     picture.observe(_truth(T0 + NS + NS // 20, (98.0, 100.0)))  # within a tenth of the 1 s step
-    tracks, status = picture.snapshot()
+    tracks, status = _snapshot(picture)
     assert _vehicle(tracks, "uav3")["plan"] == [[1.0, 2.0], [3.0, 4.0]]
     (track,) = tracks["tracks"]
     assert (track["x"], track["y"], track["seq"]) == (110.0, 100.0, 2)
@@ -130,7 +136,7 @@ def test_no_rmse_without_truth_and_a_track_far_from_any_truth_stamp_is_not_score
     picture = Picture(SCENARIO, World.empty())
     picture.observe(_track(T0, (0.0, 0.0)))
     picture.observe(_truth(T0 + NS // 2, (0.0, 0.0)))  # half a step away: not the same instant
-    _, status = picture.snapshot()
+    _, status = _snapshot(picture)
     assert status["rmse_m"] is None and status["errors"] == {}
 
 
@@ -139,12 +145,12 @@ def test_links_come_from_the_daemon_status_when_given_else_from_tokens_and_data_
     picture.observe(_report("uav1", T0, (0.0, 0.0, 200.0)))
     picture.observe(_report("uav2", T0 - 10 * NS, (0.0, 0.0, 200.0)))
     picture.on_liveliness("uav3", False)
-    links = {v["id"]: v["link"] for v in picture.snapshot()[1]["vehicles"]}
+    links = {v["id"]: v["link"] for v in _snapshot(picture)[1]["vehicles"]}
     assert links == {"uav1": "ok", "uav2": "lost", "uav3": "lost"}
     status = DaemonStatus(stamp_ns=T0, uptime_s=12.0, scenario="x", counters={"decisions": 7},
                           vehicles=(VehicleStatus(vehicle_id="uav1", link="lost", reports=3, sysid=1,
                                                   autopilot="PX4"),))
-    _, summary = picture.snapshot(status, extra={"replay": {"playing": True}})
+    _, summary = _snapshot(picture, status, extra={"replay": {"playing": True}})
     assert summary["vehicles"][0] | {"reports": 0} == {"id": "uav1", "link": "lost", "reports": 0, "detected": False,
                                                        "sysid": 1, "autopilot": "PX4"}
     assert summary["counters"]["decisions"] == 7 and summary["uptime_s"] == 12.0
@@ -156,6 +162,18 @@ def test_wire_payloads_are_decoded_and_bad_ones_counted_not_raised() -> None:
     picture.observe_wire(*encode(_report("uav1", T0, (5.0, 6.0, 200.0))))
     picture.observe_wire(b'{"vehicle_id": 3}', "application/json;gcs.SensorReport/1")
     picture.observe_wire(b"not json", "text/plain")
-    tracks, status = picture.snapshot()
+    tracks, status = _snapshot(picture)
     assert _vehicle(tracks, "uav1")["x"] == 5.0
     assert status["counters"]["picture.rejected"] == 2
+
+
+def test_gps_fixes_place_the_vehicle_and_its_trail_in_enu() -> None:
+    picture = Picture(SCENARIO, World.empty())
+    frame = LocalFrame(SCENARIO.origin.lat_deg, SCENARIO.origin.lon_deg, SCENARIO.origin.height_m)
+    for k in range(4):  # every half second, 10 m further east each time
+        lat, lon, height = frame.to_geodetic([100.0 + 10.0 * k, 50.0, 200.0])
+        gps = GpsFix(lat_deg=float(lat), lon_deg=float(lon), alt_m=float(height), fix_type=3, h_acc_m=2.0, v_acc_m=3.0)
+        picture.observe(NavReport(vehicle_id="uav3", seq=k + 1, stamp_ns=T0 + k * NS // 2, gps=gps))
+    uav3 = _vehicle(_snapshot(picture)[0], "uav3")
+    assert (uav3["x"], uav3["y"], uav3["stamp_ns"]) == (130.0, 50.0, T0 + 3 * NS // 2)  # the newest fix
+    assert uav3["trail"] == [[100.0, 50.0], [120.0, 50.0]]  # one point a second of stamp time
