@@ -125,6 +125,19 @@ def test_closing_the_server_ends_open_streams_and_frees_the_port() -> None:
         probe.bind(("127.0.0.1", live.port))
 
 
+def test_head_requests_get_headers_only_even_for_the_event_stream(server) -> None:
+    connection = http.client.HTTPConnection("127.0.0.1", server.port, timeout=10)
+    try:
+        for path, kind in (("/", "text/html"), ("/events", "text/event-stream")):
+            connection.request("HEAD", path)
+            answer = connection.getresponse()
+            assert answer.status == 200 and answer.getheader("Content-Type").startswith(kind)
+            assert answer.read() == b""
+            connection.close()
+    finally:
+        connection.close()
+
+
 def test_bad_requests_get_a_json_error_and_are_counted(server) -> None:
     status, _, body = _get(server, "/nope")
     assert status == 404 and "no such page" in json.loads(body)["error"]

@@ -219,6 +219,10 @@ class _Handler(BaseHTTPRequestHandler):
         elif path in ("/api/tracks", "/api/status"):
             _, tracks, status = live.latest()
             self._send(HTTPStatus.OK, tracks if path == "/api/tracks" else status)
+        elif path == "/events" and self.command == "HEAD":
+            self.send_response(HTTPStatus.OK)
+            self.send_header("Content-Type", "text/event-stream")
+            self.end_headers()
         elif path == "/events":
             self._stream()
         else:
