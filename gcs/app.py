@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from gcs import __version__
+from gcs.adapters.foxglove_out import FoxgloveOptions
 from gcs.adapters.mavlink_io import HeadingCommand, MavlinkCommander
 from gcs.adapters.recording import Recorder
 from gcs.adapters.zenoh_io import ZenohIO
@@ -94,6 +95,8 @@ class DaemonOptions:
     http : (host, port) or None
         Serve the live map there (:mod:`gcs.daemon.live`; port 0 picks a free
         one); None: no page.
+    foxglove : FoxgloveOptions or None
+        Also send the map to a Foxglove WebSocket server and/or MCAP file.
     """
 
     zenoh: ZenohSettings
@@ -106,6 +109,7 @@ class DaemonOptions:
     plan_fraction: float = 0.6
     record: Path | None = None
     http: tuple[str, int] | None = None
+    foxglove: FoxgloveOptions | None = None
 
 
 @dataclass(frozen=True)
@@ -202,12 +206,13 @@ class Daemon:
         if self._opened:
             return
         self._opened = True
-        if self.options.http is not None:
+        if self.options.http is not None or self.options.foxglove is not None:
             try:
-                self.live = LiveMap.open(self.options.http, self.scenario, self.world)
-            except OSError as error:  # the map is for the operator; the vehicles are flown without it
-                self.counters["errors.http"] += 1
-                log.error("live map off: cannot serve on %s:%d: %s", *self.options.http, error)
+                self.live = LiveMap.open(self.options.http, self.scenario, self.world,
+                                         foxglove=self.options.foxglove)
+            except (OSError, RuntimeError) as error:  # the map is for the operator; the vehicles fly without it
+                self.counters["errors.live_map_open"] += 1
+                log.error("live map off: %s", error)
         if self.options.record is not None:
             self.recorder = Recorder(self.options.record, library=f"gcs {__version__}")
         self.zenoh.open()

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from gcs.adapters.foxglove_out import FoxgloveMissing
 from gcs.adapters.ports import free_tcp_port, free_udp_port
 from gcs.app import Daemon, StepRecord
 from gcs.config import ScenarioError
@@ -108,7 +109,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         return 2
     try:
         daemon = build_daemon(args)
-    except (ScenarioError, ValueError, OSError, ProtocolError) as error:
+    except (ScenarioError, ValueError, OSError, ProtocolError, FoxgloveMissing) as error:
         log.error("%s", error)
         return 2
     duration = args.duration if args.duration is not None else daemon.scenario.time.duration_s
@@ -126,7 +127,11 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         return 1
     print(f"demo: {daemon.scenario.name}, {len(daemon.scenario.vehicles)} UAVs, {duration:g} s at {args.rate:g}x; "
           f"zenoh {endpoint}, MAVLink udpin:127.0.0.1:{mavlink_port}; simulator log {log_file}", flush=True)
-    print(f"live map: {daemon.live.url if daemon.live is not None else 'off'}", flush=True)
+    live = daemon.live
+    print(f"live map: {(live.url if live is not None else None) or 'off'}", flush=True)
+    if live is not None and live.foxglove is not None:
+        print(f"foxglove: {live.foxglove.url or 'no server'}" + (f", MCAP {args.foxglove_mcap}" if args.foxglove_mcap
+                                                                else ""), flush=True)
     stopped = _run_together(daemon, command, log_file)
     progress.end()
     summary = summarise(daemon.records, daemon.roster)

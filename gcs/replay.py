@@ -7,7 +7,8 @@
   (reports, nav, truth; liveliness as tokens) so that a running daemon consumes
   them, keeping their recorded spacing divided by ``R``, or as fast as possible.
 * ``gcs replay FILE --view [--rate R] [--http ADDRESS]`` shows it on the live map
-  with play/pause and speed (:mod:`gcs.replay_view`).
+  with play/pause and speed (:mod:`gcs.replay_view`); ``--foxglove-mcap OUT``
+  converts it to an MCAP file of Foxglove's map schemas.
 * ``gcs replay FILE --process [--plan] [--out TRACKS.mcap|.csv]`` runs the
   estimator (and the planner) on the file directly, without Zenoh: the same validation, step assembly and
   fusion as the daemon (:mod:`gcs.daemon.fusion`), so a recording of a live run
@@ -34,6 +35,7 @@ from pathlib import Path
 import numpy as np
 import zenoh
 
+from gcs.adapters.foxglove_out import FoxgloveMissing, add_foxglove_arguments
 from gcs.adapters.recording import LIVELINESS_ENCODING, Recorded, Recorder, RecordingError, read_recording
 from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_io import Received
@@ -361,35 +363,17 @@ def add_replay(sub: argparse._SubParsersAction) -> None:
                         help="show the recording on the live map (play/pause, speed; --rate is the starting speed, "
                              "--scenario draws the city) until Ctrl-C")
     add_http_argument(parser, "the live map of --view")
+    add_foxglove_arguments(parser)
     add_zenoh_arguments(parser, listen=(), connect=(DEFAULT_ENDPOINT,))
     parser.set_defaults(handler=_cmd_replay)
 
 
-def _cmd_view(args: argparse.Namespace) -> int:
-    from gcs.replay_view import view
-
-    if args.info or args.process or args.fast:
-        log.error("--view cannot be combined with --info, --process or --fast")
-        return 2
-    if args.http is None:
-        log.error("--view needs --http ADDRESS")
-        return 2
-    if not args.file.is_file():
-        raise ValueError(f"{args.file}: no such file")
-    scenario = load_scenario(args.scenario)
-    world = build_world(scenario, scenario_base_dir(args.scenario))
-    stop = threading.Event()
-    _stop_on_signals(stop)
-    counts = view(args.file, scenario, world, args.http, args.rate, stop,
-                  on_open=lambda url: print(f"live map: {url} (replaying {args.file}; Ctrl-C to stop)", flush=True))
-    print("shown " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
-    return 0
-
-
 def _cmd_replay(args: argparse.Namespace) -> int:
     try:
-        if args.view:
-            return _cmd_view(args)
+        if args.view or args.foxglove_mcap is not None or args.foxglove is not None:
+            from gcs.replay_view import cmd_view
+
+            return cmd_view(args, _stop_on_signals)
         if args.info:
             info = summarise(args.file)
             if args.json:
@@ -422,7 +406,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
         counts = republish(args.file, settings, args.prefix, None if args.fast else args.rate, stop)
         print("republished " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
         return 0
-    except (RecordingError, ScenarioError, ValueError, OSError) as error:
+    except (RecordingError, ScenarioError, ValueError, OSError, FoxgloveMissing) as error:
         log.error("%s", error)
         return 2
     except RuntimeError as error:

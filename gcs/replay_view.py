@@ -14,6 +14,7 @@ end of the file the clock pauses; play after the end restarts.
 
 from __future__ import annotations
 
+import argparse
 import logging
 import math
 import threading
@@ -25,14 +26,17 @@ from pathlib import Path
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
+from gcs.adapters.foxglove_out import FoxgloveOptions, FoxgloveOut, foxglove_options
 from gcs.adapters.recording import LIVELINESS_ENCODING, read_recording
 from gcs.config import Scenario
 from gcs.core.world import World
 from gcs.daemon.live import LiveMap
 from gcs.daemon.picture import Picture
 from gcs.replay import _kind
+from gcs.scenarios import load_scenario, scenario_base_dir
+from gcs.world_loader import build_world
 
-__all__ = ["ReplayClock", "view", "recording_span_ns", "MAX_SPEED"]
+__all__ = ["ReplayClock", "view", "to_foxglove", "cmd_view", "recording_span_ns", "MAX_SPEED"]
 
 log = logging.getLogger(__name__)
 
@@ -138,20 +142,21 @@ class ReplayClock:
                     "ended": self.ended}
 
 
-def view(path: Path, scenario: Scenario, world: World, address: tuple[str, int], speed: float,
-         stop: threading.Event, on_open: Callable[[str], None] | None = None, tick_s: float = TICK_S) -> Counter:
-    """Serve the recording on the live map until ``stop`` is set; returns counts of what was fed.
+def view(path: Path, scenario: Scenario, world: World, address: tuple[str, int] | None, speed: float,
+         stop: threading.Event, on_open: Callable[[LiveMap], None] | None = None, tick_s: float = TICK_S,
+         foxglove: FoxgloveOptions | None = None) -> Counter:
+    """Serve the recording on the live map (and to Foxglove) until ``stop`` is set; returns counts of what was fed.
 
-    ``on_open(url)`` is called once the page is being served. Raises OSError
+    ``on_open(live)`` is called once the page is being served. Raises OSError
     when the address cannot be bound and :class:`~gcs.adapters.recording.RecordingError`
     for a corrupt file (the server is closed either way).
     """
     clock = ReplayClock(speed, recording_span_ns(path))
-    live = LiveMap.open(address, scenario, world, mode="replay", control=clock.control)
+    live = LiveMap.open(address, scenario, world, mode="replay", control=clock.control, foxglove=foxglove)
     counts: Counter = Counter()
     try:
         if on_open is not None:
-            on_open(live.url)
+            on_open(live)
         while not stop.is_set():
             live.picture = Picture(scenario, world, mode="replay")
             counts += _play(path, clock, live, stop, tick_s)
@@ -170,7 +175,7 @@ def _play(path: Path, clock: ReplayClock, live: LiveMap, stop: threading.Event, 
         while not stop.is_set() and not clock.take_restart():
             position = clock.position_ns()
             while pending is not None and pending.log_time_ns - first <= position:
-                _feed(live, pending, counts)
+                _feed(live.picture, pending, counts)
                 pending = next(records, None)
             if pending is None:
                 clock.finish()
@@ -181,12 +186,72 @@ def _play(path: Path, clock: ReplayClock, live: LiveMap, stop: threading.Event, 
     return counts
 
 
-def _feed(live: LiveMap, record, counts: Counter) -> None:
+def _feed(picture: Picture, record, counts: Counter) -> None:
     kind, ident = _kind(record.key)
     counts[kind or "other"] += 1
-    live.picture.counters[f"replayed.{kind or 'other'}"] = counts[kind or "other"]
+    picture.counters[f"replayed.{kind or 'other'}"] = counts[kind or "other"]
     if record.encoding == LIVELINESS_ENCODING:
         if kind == "alive":
-            live.picture.on_liveliness(ident, record.payload == b"alive")
+            picture.on_liveliness(ident, record.payload == b"alive")
         return
-    live.observe_wire(record.payload, record.encoding)
+    picture.observe_wire(record.payload, record.encoding)
+
+
+def to_foxglove(path: Path, scenario: Scenario, world: World, out: Path, every_s: float = 0.2) -> Counter:
+    """Convert a recording into an MCAP file of Foxglove's map schemas (:mod:`gcs.adapters.foxglove_out`).
+
+    The picture is fed every message in file order, as fast as possible, and a
+    snapshot is logged for every ``every_s`` of stamp time, with that stamp as
+    its log time, so the map's timeline is the data's.
+    """
+    picture = Picture(scenario, world, mode="replay")
+    sink = FoxgloveOut(picture.frame, picture.world, FoxgloveOptions(mcap=out))
+    counts: Counter = Counter()
+    step_ns, logged_ns = round(every_s * NS_PER_S), None
+    try:
+        for record in read_recording(path):
+            _feed(picture, record, counts)
+            newest = picture.newest_ns
+            if newest is not None and (logged_ns is None or newest - logged_ns >= step_ns):
+                sink.log(*picture.snapshot(), log_time_ns=newest)
+                logged_ns = newest
+        if picture.newest_ns is not None and picture.newest_ns != logged_ns:
+            sink.log(*picture.snapshot(), log_time_ns=picture.newest_ns)
+        counts["foxglove_messages"] = sink.messages
+    finally:
+        sink.close()
+    return counts
+
+
+def cmd_view(args: argparse.Namespace, stop_on_signals: Callable[[threading.Event], None]) -> int:
+    """``gcs replay FILE --view`` and ``--foxglove-mcap OUT`` (called by :mod:`gcs.replay`'s command)."""
+    if args.info or args.process or args.fast:
+        log.error("--view and --foxglove-mcap cannot be combined with --info, --process or --fast")
+        return 2
+    if args.foxglove is not None and not args.view:
+        log.error("--foxglove serves a replay live: it needs --view")
+        return 2
+    if not args.file.is_file():
+        raise ValueError(f"{args.file}: no such file")
+    foxglove = foxglove_options(args)
+    scenario = load_scenario(args.scenario)
+    world = build_world(scenario, scenario_base_dir(args.scenario))
+    if not args.view:
+        counts = to_foxglove(args.file, scenario, world, args.foxglove_mcap)
+        print(f"wrote {args.foxglove_mcap}: {counts['foxglove_messages']} map messages from "
+              + ", ".join(f"{k} {v}" for k, v in sorted(counts.items()) if k != "foxglove_messages"))
+        return 0
+    if args.http is None and foxglove is None:
+        log.error("--view needs --http ADDRESS (or --foxglove ADDRESS)")
+        return 2
+    stop = threading.Event()
+    stop_on_signals(stop)
+
+    def opened(live) -> None:
+        print(f"live map: {live.url or 'off'} (replaying {args.file}; Ctrl-C to stop)", flush=True)
+        if live.foxglove is not None:
+            print(f"foxglove: {live.foxglove.url or 'no server'}", flush=True)
+
+    counts = view(args.file, scenario, world, args.http, args.rate, stop, on_open=opened, foxglove=foxglove)
+    print("shown " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
+    return 0

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import msgspec
 
+from gcs.adapters.foxglove_out import FoxgloveMissing, add_foxglove_arguments, foxglove_options
 from gcs.adapters.mavlink_cli import add_mavlink_arguments, connections_from_arguments, signing_key_from_arguments
 from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_session import (DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, query,
@@ -41,6 +42,7 @@ def add_daemon_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--record", type=Path, metavar="FILE.mcap",
                         help="record everything received and published (MCAP), finished on exit")
     add_http_argument(parser, "the live map (vehicles, track, plans, status)")
+    add_foxglove_arguments(parser)
 
 
 def add_run(sub: argparse._SubParsersAction) -> None:
@@ -67,7 +69,7 @@ def build_daemon(args: argparse.Namespace, **kwargs):
     options = DaemonOptions(zenoh=zenoh, prefix=args.prefix,
                             mavlink=connections_from_arguments(args, [v.id for v in scenario.vehicles]),
                             signing_key=signing_key_from_arguments(args), seed=args.seed, planner=args.planner,
-                            record=args.record, http=args.http)
+                            record=args.record, http=args.http, foxglove=foxglove_options(args))
     base_dir = scenario_base_dir(args.scenario)
     return Daemon(scenario, build_world(scenario, base_dir), options, **kwargs)
 
@@ -81,7 +83,7 @@ def install_signal_handlers(stop) -> None:
 def _cmd_run(args: argparse.Namespace) -> int:
     try:
         daemon = build_daemon(args)
-    except (ScenarioError, ValueError, OSError, ProtocolError) as error:
+    except (ScenarioError, ValueError, OSError, ProtocolError, FoxgloveMissing) as error:
         log.error("%s", error)
         return 2
     install_signal_handlers(daemon.stop)

@@ -401,6 +401,8 @@ class Picture:
             "x": _r(track.state[0]), "y": _r(track.state[1]),
             "vx": round(track.state[2], 2) if n > 2 else None, "vy": round(track.state[3], 2) if n > 3 else None,
             "ellipse": ellipse(cov[:2, :2]),
+            "cov_xy": [[round(float(cov[0, 0]), 3), round(float(cov[0, 1]), 3)],
+                       [round(float(cov[1, 0]), 3), round(float(cov[1, 1]), 3)]],
             "prediction": [{"stamp_ns": p.stamp_ns, "x": _r(p.position_enu_m[0]), "y": _r(p.position_enu_m[1]),
                             "ellipse": ellipse(p.position_cov_m2)} for p in track.prediction],
             "contributing": list(track.contributing_vehicles),

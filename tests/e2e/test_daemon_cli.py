@@ -14,15 +14,20 @@ from tests.loopback import free_tcp_port, free_udp_port
 
 def test_demo_runs_daemon_and_vehicles_and_writes_the_summary(tmp_path) -> None:
     out = tmp_path / "demo.json"
+    foxglove = tmp_path / "map.mcap"
     done = subprocess.run([script("gcs"), "demo", "--duration", "20", "--rate", "10", "--json", str(out),
-                           "--http", "127.0.0.1:0"], capture_output=True, text=True, timeout=180)
+                           "--http", "127.0.0.1:0", "--foxglove", "127.0.0.1:0", "--foxglove-mcap", str(foxglove)],
+                          capture_output=True, text=True, timeout=180)
     assert done.returncode == 0, done.stderr[-3000:]
     summary = json.loads(out.read_text())
     assert summary["steps"] == 20
     assert set(summary["seen_per_uav"]) == {"uav1", "uav2", "uav3"}
     assert 0 < summary["seen_any"] <= 20 and summary["rmse_m"] is not None and summary["rmse_m"] > 0
     assert "seen by at least one UAV" in done.stdout and "demo: wang2012_urban" in done.stdout
-    assert "live map: http://127.0.0.1:" in done.stdout
+    assert "live map: http://127.0.0.1:" in done.stdout and "foxglove: ws://127.0.0.1:" in done.stdout
+    with open(foxglove, "rb") as stream:  # the map's channels, in Foxglove's schemas
+        channels = {c.topic: c for c in make_reader(stream).get_summary().channels.values()}
+    assert {"/map/vehicles/uav1", "/map/target/estimate", "/map/target/truth", "/map/world"} <= set(channels)
 
 
 def test_run_answers_status_and_stops_cleanly_on_sigint_finishing_its_recording(tmp_path) -> None:

@@ -199,3 +199,8 @@ def test_replay_view_plays_a_recording_on_the_page_with_pause_and_speed(tmp_path
     assert min(_moved(paused, ended).values()) > 20.0 and ended["track"]["seq"] > paused["track"]["seq"]
     assert ended["play_button"] == "play" and ended["rmse"] is not None
     assert "shown " in stdout and "track" in stdout
+
+    converted = subprocess.run([script("gcs"), "replay", str(recording), "--foxglove-mcap", str(tmp_path / "map.mcap")],
+                               capture_output=True, text=True, timeout=120)
+    assert converted.returncode == 0, converted.stderr[-3000:]
+    assert re.search(r"wrote .*map\.mcap: [1-9]\d* map messages from .*track \d+", converted.stdout), converted.stdout

@@ -71,7 +71,7 @@ def test_a_busy_address_leaves_the_daemon_running_without_a_map() -> None:
     daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=ZenohSettings(listen=(f"tcp/127.0.0.1:{free_tcp_port()}",),
                                                                        connect=()), http=("127.0.0.1", busy.port)))
     try:
-        daemon.run(until=lambda: daemon.counters["errors.http"] > 0 and time.sleep(0.2) is None)
+        daemon.run(until=lambda: daemon.counters["errors.live_map_open"] > 0 and time.sleep(0.2) is None)
     finally:
         busy.close()
-    assert daemon.live is None and daemon.counters["errors.http"] == 1
+    assert daemon.live is None and daemon.counters["errors.live_map_open"] == 1

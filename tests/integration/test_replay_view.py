@@ -33,8 +33,8 @@ class _Viewer:
         self.url = ""
         self.error: BaseException | None = None
 
-        def on_open(url: str) -> None:
-            self.url = url
+        def on_open(live) -> None:
+            self.url = live.url
             self.opened.set()
 
         def run() -> None:
