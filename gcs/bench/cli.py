@@ -13,9 +13,35 @@ from pathlib import Path
 
 from gcs.bench import PLANNERS
 
+PLOTS_HELP = "write PNG plots and a markdown table (<benchmark>.md) into DIR"
+
 
 def _progress(message: str) -> None:
     print(f"  ... {message}", file=sys.stderr, flush=True)
+
+
+def _wrote(paths) -> None:
+    for path in paths:
+        print(f"wrote {path}")
+
+
+def _outputs_checked(handler):
+    """Check --json's folder and make --plots DIR before the benchmark runs (not after an hour of it)."""
+
+    def checked(args: argparse.Namespace) -> int:
+        json_path, plots = getattr(args, "json", None), getattr(args, "plots", None)
+        if json_path is not None and not json_path.parent.is_dir():
+            print(f"gcs bench: --json {json_path}: no folder {json_path.parent}", file=sys.stderr)
+            return 2
+        if plots is not None:
+            try:
+                plots.mkdir(parents=True, exist_ok=True)
+            except OSError as error:
+                print(f"gcs bench: --plots {plots}: {error}", file=sys.stderr)
+                return 2
+        return handler(args)
+
+    return checked
 
 
 def _cmd_estimation(args: argparse.Namespace) -> int:
@@ -28,6 +54,8 @@ def _cmd_estimation(args: argparse.Namespace) -> int:
     if args.json:
         estimation.write_json(report, args.json)
         print(f"wrote {args.json}")
+    if args.plots:
+        _wrote(estimation.write_plots(report, args.plots))
     return 0
 
 
@@ -47,8 +75,7 @@ def _cmd_urban(args: argparse.Namespace) -> int:
         urban_report.write_json(report, args.json)
         print(f"wrote {args.json}")
     if args.plots:
-        for path in urban_report.write_plots(report, records, world, args.plots):
-            print(f"wrote {path}")
+        _wrote(urban_report.write_plots(report, records, world, args.plots))
     return 0
 
 
@@ -69,6 +96,10 @@ def _cmd_daemon(args: argparse.Namespace) -> int:
     if args.json:
         daemon.write_json(report, args.json)
         print(f"wrote {args.json}")
+    if args.plots:
+        from gcs.bench.daemon_plots import write_plots
+
+        _wrote(write_plots(report, args.plots))
     if profiler is not None:
         profiler.dump_stats(args.profile)
         print(f"wrote {args.profile} (python -m pstats {args.profile}; the profiler slows the daemon, so rates "
@@ -83,11 +114,13 @@ def _cmd_replay(args: argparse.Namespace) -> int:
 
     scenario = load_scenario(args.scenario)
     report = replay.run_benchmark(scenario, build_world(scenario), duration_s=args.duration, repeats=args.repeats,
-                                  seed=args.seed)
+                                  seed=args.seed, progress=_progress)
     print(replay.format_report(report))
     if args.json:
         args.json.write_text(json.dumps(report, indent=2))
         print(f"wrote {args.json}")
+    if args.plots:
+        _wrote(replay.write_plots(report, args.plots))
     return 0
 
 
@@ -100,8 +133,27 @@ def _cmd_aoa(args: argparse.Namespace) -> int:
         aoa_report.write_json(report, args.json)
         print(f"wrote {args.json}")
     if args.plots:
-        for path in aoa_report.write_plots(report, records, args.plots):
-            print(f"wrote {path}")
+        _wrote(aoa_report.write_plots(report, records, args.plots))
+    return 0
+
+
+def _cmd_livemap(args: argparse.Namespace) -> int:
+    from gcs.bench import livemap
+    from gcs.scenarios import load_scenario
+    from gcs.world_loader import build_world
+
+    scenario = load_scenario(args.scenario)
+    command = (f"gcs bench livemap --vehicles {' '.join(map(str, args.vehicles))} --warm-up {args.warm_up} "
+               f"--seconds {args.seconds}")
+    report = livemap.run_benchmark(scenario, build_world(scenario), vehicle_counts=args.vehicles,
+                                   warm_up_s=args.warm_up, measure_s=args.seconds, command=command,
+                                   progress=_progress)
+    print(livemap.format_report(report))
+    if args.json:
+        args.json.write_text(json.dumps(report, indent=2) + "\n")
+        print(f"wrote {args.json}")
+    if args.plots:
+        _wrote(livemap.write_plots(report, args.plots))
     return 0
 
 
@@ -129,7 +181,8 @@ def _non_negative_int(text: str) -> int:
 def add_bench(sub: argparse._SubParsersAction) -> None:
     """Register ``gcs bench`` and its benchmarks."""
     parser = sub.add_parser("bench", help="reproduce the papers' experiments and measure speed",
-                            description="Benchmarks: each prints its table and can write --json.")
+                            description="Benchmarks: each prints its table (progress on stderr) and can write --json, and "
+                                "--plots DIR: PNG plots and the tables in markdown.")
     benches = parser.add_subparsers(dest="bench", required=True, metavar="BENCHMARK")
     est = benches.add_parser(
         "estimation",
@@ -144,7 +197,8 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     est.add_argument("--table-runs", type=_positive_int, default=5, help="runs per row of the vehicle-count table (default 5)")
     est.add_argument("--seed", type=int, default=2012, help="seed of the generated data (default 2012)")
     est.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
-    est.set_defaults(handler=_cmd_estimation)
+    est.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
+    est.set_defaults(handler=_outputs_checked(_cmd_estimation))
 
     urb = benches.add_parser(
         "urban",
@@ -163,8 +217,8 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
                      help="target motion (default: the scenario's)")
     urb.add_argument("--no-scaling", action="store_true", help="skip the 3/6/10/20-UAV GA timing table")
     urb.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
-    urb.add_argument("--plots", type=Path, metavar="DIR", help="write PNG plots into DIR")
-    urb.set_defaults(handler=_cmd_urban, planner=None)
+    urb.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
+    urb.set_defaults(handler=_outputs_checked(_cmd_urban), planner=None)
 
     dmn = benches.add_parser(
         "daemon",
@@ -181,9 +235,10 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     dmn.add_argument("--solve-steps", type=_non_negative_int, default=5,
                      help="real-time decision steps to time the GA's solve over, 0 to skip (default 5)")
     dmn.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
+    dmn.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
     dmn.add_argument("--profile", type=Path, metavar="FILE",
                      help="profile the daemon's loop (cProfile) during the rate searches and write the stats to FILE")
-    dmn.set_defaults(handler=_cmd_daemon)
+    dmn.set_defaults(handler=_outputs_checked(_cmd_daemon))
 
     rpl = benches.add_parser(
         "replay", help="gcs replay --process speed in multiples of real time (goal 1000x)",
@@ -194,7 +249,8 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     rpl.add_argument("--repeats", type=_positive_int, default=5, help="timed runs; the median is reported (default 5)")
     rpl.add_argument("--seed", type=int, default=0, help="seed of the simulated scene (default 0)")
     rpl.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
-    rpl.set_defaults(handler=_cmd_replay)
+    rpl.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
+    rpl.set_defaults(handler=_outputs_checked(_cmd_replay))
 
     aoa = benches.add_parser(
         "aoa", help="zuo2021 bearing-only tracking: estimators, GCRLB-LM vs CRLB vs straight-line planners",
@@ -205,5 +261,21 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     aoa.add_argument("--steps", type=_positive_int, default=100, help="1 s steps per run (default 100)")
     aoa.add_argument("--seed", type=int, default=2021, help="seed of the first run (default 2021)")
     aoa.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
-    aoa.add_argument("--plots", type=Path, metavar="DIR", help="write PNG plots into DIR")
-    aoa.set_defaults(handler=_cmd_aoa)
+    aoa.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
+    aoa.set_defaults(handler=_outputs_checked(_cmd_aoa))
+
+    lmp = benches.add_parser(
+        "livemap", help="what the live map costs the daemon's loop: per message and per snapshot",
+        description="Feeds the live map's picture the messages of 3, 10 and 100 vehicles (nav with GPS at 5 Hz, "
+                    "reports, plans, a track and the truth each step) until the trails are full, then times "
+                    "observing each message against the codec's decoding of it, and the snapshots.")
+    lmp.add_argument("--scenario", default="wang2012_urban", help="shipped name or .toml path (default wang2012_urban)")
+    lmp.add_argument("--vehicles", type=_positive_int, nargs="+", default=[3, 10, 100], metavar="N",
+                     help="team sizes (default 3 10 100)")
+    lmp.add_argument("--warm-up", type=_positive_int, default=600, metavar="S",
+                     help="simulated seconds fed before measuring, to fill the trails (default 600)")
+    lmp.add_argument("--seconds", type=_positive_int, default=20, metavar="S",
+                     help="simulated seconds measured (default 20)")
+    lmp.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
+    lmp.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
+    lmp.set_defaults(handler=_outputs_checked(_cmd_livemap))

@@ -10,7 +10,9 @@ from pathlib import Path
 
 import msgspec
 
+from gcs.adapters.foxglove_out import FoxgloveMissing, add_foxglove_arguments, foxglove_options
 from gcs.adapters.mavlink_cli import add_mavlink_arguments, connections_from_arguments, signing_key_from_arguments
+from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_session import (DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, query,
                                         settings_from_arguments)
 from gcs.config import ScenarioError
@@ -43,6 +45,8 @@ def add_daemon_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--plan-in", choices=PLANNER_MODES, default="process", dest="planner_mode",
                         help="where plans are made: a child process (default), a thread of the daemon, or inline "
                              "in its loop (each plan before the next step is fused)")
+    add_http_argument(parser, "the live map (vehicles, track, plans, status)")
+    add_foxglove_arguments(parser)
 
 
 def add_run(sub: argparse._SubParsersAction) -> None:
@@ -69,7 +73,8 @@ def build_daemon(args: argparse.Namespace, **kwargs):
     options = DaemonOptions(zenoh=zenoh, prefix=args.prefix,
                             mavlink=connections_from_arguments(args, [v.id for v in scenario.vehicles]),
                             signing_key=signing_key_from_arguments(args), seed=args.seed, planner=args.planner,
-                            record=args.record, planner_mode=args.planner_mode)
+                            record=args.record, planner_mode=args.planner_mode, http=args.http,
+                            foxglove=foxglove_options(args))
     base_dir = scenario_base_dir(args.scenario)
     return Daemon(scenario, build_world(scenario, base_dir), options, **kwargs)
 
@@ -83,7 +88,7 @@ def install_signal_handlers(stop) -> None:
 def _cmd_run(args: argparse.Namespace) -> int:
     try:
         daemon = build_daemon(args)
-    except (ScenarioError, ValueError, OSError, ProtocolError) as error:
+    except (ScenarioError, ValueError, OSError, ProtocolError, FoxgloveMissing) as error:
         log.error("%s", error)
         return 2
     install_signal_handlers(daemon.stop)

@@ -49,7 +49,7 @@ def test_daemon_with_three_vehicle_processes_tracks_like_the_in_process_loop(tmp
     observer = f"tcp/127.0.0.1:{free_tcp_port()}"  # peers do not forward: the vehicles connect to both
     daemon = subprocess.Popen(
         [script("gcs"), "run", "--seed", str(SEED), "--mavlink", f"udpin:127.0.0.1:{mavlink}",
-         "--zenoh-listen", endpoint], stdout=subprocess.PIPE, stderr=open(tmp_path / "daemon.log", "w"), text=True)
+         "--zenoh-listen", endpoint, "--http", "none"], stdout=subprocess.PIPE, stderr=open(tmp_path / "daemon.log", "w"), text=True)
     inbox: queue.Queue = queue.Queue()
     vehicles: list[subprocess.Popen] = []
     try:
