@@ -105,6 +105,19 @@ def _cmd_aoa(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_skf(args: argparse.Namespace) -> int:
+    from gcs.bench import skf_report
+
+    report = skf_report.run_benchmark(runs=args.runs, seed=args.seed, methods=args.method or skf_report.METHODS,
+                                      gps_outage_s=tuple(args.gps_outage) if args.gps_outage else None,
+                                      progress=_progress)
+    print(skf_report.format_report(report))
+    if args.json:
+        skf_report.write_json(report, args.json)
+        print(f"wrote {args.json}")
+    return 0
+
+
 def _positive_int(text: str) -> int:
     value = int(text)
     if value < 1:
@@ -207,3 +220,20 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     aoa.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     aoa.add_argument("--plots", type=Path, metavar="DIR", help="write PNG plots into DIR")
     aoa.set_defaults(handler=_cmd_aoa)
+
+    from gcs.bench.skf_methods import METHODS as SKF_METHODS
+
+    skf = benches.add_parser(
+        "skf", help="feng2019 Table 1: switching Kalman filter navigation (CF, DF) vs FilterPy's IMM and KF",
+        description="Rebuilds feng2019 section 4 (200 m/s, 600 m snake from 40 s to 90 s, straight to 120 s) with "
+                    "the simulator's INS and GPS models and a noisy map database, and prints RMS position and "
+                    "velocity errors and time per run for SKF-CF, SKF-DF, our filter without the map, "
+                    "FilterPy's IMMEstimator and KalmanFilter on the same data.")
+    skf.add_argument("--runs", type=_positive_int, default=150, help="Monte Carlo runs (default 150, the paper's)")
+    skf.add_argument("--seed", type=int, default=2019, help="seed of the first run (default 2019)")
+    skf.add_argument("--method", action="append", choices=SKF_METHODS,
+                     help=f"method to run (repeatable; default all: {', '.join(SKF_METHODS)})")
+    skf.add_argument("--gps-outage", type=float, nargs=2, metavar=("START_S", "END_S"),
+                     help="no GPS fix between these times (not in the paper)")
+    skf.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
+    skf.set_defaults(handler=_cmd_skf, method=None)

@@ -11,11 +11,12 @@ from scipy.stats import chi2
 from gcs.config import GpsConfig, InsConfig
 from gcs.core.filters.kalman import Observation, kalman_update
 from gcs.core.geometry import LocalFrame, wrap_angle
-from gcs.core.navigation.federated import federated_initial, federated_update, fuse_estimates
+from gcs.core.navigation.federated import federated_start, federated_update, fuse_estimates
 from gcs.core.navigation.model import THETA, InsNoise, ins_predict
 from gcs.core.navigation.route import (OFF_ROUTE, RouteSegment, TransitionModel, candidate_segments,
                                        map_observation, route_segments, transition_matrix)
-from gcs.core.navigation.skf import NavMeasurement, NavParams, initial, nav_measurement, nav_update, position
+from gcs.core.navigation.skf import (NavMeasurement, NavParams, from_gaussian, initial, nav_measurement, nav_update,
+                                     position)
 from protocols.messages import GpsFix, InsIncrement, NavReport
 from sim_vehicles.truth.gps import GpsModel
 from sim_vehicles.truth.ins import InsModel
@@ -102,9 +103,8 @@ def _monte_carlo(runs: int, steps: int, seed: int, route=()) -> tuple[np.ndarray
         p0 = np.diag([3.0, 3.0, params.initial_heading_std_rad, params.initial_velocity_std_mps,
                       params.initial_velocity_std_mps, params.initial_turn_std_rad_s]) ** 2
         draw = x0 + rng.multivariate_normal(np.zeros(6), p0)
-        cf = initial(params, 0, draw[:2], 3.0, draw[2], draw[3:5])
-        cf = type(cf)(0, cf.keys, type(cf.mixture)(np.ones(1), draw[None], p0[None]))
-        df = federated_initial(params, 0, draw[:2], 3.0, draw[2], draw[3:5])
+        cf = from_gaussian(0, draw, p0)
+        df = federated_start(cf)
         state = gps.start(rng)
         for k in range(1, steps + 1):
             before, _ = _circle(k - 1.0)

@@ -30,15 +30,14 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from gcs.core.geometry import wrap_angle
 from gcs.core.navigation.model import THETA
 from gcs.core.navigation.route import RouteSegment
-from gcs.core.navigation.skf import (NavEstimate, NavMeasurement, NavParams, common_observations, initial,
-                                     switch_update)
+from gcs.core.navigation.skf import NavEstimate, NavMeasurement, NavParams, common_observations, switch_update
 
-__all__ = ["FederatedEstimate", "federated_initial", "federated_update", "fuse_estimates"]
+__all__ = ["FederatedEstimate", "federated_start", "federated_update", "fuse_estimates"]
 
 
 def fuse_estimates(mean_a: NDArray[np.float64], cov_a: NDArray[np.float64], mean_b: NDArray[np.float64],
@@ -72,15 +71,14 @@ class FederatedEstimate:
         object.__setattr__(self, "cov", cov)
 
 
-def federated_initial(params: NavParams, stamp_ns: int, position_xy: ArrayLike, position_std_m: float,
-                      heading_rad: float, velocity_xy: ArrayLike | None = None, beta_gps: float = 0.5) -> FederatedEstimate:
-    """Both local filters from the same prior, its covariance scaled by ``1 / beta`` each."""
-    prior = initial(params, stamp_ns, position_xy, position_std_m, heading_rad, velocity_xy)
+def federated_start(prior: NavEstimate, beta_gps: float = 0.5) -> FederatedEstimate:
+    """Both local filters from the same prior (e.g. :func:`~gcs.core.navigation.skf.initial`), its
+    covariance scaled by ``1 / beta`` each."""
 
     def scaled(beta: float) -> NavEstimate:
         return replace(prior, mixture=replace(prior.mixture, covs=prior.mixture.covs / beta))
 
-    return FederatedEstimate(stamp_ns, scaled(beta_gps), scaled(1.0 - beta_gps), beta_gps)
+    return FederatedEstimate(prior.stamp_ns, scaled(beta_gps), scaled(1.0 - beta_gps), beta_gps)
 
 
 def federated_update(params: NavParams, estimate: FederatedEstimate, measurement: NavMeasurement,

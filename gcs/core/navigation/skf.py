@@ -37,7 +37,7 @@ from gcs.core.navigation.route import (OFF_ROUTE, RouteSegment, TransitionModel,
                                        transition_matrix)
 from protocols.messages import NavReport
 
-__all__ = ["NavParams", "NavMeasurement", "NavEstimate", "nav_measurement", "initial", "predict_modes",
+__all__ = ["NavParams", "NavMeasurement", "NavEstimate", "nav_measurement", "initial", "from_gaussian", "predict_modes",
            "nav_update", "position"]
 
 NS_PER_S = 1_000_000_000
@@ -187,7 +187,14 @@ def initial(params: NavParams, stamp_ns: int, position_xy: ArrayLike, position_s
     mean = np.array([xy[0], xy[1], wrap_angle(heading_rad), v[0], v[1], 0.0])
     std = np.array([position_std_m, position_std_m, params.initial_heading_std_rad, params.initial_velocity_std_mps,
                     params.initial_velocity_std_mps, params.initial_turn_std_rad_s])
-    return NavEstimate(stamp_ns, (OFF_ROUTE,), ModeMixture(np.ones(1), mean[None], np.diag(std**2)[None]))
+    return from_gaussian(stamp_ns, mean, np.diag(std**2))
+
+
+def from_gaussian(stamp_ns: int, mean: ArrayLike, cov: ArrayLike) -> NavEstimate:
+    """A one-mode (off-route) estimate ``N(mean, cov)``: (6,), (6, 6)."""
+    m, c = np.asarray(mean, dtype=np.float64), np.asarray(cov, dtype=np.float64)
+    assert m.shape == (STATE_DIM,) and c.shape == (STATE_DIM, STATE_DIM), f"shapes {m.shape}, {c.shape}"
+    return NavEstimate(stamp_ns, (OFF_ROUTE,), ModeMixture(np.ones(1), m[None].copy(), c[None].copy()))
 
 
 def predict_modes(params: NavParams, estimate: NavEstimate, measurement: NavMeasurement,
