@@ -38,11 +38,32 @@ __all__ = ["Detection", "TrackerConfig", "TrackerState", "StepInputs", "StepDiag
 
 @dataclass(frozen=True)
 class Detection:
-    """One vehicle's detection: its index in the roster, its position (3,) and the measurement (m,)."""
+    """One vehicle's detection: its index in the roster, its position (3,) and the measurement (m,).
+
+    ``vehicle_cov`` is the covariance of that position as the vehicle's navigation
+    knows it, ENU m^2: (2, 2) horizontal (the vertical then counts as exact) or
+    (3, 3); None for an exactly known position. The DUIF then inflates the
+    measurement noise by ``J_s P_s J_s^T`` (:meth:`UnscentedInformationFilter.contribution`).
+    """
 
     vehicle: int
     vehicle_xyz: NDArray[np.float64]
     values: NDArray[np.float64]
+    vehicle_cov: NDArray[np.float64] | None = None
+
+    def __post_init__(self) -> None:
+        if self.vehicle_cov is not None:
+            cov = np.asarray(self.vehicle_cov, dtype=np.float64)
+            if cov.shape == (2, 2):
+                cov = np.pad(cov, ((0, 1), (0, 1)))
+            if cov.shape != (3, 3) or not np.all(np.isfinite(cov)) or np.any(np.diag(cov) < 0.0):
+                raise ValueError(f"vehicle_cov must be a finite (2, 2) or (3, 3) covariance, got {self.vehicle_cov!r}")
+            object.__setattr__(self, "vehicle_cov", 0.5 * (cov + cov.T))
+
+    @property
+    def position_cov(self) -> NDArray[np.float64]:
+        """``vehicle_cov`` as (3, 3), zeros when the position is exact."""
+        return np.zeros((3, 3)) if self.vehicle_cov is None else self.vehicle_cov
 
 
 @dataclass(frozen=True)
@@ -147,10 +168,18 @@ def fuse(config: TrackerConfig, estimate: GaussianEstimate | None, stamp_ns: int
     for detection in detections:
         groups.setdefault(config.sensors[detection.vehicle], []).append(detection)
     contributions = [
-        config.uif.contribution(prior, sensor, np.stack([d.values for d in group]), np.stack([d.vehicle_xyz for d in group]))
+        config.uif.contribution(prior, sensor, np.stack([d.values for d in group]), np.stack([d.vehicle_xyz for d in group]),
+                                _vehicle_covs(group))
         for sensor, group in groups.items()
     ]
     return config.uif.update(prior, contributions)
+
+
+def _vehicle_covs(group: Sequence[Detection]) -> NDArray[np.float64] | None:
+    """The group's vehicle position covariances (k, 3, 3), or None when every position is exact."""
+    if all(d.vehicle_cov is None for d in group):
+        return None
+    return np.stack([d.position_cov for d in group])
 
 
 def _fuse_bearings(config: TrackerConfig, estimate: GaussianEstimate | None, stamp_ns: int,
