@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 from gcs.bench import PLANNERS
+from gcs.bench.urban_nav import NAVIGATION_MODES
 
 
 def _progress(message: str) -> None:
@@ -38,6 +39,8 @@ def _cmd_urban(args: argparse.Namespace) -> int:
 
     scenario = load_scenario(args.scenario)
     world = build_world(scenario)
+    if args.gps_denied:
+        return _urban_gps_denied(args, scenario, world)
     report, records = urban_report.run_benchmark(
         scenario, world, runs=args.runs, seed=args.seed, planners=args.planner or PLANNERS, duration_s=args.duration,
         motion=args.motion, scaling=() if args.no_scaling else (3, 6, 10, 20), progress=_progress,
@@ -49,6 +52,20 @@ def _cmd_urban(args: argparse.Namespace) -> int:
     if args.plots:
         for path in urban_report.write_plots(report, records, world, args.plots):
             print(f"wrote {path}")
+    return 0
+
+
+def _urban_gps_denied(args: argparse.Namespace, scenario, world) -> int:
+    from gcs.bench import urban_nav_report
+
+    report = urban_nav_report.run_benchmark(
+        scenario, world, runs=args.runs, seed=args.seed, planners=args.planner or ("ga_k5",),
+        navigations=args.navigation or urban_nav_report.NAVIGATION_MODES, duration_s=args.duration,
+        motion=args.motion, progress=_progress)
+    print(urban_nav_report.format_report(report))
+    if args.json:
+        urban_nav_report.write_json(report, args.json)
+        print(f"wrote {args.json}")
     return 0
 
 
@@ -177,7 +194,12 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     urb.add_argument("--no-scaling", action="store_true", help="skip the 3/6/10/20-UAV GA timing table")
     urb.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     urb.add_argument("--plots", type=Path, metavar="DIR", help="write PNG plots into DIR")
-    urb.set_defaults(handler=_cmd_urban, planner=None)
+    urb.add_argument("--gps-denied", action="store_true",
+                     help="GPS-denied zones (the scenario's, else a 1.5 km square about the target's start): target "
+                          "RMSE with the vehicles' own navigation (perfect, raw GPS, SKF); planner default ga_k5")
+    urb.add_argument("--navigation", action="append", choices=NAVIGATION_MODES,
+                     help="with --gps-denied: navigation to run (repeatable; default all)")
+    urb.set_defaults(handler=_cmd_urban, planner=None, navigation=None)
 
     dmn = benches.add_parser(
         "daemon",
