@@ -46,8 +46,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.special import logsumexp
-
 from gcs.core.geometry import wrap_angle
 
 __all__ = ["ModeMixture", "check_transition", "collapse", "gpb2_step", "imm_step", "PairFilter", "ModeFilter"]
@@ -127,11 +125,12 @@ class ModeMixture:
 
 
 def _normalise_log(log_weights: NDArray[np.float64], fallback: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``exp(log_w) / sum``; ``fallback`` when every weight is zero (no mode explains the data)."""
-    total = logsumexp(log_weights)
-    if not np.isfinite(total):
+    """``exp(log_w) / sum`` computed from the largest term; ``fallback`` when every weight is zero."""
+    top = float(np.max(log_weights))
+    if not np.isfinite(top):
         return fallback / fallback.sum()
-    return np.exp(log_weights - total)
+    weights = np.exp(log_weights - top)
+    return weights / weights.sum()
 
 
 def _safe_log(x: NDArray[np.float64]) -> NDArray[np.float64]:
