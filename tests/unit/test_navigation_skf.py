@@ -16,7 +16,7 @@ from gcs.core.navigation.model import THETA, InsNoise, ins_predict
 from gcs.core.navigation.route import (OFF_ROUTE, RouteSegment, TransitionModel, candidate_segments,
                                        map_observation, route_segments, transition_matrix)
 from gcs.core.navigation.skf import (NavMeasurement, NavParams, from_gaussian, initial, nav_measurement, nav_update,
-                                     position)
+                                     position, position_at)
 from protocols.messages import GpsFix, InsIncrement, NavReport
 from sim_vehicles.truth.gps import GpsModel
 from sim_vehicles.truth.ins import InsModel
@@ -220,6 +220,17 @@ def test_nav_measurement_from_a_report() -> None:
                                                   h_acc_m=2.5, v_acc_m=4.0),
                                        ins=report.ins, heading_rad=0.05), frame)
     assert no_fix.gps_xy is None and no_fix.heading_rad is None  # dead-reckoned heading is not a measurement
+
+
+def test_a_gap_before_the_ins_interval_is_predicted_and_positions_extrapolate() -> None:
+    params = NavParams()
+    start = initial(params, 0, [0.0, 0.0], 3.0, 0.0, [25.0, 0.0])
+    # A lost report: 2 s since the estimate, increments over the last 1 s only.
+    later = nav_update(params, start, NavMeasurement(2 * NS, ins=(25.0, 0.0, 1.0)))
+    assert later.mean[0] == pytest.approx(50.0)
+    xy, cov = position_at(params, later, 2 * NS + NS // 5)
+    assert xy[0] == pytest.approx(55.0) and cov[0, 0] > position(later)[1][0, 0]
+    np.testing.assert_array_equal(position_at(params, later, NS)[0], position(later)[0])
 
 
 def test_out_of_order_measurements_are_refused() -> None:

@@ -38,11 +38,13 @@ from gcs.core.navigation.route import (OFF_ROUTE, RouteSegment, TransitionModel,
 from protocols.messages import NavReport
 
 __all__ = ["NavParams", "NavMeasurement", "NavEstimate", "nav_measurement", "initial", "from_gaussian", "predict_modes",
-           "nav_update", "position"]
+           "nav_update", "position", "position_at"]
 
 NS_PER_S = 1_000_000_000
 MIN_GPS_FIX = 2
 """Lowest MAVLink ``fix_type`` used as a position (2D fix)."""
+GAP_TOLERANCE_S = 1e-3
+"""Time between the estimate and the start of a report's INS interval below which nothing is predicted."""
 
 
 @dataclass(frozen=True)
@@ -204,13 +206,15 @@ def predict_modes(params: NavParams, estimate: NavEstimate, measurement: NavMeas
         raise ValueError(f"nav measurement at {measurement.stamp_ns} ns is older than the estimate ({estimate.stamp_ns} ns)")
     means, covs = estimate.mixture.means.copy(), estimate.mixture.covs.copy()
     dt = (measurement.stamp_ns - estimate.stamp_ns) / NS_PER_S
+    # The part of the interval the INS increments do not cover (a lost report, the first one) goes by eq. (6).
+    gap = dt - measurement.ins[2] if measurement.ins is not None else dt
     for i in range(estimate.mixture.modes):
+        if gap > GAP_TOLERANCE_S:
+            means[i], covs[i] = cv_predict(means[i], covs[i], gap, params.accel_psd_m2_s3, params.turn_psd_rad2_s3,
+                                           process_scale)
         if measurement.ins is not None:
             distance, turn, ins_dt = measurement.ins
             means[i], covs[i] = ins_predict(means[i], covs[i], distance, turn, ins_dt, params.ins, process_scale)
-        elif dt > 0.0:
-            means[i], covs[i] = cv_predict(means[i], covs[i], dt, params.accel_psd_m2_s3, params.turn_psd_rad2_s3,
-                                           process_scale)
     return means, covs
 
 
@@ -279,4 +283,16 @@ def nav_update(params: NavParams, estimate: NavEstimate, measurement: NavMeasure
 def position(estimate) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The collapsed horizontal position (2,), ENU metres, and its covariance (2, 2), m^2."""
     return estimate.mean[[X, Y]].copy(), estimate.cov[np.ix_((X, Y), (X, Y))].copy()
+
+
+def position_at(params: NavParams, estimate, stamp_ns: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`position` extrapolated to ``stamp_ns`` by eq. (6) (e.g. a sensor report between two nav reports).
+
+    The estimate is not changed; a stamp at or before the estimate's gives :func:`position` itself.
+    """
+    dt = (stamp_ns - estimate.stamp_ns) / NS_PER_S
+    if dt <= 0.0:
+        return position(estimate)
+    mean, cov = cv_predict(estimate.mean, estimate.cov, dt, params.accel_psd_m2_s3, params.turn_psd_rad2_s3)
+    return mean[[X, Y]].copy(), cov[np.ix_((X, Y), (X, Y))].copy()
 
