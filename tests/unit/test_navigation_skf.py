@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import msgspec
 import numpy as np
 import pytest
 from scipy.stats import chi2
@@ -17,6 +18,7 @@ from gcs.core.navigation.route import (OFF_ROUTE, RouteSegment, TransitionModel,
                                        map_observation, route_segments, transition_matrix)
 from gcs.core.navigation.skf import (NavMeasurement, NavParams, from_gaussian, initial, nav_measurement, nav_update,
                                      position, position_at)
+from gcs.scenarios import load_scenario
 from protocols.messages import GpsFix, InsIncrement, NavReport
 from sim_vehicles.truth.gps import GpsModel
 from sim_vehicles.truth.ins import InsModel
@@ -157,9 +159,11 @@ def test_heading_picks_the_segment_at_a_crossing() -> None:
 
 def test_the_route_bounds_the_drift_without_gps() -> None:
     """Gyro drift of 0.003 rad/s for 150 s without GPS: the route keeps the cross-track error small."""
-    params = NavParams.from_scenario(type("S", (), {"simulation": type("Sim", (), {"ins": InsConfig(
-        heading_drift_rad_s=0.003)})})())
-    ins = InsModel(InsConfig(heading_drift_rad_s=0.003))
+    base = load_scenario("wang2012_urban")
+    scenario = msgspec.structs.replace(base, simulation=msgspec.structs.replace(
+        base.simulation, ins=InsConfig(heading_drift_rad_s=0.003)))
+    params = NavParams.from_scenario(scenario)
+    ins = InsModel(scenario.simulation.ins)
     route = route_segments([[x, 0.0] for x in np.arange(-200.0, 5000.0, 200.0)])
     rng = np.random.default_rng(12)
     with_route = without = initial(params, 0, [0.0, 0.0], 3.0, 0.0, [25.0, 0.0])

@@ -17,6 +17,14 @@ filter, the ``gcs bench skf`` experiment):
 
 The filter holds parameters (:class:`NavParams`); the estimate
 (:class:`NavEstimate`) goes in and a new one comes out. Everything is pure.
+
+Use (one estimate per vehicle)::
+
+    params = NavParams.from_scenario(scenario)
+    m = nav_measurement(nav_report, frame)                     # LocalFrame of the scenario's origin
+    estimate = initial(params, m.stamp_ns, m.gps_xy, m.gps_std_m, heading_rad, m.velocity_xy)  # first fix
+    estimate = nav_update(params, estimate, m, route_segments(commanded_path_xy))               # every report
+    xy, cov = position_at(params, estimate, sensor_report.stamp_ns)  # -> Detection(..., vehicle_cov=cov)
 """
 
 from __future__ import annotations
