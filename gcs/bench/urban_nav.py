@@ -16,7 +16,10 @@ truth and the same GPS and INS draws (paired):
   (:func:`gcs.core.navigation.skf.nav_update`): INS eq. (1), the GPS fix with the
   GNSS velocity and heading when there is one, and map observations against the
   segments of the vehicle's commanded path (the previous step's plan, rolled out
-  from the position the vehicle believed then).
+  from the position the vehicle believed then, :data:`ROUTE_SUBSTEPS` points a step,
+  placed as uncertainly as that belief was);
+  ``skf_no_cov`` without giving its covariance to the target filter, ``skf_no_route``
+  without the route.
 
 Each step a vehicle's GPS (the simulator's :class:`~sim_vehicles.truth.gps.GpsModel`,
 with the scenario's ``gps_denied`` polygons) is read and its INS
@@ -30,7 +33,7 @@ daemon will see.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -44,9 +47,14 @@ from sim_vehicles.scene import simple_navigation
 from sim_vehicles.truth.gps import GpsModel, GpsState
 from sim_vehicles.truth.ins import InsModel
 
-__all__ = ["NAVIGATION_MODES", "FleetNavigation"]
+__all__ = ["NAVIGATION_MODES", "ROUTE_SUBSTEPS", "FleetNavigation"]
 
-NAVIGATION_MODES = ("perfect", "raw_gps", "raw_gps_std", "skf", "skf_no_cov")
+INITIAL_HEADING_STD_RAD = 0.02
+"""The SKF's prior heading spread at the start (which is the true heading)."""
+NAVIGATION_MODES = ("perfect", "raw_gps", "raw_gps_std", "skf", "skf_no_cov", "skf_no_route")
+ROUTE_SUBSTEPS = 4
+"""Points per plan step of the commanded path given to the SKF as its route: the arcs flown,
+not 25 m chords whose headings are off by half a step's turn (0.1 rad at 0.2 rad/s)."""
 NS_PER_S = 1_000_000_000
 
 
@@ -71,6 +79,7 @@ class FleetNavigation:
     std_m: NDArray[np.float64]
     estimates: list[NavEstimate | None]
     routes: list[tuple] = field(default_factory=list)
+    route_covs: list[NDArray[np.float64] | None] = field(default_factory=list)
 
     @classmethod
     def start(cls, mode: str, scenario: Scenario, seed: int, truth: VehicleState) -> FleetNavigation:
@@ -87,12 +96,17 @@ class FleetNavigation:
             states.append(state)
             fixes.append(reading.position_enu_m is not None)
             std.append(reading.horizontal_std_m)
-        params = NavParams.from_scenario(scenario)
+        # Along the commanded path, where the vehicle is is known to about one step's flight, not to a sub-step.
+        # Every navigation starts at the true pose; the SKF is told its heading is good to a compass's
+        # INITIAL_HEADING_STD_RAD, not its default meant for a start from a GPS course.
+        params = replace(NavParams.from_scenario(scenario), initial_heading_std_rad=INITIAL_HEADING_STD_RAD,
+                         map_along_std_m=float(truth.speed.min() * scenario.time.step_s))
         estimates = [initial(params, 0, xyz[i, :2], std[i], float(truth.heading[i]),
                              truth.speed[i] * np.array([math.cos(truth.heading[i]), math.sin(truth.heading[i])]))
                      if mode.startswith("skf") else None for i in range(len(truth))]
         return cls(mode, scenario, gps_model, InsModel(scenario.simulation.ins), params, rngs, states,
-                   np.array(fixes), xyz, truth.heading.copy(), np.array(std), estimates, [() for _ in rngs])
+                   np.array(fixes), xyz, truth.heading.copy(), np.array(std), estimates, [() for _ in rngs],
+                   [None for _ in rngs])
 
     def fly(self, before: VehicleState, after: VehicleState, dt: float, stamp_ns: int) -> None:
         """The vehicles flew from ``before`` to ``after`` in ``dt`` seconds: read INS and GPS, navigate."""
@@ -117,7 +131,8 @@ class FleetNavigation:
                     gps_xy=None if fix is None else fix[:2], gps_std_m=None if fix is None else reading.horizontal_std_m,
                     velocity_xy=None if fix is None else velocity,  # GNSS velocity and compass with a fix, as the simulator
                     heading_rad=None if fix is None else float(after.heading[i]))
-                self.estimates[i] = nav_update(self.params, self.estimates[i], measurement, self.routes[i])
+                self.estimates[i] = nav_update(self.params, self.estimates[i], measurement, self.routes[i],
+                                               self.route_covs[i])
                 xy, _ = position(self.estimates[i])
                 self.believed_xyz[i] = (xy[0], xy[1], after.altitude[i])
                 self.believed_heading[i] = self.estimates[i].mean[2]
@@ -137,8 +152,13 @@ class FleetNavigation:
     def commanded(self, believed: VehicleState, controls: NDArray[np.float64], dt: float,
                   max_turn_rate: NDArray[np.float64]) -> None:
         """The plan (V, T) the vehicles were just given: each one's path from where it believed it was."""
-        xy, _ = rollout(believed, controls, dt, max_turn_rate, headings=False)
+        if self.mode == "skf_no_route":
+            return
+        n = ROUTE_SUBSTEPS
+        xy, _ = rollout(believed, np.repeat(controls, n, axis=1), dt / n, max_turn_rate, headings=False)
         self.routes = [route_segments(np.vstack([believed.xy[i], xy[i]])) for i in range(len(believed))]
+        # The path is laid out from the belief: as uncertain as the belief was (nav_update's route_cov).
+        self.route_covs = [None if e is None else e.cov[:3, :3].copy() for e in self.estimates]
 
     def errors_m(self, truth: VehicleState) -> NDArray[np.float64]:
         """Horizontal navigation error of every vehicle (V,), metres."""

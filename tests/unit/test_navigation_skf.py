@@ -207,6 +207,8 @@ def test_candidates_transitions_and_map_covariance() -> None:
     u, n = np.array([1.0, 1.0]) / math.sqrt(2), np.array([-1.0, 1.0]) / math.sqrt(2)
     assert u @ obs.r[:2, :2] @ u == pytest.approx(900.0) and n @ obs.r[:2, :2] @ n == pytest.approx(25.0)
     assert obs.r[0, 1] == pytest.approx(0.5 * (900.0 - 25.0))  # eq. (3)'s Q_xy for a 45 deg segment
+    placed = map_observation(segment, [60.0, 40.0], 30.0, 5.0, 0.1, placement_cov=np.diag([4.0, 9.0, 0.01]))
+    np.testing.assert_allclose(placed.r - obs.r, np.diag([4.0, 9.0, 0.01]))  # a route known only so well
 
 
 def test_nav_measurement_from_a_report() -> None:

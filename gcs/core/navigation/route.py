@@ -117,14 +117,22 @@ def candidate_segments(segments: Sequence[RouteSegment], xy: ArrayLike, radius_m
 
 
 def map_observation(segment: RouteSegment, predicted_xy: ArrayLike, along_std_m: float, across_std_m: float,
-                    heading_std_rad: float) -> Observation:
-    """Eq. (2) for ``segment`` about the mode's predicted position, with the covariance of eq. (3)."""
+                    heading_std_rad: float, placement_cov: NDArray[np.float64] | None = None) -> Observation:
+    """Eq. (2) for ``segment`` about the mode's predicted position, with the covariance of eq. (3).
+
+    ``placement_cov`` (3, 3), the covariance of the route's own position and heading
+    ``(x, y, theta)``, is added to eq. (3)'s: a commanded path laid out from where the
+    vehicle *believed* it was is only as well placed as that belief (:func:`nav_update`'s
+    ``route_cov``); a surveyed map has none.
+    """
     closest, _ = segment.project(predicted_xy)
     psi = segment.heading_rad
     rot = np.array([[math.cos(psi), -math.sin(psi)], [math.sin(psi), math.cos(psi)]])
     r = np.zeros((3, 3))
     r[:2, :2] = rot @ np.diag([along_std_m**2, across_std_m**2]) @ rot.T  # eq. (3): delta_x^2, Q_xy, delta_y^2
     r[2, 2] = heading_std_rad**2
+    if placement_cov is not None:
+        r = r + placement_cov
     return Observation(np.array([closest[0], closest[1], psi]), _H_MAP, 0.5 * (r + r.T), angle_rows=(2,))
 
 

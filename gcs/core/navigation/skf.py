@@ -23,7 +23,7 @@ Use (one estimate per vehicle)::
     params = NavParams.from_scenario(scenario)
     m = nav_measurement(nav_report, frame)                     # LocalFrame of the scenario's origin
     estimate = initial(params, m.stamp_ns, m.gps_xy, m.gps_std_m, heading_rad, m.velocity_xy)  # first fix
-    estimate = nav_update(params, estimate, m, route_segments(commanded_path_xy))               # every report
+    estimate = nav_update(params, estimate, m, route_segments(path_xy), plan_time_estimate.cov[:3, :3])  # every report
     xy, cov = position_at(params, estimate, sensor_report.stamp_ns)  # -> Detection(..., vehicle_cov=cov)
 """
 
@@ -248,7 +248,7 @@ def off_route_log_density(params: NavParams, candidates: Sequence[RouteSegment])
 
 def switch_update(params: NavParams, estimate: NavEstimate, measurement: NavMeasurement,
                   route: Sequence[RouteSegment], shared: Sequence[Observation],
-                  process_scale: float = 1.0) -> NavEstimate:
+                  process_scale: float = 1.0, route_cov: NDArray[np.float64] | None = None) -> NavEstimate:
     """Steps 1-4 of the module docstring with the given shared observations (all of CF, or one local filter's)."""
     means, covs = predict_modes(params, estimate, measurement, process_scale)
     predicted_xy = estimate.mixture.probabilities @ means[:, :2]
@@ -264,7 +264,7 @@ def switch_update(params: NavParams, estimate: NavEstimate, measurement: NavMeas
             segment = candidates[j - 1]
             along = params.map_along_std_m or segment.length_m
             observations.append(map_observation(segment, mean[:2], along, params.map_across_std_m,
-                                                params.map_heading_std_rad))
+                                                params.map_heading_std_rad, route_cov))
         stacked = stack_observations(observations)
         extra = off_density if j == 0 else 0.0
         if stacked is None:
@@ -278,14 +278,20 @@ def switch_update(params: NavParams, estimate: NavEstimate, measurement: NavMeas
 
 
 def nav_update(params: NavParams, estimate: NavEstimate, measurement: NavMeasurement,
-               route: Sequence[RouteSegment] = ()) -> NavEstimate:
+               route: Sequence[RouteSegment] = (), route_cov: NDArray[np.float64] | None = None) -> NavEstimate:
     """One centralised SKF step (module docstring): INS prediction, then GPS, map and GNSS velocity/heading.
 
     ``route`` holds the candidate segments' source (e.g. the vehicle's recent commanded
     path, :func:`~gcs.core.navigation.route.route_segments`); empty: no map observations.
+    ``route_cov`` (3, 3) is the uncertainty of the route's placement in ``(x, y, theta)``:
+    for a commanded path laid out from the vehicle's estimate, that estimate's
+    ``cov[:3, :3]`` when the path was planned. Without it such a path, which says how far
+    the vehicle moved but not where it is, is taken for a surveyed map and the filter
+    grows overconfident (``gcs bench urban --gps-denied`` measured it).
     Raises ValueError for a measurement older than the estimate.
     """
-    return switch_update(params, estimate, measurement, route, common_observations(params, measurement))
+    return switch_update(params, estimate, measurement, route, common_observations(params, measurement),
+                         route_cov=route_cov)
 
 
 def position(estimate) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
