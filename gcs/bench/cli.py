@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 from gcs.bench import PLANNERS
+from gcs.bench.urban_nav import NAVIGATION_MODES
 
 PLOTS_HELP = "write PNG plots and a markdown table (<benchmark>.md) into DIR"
 
@@ -66,6 +67,8 @@ def _cmd_urban(args: argparse.Namespace) -> int:
 
     scenario = load_scenario(args.scenario)
     world = build_world(scenario)
+    if args.gps_denied:
+        return _urban_gps_denied(args, scenario, world)
     report, records = urban_report.run_benchmark(
         scenario, world, runs=args.runs, seed=args.seed, planners=args.planner or PLANNERS, duration_s=args.duration,
         motion=args.motion, scaling=() if args.no_scaling else (3, 6, 10, 20), progress=_progress,
@@ -76,6 +79,20 @@ def _cmd_urban(args: argparse.Namespace) -> int:
         print(f"wrote {args.json}")
     if args.plots:
         _wrote(urban_report.write_plots(report, records, world, args.plots))
+    return 0
+
+
+def _urban_gps_denied(args: argparse.Namespace, scenario, world) -> int:
+    from gcs.bench import urban_nav_report
+
+    report = urban_nav_report.run_benchmark(
+        scenario, world, runs=args.runs, seed=args.seed, planners=args.planner or ("ga_k5",),
+        navigations=args.navigation or urban_nav_report.NAVIGATION_MODES, duration_s=args.duration,
+        motion=args.motion, progress=_progress)
+    print(urban_nav_report.format_report(report))
+    if args.json:
+        urban_nav_report.write_json(report, args.json)
+        print(f"wrote {args.json}")
     return 0
 
 
@@ -157,6 +174,34 @@ def _cmd_livemap(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_skf(args: argparse.Namespace) -> int:
+    from gcs.bench import skf_report
+
+    report = skf_report.run_benchmark(runs=args.runs, seed=args.seed, methods=args.method or skf_report.METHODS,
+                                      gps_outage_s=tuple(args.gps_outage) if args.gps_outage else None,
+                                      progress=_progress)
+    print(skf_report.format_report(report))
+    if args.json:
+        skf_report.write_json(report, args.json)
+        print(f"wrote {args.json}")
+    return 0
+
+
+def _cmd_imm(args: argparse.Namespace) -> int:
+    from gcs.bench import imm
+    from gcs.scenarios import load_scenario
+    from gcs.world_loader import build_world
+
+    scenario = load_scenario(args.scenario)
+    report = imm.run_benchmark(scenario, build_world(scenario), runs=args.runs, seed=args.seed, steps=args.steps,
+                               progress=_progress)
+    print(imm.format_report(report))
+    if args.json:
+        imm.write_json(report, args.json)
+        print(f"wrote {args.json}")
+    return 0
+
+
 def _positive_int(text: str) -> int:
     value = int(text)
     if value < 1:
@@ -218,7 +263,12 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     urb.add_argument("--no-scaling", action="store_true", help="skip the 3/6/10/20-UAV GA timing table")
     urb.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     urb.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
-    urb.set_defaults(handler=_outputs_checked(_cmd_urban), planner=None)
+    urb.add_argument("--gps-denied", action="store_true",
+                     help="GPS-denied zones (the scenario's, else a 1.5 km square about the target's start): target "
+                          "RMSE with the vehicles' own navigation (perfect, raw GPS, SKF); planner default ga_k5")
+    urb.add_argument("--navigation", action="append", choices=NAVIGATION_MODES,
+                     help="with --gps-denied: navigation to run (repeatable; default all)")
+    urb.set_defaults(handler=_outputs_checked(_cmd_urban), planner=None, navigation=None)
 
     dmn = benches.add_parser(
         "daemon",
@@ -279,3 +329,32 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     lmp.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     lmp.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
     lmp.set_defaults(handler=_outputs_checked(_cmd_livemap))
+
+    from gcs.bench.skf_methods import METHODS as SKF_METHODS
+
+    skf = benches.add_parser(
+        "skf", help="feng2019 Table 1: switching Kalman filter navigation (CF, DF) vs FilterPy's IMM and KF",
+        description="Rebuilds feng2019 section 4 (200 m/s, 600 m snake from 40 s to 90 s, straight to 120 s) with "
+                    "the simulator's INS and GPS models and a noisy map database, and prints RMS position and "
+                    "velocity errors and time per run for SKF-CF, SKF-DF, our filter without the map, "
+                    "FilterPy's IMMEstimator and KalmanFilter on the same data.")
+    skf.add_argument("--runs", type=_positive_int, default=150, help="Monte Carlo runs (default 150, the paper's)")
+    skf.add_argument("--seed", type=int, default=2019, help="seed of the first run (default 2019)")
+    skf.add_argument("--method", action="append", choices=SKF_METHODS,
+                     help=f"method to run (repeatable; default all: {', '.join(SKF_METHODS)})")
+    skf.add_argument("--gps-outage", type=float, nargs=2, metavar=("START_S", "END_S"),
+                     help="no GPS fix between these times (not in the paper)")
+    skf.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
+    skf.set_defaults(handler=_outputs_checked(_cmd_skf), method=None)
+
+    imm = benches.add_parser(
+        "imm", help="CV + coordinated-turn IMM vs the single-model DUIF on the street-following target",
+        description="Paired runs on the same detections (three UAVs circling the street-following target in the "
+                    "scenario's city, occluded by its buildings): position and velocity RMSE, RMSE after the "
+                    "target's turns, NEES and time per step of the DUIF and of the IMM estimator.")
+    imm.add_argument("--scenario", default="wang2012_urban", help="shipped name or .toml path (default wang2012_urban)")
+    imm.add_argument("--runs", type=_positive_int, default=50, help="paired runs (default 50)")
+    imm.add_argument("--steps", type=_positive_int, default=300, help="1 s steps per run (default 300)")
+    imm.add_argument("--seed", type=int, default=3000, help="seed of the first run (default 3000)")
+    imm.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
+    imm.set_defaults(handler=_outputs_checked(_cmd_imm))

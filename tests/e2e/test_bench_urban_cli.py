@@ -36,3 +36,22 @@ def test_bench_urban_writes_json_and_plots(tmp_path: Path) -> None:
         assert_close(row["decision ms (median)"], metrics["decision_ms_median"])
         assert [float(x) for x in row["seen per UAV (mean)"].split(" / ")] == metrics["seen_per_uav_mean"]
     assert "run 1/1 ga_k5" in done.stderr  # progress
+
+
+def test_bench_urban_gps_denied_writes_the_navigation_comparison(tmp_path: Path) -> None:
+    out = tmp_path / "denied.json"
+    done = subprocess.run(
+        [sys.executable, "-m", "gcs.cli", "bench", "urban", "--gps-denied", "--runs", "1", "--duration", "6",
+         "--planner", "orbit", "--navigation", "perfect", "--navigation", "raw_gps", "--navigation", "skf",
+         "--seed", "3", "--json", str(out)],
+        capture_output=True, text=True, timeout=600,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "GPS-denied" in done.stdout and "skf below raw_gps" in done.stdout
+    report = json.loads(out.read_text())
+    assert report["gps_denied"][0]["name"] == "centre"
+    navs = report["planners"]["orbit"]["navigation"]
+    assert set(navs) == {"perfect", "raw_gps", "skf"}
+    for metrics in navs.values():
+        assert {"rmse_m", "rmse_outage_m", "nav_rmse_outage_m", "outage_steps_mean"} <= set(metrics)
+    assert navs["perfect"]["nav_rmse_outage_m"] == 0.0 and navs["skf"]["nav_rmse_outage_m"] > 0.0
