@@ -93,6 +93,10 @@ def _urban_gps_denied(args: argparse.Namespace, scenario, world) -> int:
     if args.json:
         urban_nav_report.write_json(report, args.json)
         print(f"wrote {args.json}")
+    if args.plots:
+        from gcs.bench.navigation_plots import write_gps_denied_plots
+
+        _wrote(write_gps_denied_plots(report, args.plots))
     return 0
 
 
@@ -184,6 +188,10 @@ def _cmd_skf(args: argparse.Namespace) -> int:
     if args.json:
         skf_report.write_json(report, args.json)
         print(f"wrote {args.json}")
+    if args.plots:
+        from gcs.bench.navigation_plots import write_skf_plots
+
+        _wrote(write_skf_plots(report, args.plots))
     return 0
 
 
@@ -199,6 +207,10 @@ def _cmd_imm(args: argparse.Namespace) -> int:
     if args.json:
         imm.write_json(report, args.json)
         print(f"wrote {args.json}")
+    if args.plots:
+        from gcs.bench.navigation_plots import write_imm_plots
+
+        _wrote(write_imm_plots(report, args.plots))
     return 0
 
 
@@ -345,6 +357,7 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     skf.add_argument("--gps-outage", type=float, nargs=2, metavar=("START_S", "END_S"),
                      help="no GPS fix between these times (not in the paper)")
     skf.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
+    skf.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
     skf.set_defaults(handler=_outputs_checked(_cmd_skf), method=None)
 
     imm = benches.add_parser(
@@ -357,4 +370,5 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     imm.add_argument("--steps", type=_positive_int, default=300, help="1 s steps per run (default 300)")
     imm.add_argument("--seed", type=int, default=3000, help="seed of the first run (default 3000)")
     imm.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
+    imm.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
     imm.set_defaults(handler=_outputs_checked(_cmd_imm))

@@ -39,11 +39,11 @@ def test_bench_urban_writes_json_and_plots(tmp_path: Path) -> None:
 
 
 def test_bench_urban_gps_denied_writes_the_navigation_comparison(tmp_path: Path) -> None:
-    out = tmp_path / "denied.json"
+    out, plots = tmp_path / "denied.json", tmp_path / "plots"
     done = subprocess.run(
         [sys.executable, "-m", "gcs.cli", "bench", "urban", "--gps-denied", "--runs", "1", "--duration", "6",
          "--planner", "orbit", "--navigation", "perfect", "--navigation", "raw_gps", "--navigation", "skf",
-         "--seed", "3", "--json", str(out)],
+         "--seed", "3", "--json", str(out), "--plots", str(plots)],
         capture_output=True, text=True, timeout=600,
     )
     assert done.returncode == 0, done.stderr
@@ -55,3 +55,9 @@ def test_bench_urban_gps_denied_writes_the_navigation_comparison(tmp_path: Path)
     for metrics in navs.values():
         assert {"rmse_m", "rmse_outage_m", "nav_rmse_outage_m", "outage_steps_mean"} <= set(metrics)
     assert navs["perfect"]["nav_rmse_outage_m"] == 0.0 and navs["skf"]["nav_rmse_outage_m"] > 0.0
+    assert_pngs(plots, ["urban_gps_denied.png"])
+    (table,) = read_tables(plots / "urban_gps_denied.md").values()
+    assert [row["navigation"] for row in table] == ["perfect", "raw_gps", "skf"]
+    for row in table:
+        assert_close(row["target RMSE m"], navs[row["navigation"]]["rmse_m"])
+        assert_close(row["in outages m"], navs[row["navigation"]]["rmse_outage_m"])
