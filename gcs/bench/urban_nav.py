@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 from gcs.config import Scenario
 from gcs.core.geometry import wrap_angle
 from gcs.core.kinematics import VehicleState, rollout
-from gcs.core.navigation.route import route_segments
+from gcs.core.navigation.route import TransitionModel, route_segments
 from gcs.core.navigation.skf import NavEstimate, NavMeasurement, NavParams, initial, nav_update, position
 from sim_vehicles.scene import simple_navigation
 from sim_vehicles.truth.gps import GpsModel, GpsState
@@ -99,8 +99,11 @@ class FleetNavigation:
         # Along the commanded path, where the vehicle is is known to about one step's flight, not to a sub-step.
         # Every navigation starts at the true pose; the SKF is told its heading is good to a compass's
         # INITIAL_HEADING_STD_RAD, not its default meant for a start from a GPS course.
+        # The commanded path is laid out afresh every step, so its segment keys restart: no stay/advance
+        # topology between one step's modes and the next (with it, "advance" pushed the estimate ahead).
         params = replace(NavParams.from_scenario(scenario), initial_heading_std_rad=INITIAL_HEADING_STD_RAD,
-                         map_along_std_m=float(truth.speed.min() * scenario.time.step_s))
+                         map_along_std_m=float(truth.speed.min() * scenario.time.step_s),
+                         transitions=TransitionModel(stay=1.0, advance=1.0, jump=1.0))
         estimates = [initial(params, 0, xyz[i, :2], std[i], float(truth.heading[i]),
                              truth.speed[i] * np.array([math.cos(truth.heading[i]), math.sin(truth.heading[i])]))
                      if mode.startswith("skf") else None for i in range(len(truth))]

@@ -285,9 +285,11 @@ def nav_update(params: NavParams, estimate: NavEstimate, measurement: NavMeasure
     path, :func:`~gcs.core.navigation.route.route_segments`); empty: no map observations.
     ``route_cov`` (3, 3) is the uncertainty of the route's placement in ``(x, y, theta)``:
     for a commanded path laid out from the vehicle's estimate, that estimate's
-    ``cov[:3, :3]`` when the path was planned. Without it such a path, which says how far
-    the vehicle moved but not where it is, is taken for a surveyed map and the filter
-    grows overconfident (``gcs bench urban --gps-denied`` measured it).
+    ``cov[:3, :3]`` when the path was planned. Such a path says how far the vehicle moved,
+    not where it is: even with ``route_cov`` every update takes it for new information
+    and the covariance shrinks below the true error (``gcs bench urban --gps-denied``
+    measured it). A route laid out afresh at every plan restarts its keys, so give the
+    filter ``TransitionModel(stay=1, advance=1, jump=1)``: no topology between plans.
     Raises ValueError for a measurement older than the estimate.
     """
     return switch_update(params, estimate, measurement, route, common_observations(params, measurement),
