@@ -39,6 +39,9 @@ def add_daemon_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of the planner's random generator (default 0)")
     parser.add_argument("--record", type=Path, metavar="FILE.mcap",
                         help="record everything received and published (MCAP), finished on exit")
+    parser.add_argument("--accept-unlisted", action="store_true",
+                        help="also accept and fuse reports from vehicles outside the scenario's roster (default: "
+                             "rejected and counted as rejected.unknown_vehicle); they are never commanded")
 
 
 def add_run(sub: argparse._SubParsersAction) -> None:
@@ -65,7 +68,7 @@ def build_daemon(args: argparse.Namespace, **kwargs):
     options = DaemonOptions(zenoh=zenoh, prefix=args.prefix,
                             mavlink=connections_from_arguments(args, [v.id for v in scenario.vehicles]),
                             signing_key=signing_key_from_arguments(args), seed=args.seed, planner=args.planner,
-                            record=args.record)
+                            record=args.record, accept_unlisted=args.accept_unlisted)
     base_dir = scenario_base_dir(args.scenario)
     return Daemon(scenario, build_world(scenario, base_dir), options, **kwargs)
 
@@ -123,7 +126,11 @@ def format_status(status: DaemonStatus) -> list[str]:
 
 
 def _cmd_status(args: argparse.Namespace) -> int:
-    settings = settings_from_arguments(args)
+    try:
+        settings = settings_from_arguments(args)
+    except ValueError as error:
+        log.error("%s", error)
+        return 2
     if settings is None:
         log.error("gcs status needs zenoh")
         return 2
