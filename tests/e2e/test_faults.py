@@ -21,7 +21,7 @@ from gcs.adapters.zenoh_session import ZenohSettings, declare_publisher, open_se
 from gcs.app import Daemon, DaemonOptions
 from protocols.keys import report_key
 from protocols.messages import SensorReport
-from tests.e2e.processes import script
+from tests.e2e.processes import script, stop
 from tests.integration.sim_harness import SCENARIO, WORLD
 from tests.loopback import free_tcp_port, free_udp_port
 
@@ -38,18 +38,6 @@ def wait_for(condition, timeout_s: float, what: str, poll_s: float = 0.05) -> fl
             return time.monotonic()
         time.sleep(poll_s)
     raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
-
-
-def stop(process: subprocess.Popen, timeout_s: float = 20.0) -> int:
-    """SIGINT, then SIGKILL if it does not return."""
-    if process.poll() is None:
-        process.send_signal(signal.SIGINT)
-        try:
-            process.wait(timeout=timeout_s)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
-    return process.returncode
 
 
 def _running_daemon(stack: ExitStack, zenoh: ZenohSettings, mavlink: dict[str, str]) -> Daemon:
