@@ -151,6 +151,8 @@ def settings_from_arguments(args) -> ZenohSettings | None:
             endpoints[side] = tuple(from_file)
         elif isinstance(from_file, dict):  # per-mode endpoints: {"router": [...], "peer": [...], "client": [...]}
             endpoints[side] = tuple(from_file.get(mode, ()))
+        elif side == "listen" and mode == "client":
+            endpoints[side] = ()  # a client does not listen: the command's default is for a peer
         else:
             endpoints[side] = tuple(default)
     return ZenohSettings(mode=mode, listen=endpoints["listen"], connect=endpoints["connect"], config_file=path)

@@ -1,71 +1,25 @@
 """A MAVLink link that goes silent for 10 s: the daemon stops commanding it, and resumes when it returns.
 
-The simulated vehicles reach the daemon through a UDP relay on 127.0.0.1 that
-the test can mute (both directions dropped), like a radio out of range, while
-their Zenoh reports keep flowing.
+The simulated vehicles reach the daemon through a UDP relay on 127.0.0.1
+(:class:`gcs.bench.faults.UdpRelay`, the soak's) that the test can mute (both
+directions dropped), like a radio out of range, while their Zenoh reports
+keep flowing.
 """
 
 from __future__ import annotations
 
-import socket
 import threading
 import time
 from contextlib import ExitStack
 
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.app import Daemon, DaemonOptions
+from gcs.bench.faults import UdpRelay
 from tests.integration.sim_harness import SCENARIO, WORLD, options, running_vehicles
-from tests.loopback import LOCALHOST, free_tcp_port, free_udp_port
+from tests.loopback import free_tcp_port, free_udp_port
 
 SILENCE_S = 10.0
 ROSTER = tuple(v.id for v in SCENARIO.vehicles)
-
-
-class Relay:
-    """Forwards UDP datagrams between one vehicle side and the daemon's port; ``muted`` drops them all."""
-
-    def __init__(self, daemon_port: int) -> None:
-        self.daemon = (LOCALHOST, daemon_port)
-        self.outer = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)  # the vehicles send here
-        self.outer.bind((LOCALHOST, 0))
-        self.inner = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)  # and this talks to the daemon
-        self.inner.bind((LOCALHOST, 0))
-        for sock in (self.outer, self.inner):
-            sock.settimeout(0.05)
-        self.port = self.outer.getsockname()[1]
-        self.vehicles: tuple[str, int] | None = None
-        self.muted = False
-        self.dropped = 0
-        self._stop = threading.Event()
-        self._threads = [threading.Thread(target=self._pump, args=(self.outer, True), daemon=True),
-                         threading.Thread(target=self._pump, args=(self.inner, False), daemon=True)]
-        for thread in self._threads:
-            thread.start()
-
-    def _pump(self, sock: socket.socket, from_vehicles: bool) -> None:
-        while not self._stop.is_set():
-            try:
-                data, address = sock.recvfrom(65536)
-            except (TimeoutError, socket.timeout):
-                continue
-            except OSError:
-                return
-            if from_vehicles:
-                self.vehicles = address
-            if self.muted:
-                self.dropped += 1
-                continue
-            if from_vehicles:
-                self.inner.sendto(data, self.daemon)
-            elif self.vehicles is not None:
-                self.outer.sendto(data, self.vehicles)
-
-    def close(self) -> None:
-        self._stop.set()
-        for thread in self._threads:
-            thread.join(timeout=5)
-        self.outer.close()
-        self.inner.close()
 
 
 def _wait(condition, timeout_s: float, what: str) -> float:
@@ -80,7 +34,7 @@ def _wait(condition, timeout_s: float, what: str) -> float:
 def test_commands_stop_while_the_link_is_silent_and_resume_when_it_returns() -> None:
     endpoint, port = f"tcp/127.0.0.1:{free_tcp_port()}", free_udp_port()
     with ExitStack() as stack:
-        relay = Relay(port)
+        relay = UdpRelay(port)
         stack.callback(relay.close)
         daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=ZenohSettings(listen=(endpoint,), connect=()),
                                                        mavlink={v: f"udpin:127.0.0.1:{port}" for v in ROSTER},

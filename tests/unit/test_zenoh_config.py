@@ -34,7 +34,9 @@ def _config(tmp_path, text: str = FILE) -> str:
 def test_the_files_mode_endpoints_and_credentials_are_used_and_scouting_stays_off(tmp_path) -> None:
     settings = settings_from_arguments(_parse("--zenoh-config", _config(tmp_path)))
     assert settings.mode == "client" and list(settings.connect) == ["tcp/127.0.0.1:7999"]
-    assert list(settings.listen) == [DEFAULT_ENDPOINT]  # the file says nothing: the command's default
+    assert list(settings.listen) == []  # the file says nothing, and a client does not listen
+    peer = settings_from_arguments(_parse("--zenoh-config", _config(tmp_path), "--zenoh-mode", "peer"))
+    assert list(peer.listen) == [DEFAULT_ENDPOINT]  # a peer gets the command's default
     config = settings.config()
     assert json.loads(config.get_json("transport/auth/usrpwd/user")) == "gcs"
     assert json.loads(config.get_json("transport/auth/usrpwd/password")) == "s3cret"
