@@ -295,7 +295,7 @@ class Daemon:
                 log.exception("handling %s on %s failed; continuing", item.kind, item.key)
         if self.commander is not None:
             self.commander.poll(now)
-        expected = {vid for vid in self.roster if self.registry.alive(vid, now)}
+        expected = {vid for vid in self.roster if self.registry.alive(vid, now)} - self.ingest.off_clock
         ready = self.steps.ready(expected, now)
         for position, step_ in enumerate(ready):
             try:

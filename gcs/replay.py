@@ -180,7 +180,7 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
             reporters.add(message.vehicle_id)
             steps.add(message, now)
             alive = {v for v, entry in registry.entries.items() if entry.token}
-            release(steps.ready(alive | reporters, now), now)
+            release(steps.ready((alive | reporters) - ingest.off_clock, now), now)
     release(steps.ready(reporters, math.inf), now)
     return tracks, plans, Counter(ingest.counters) + steps.counters + diverged
 

@@ -105,19 +105,20 @@ class Injector:
         self._ours: set[bytes] = set()  # what we put (the observer sees it too): never copied or aged again
         self._order: deque[bytes] = deque()
 
-    def observe(self, key: str, payload: bytes, encoding: str) -> None:
-        """A sample seen on the wire: a vehicle's valid report is remembered (not one of ours)."""
+    def observe(self, key: str, payload: bytes, encoding: str) -> int | None:
+        """A sample seen on the wire: a vehicle's valid report (not one of ours) is remembered; its stamp."""
         if not key.endswith("/report") or "SensorReport" not in encoding:
-            return
+            return None
         with self._lock:
             if payload in self._ours:
-                return
+                return None
         try:
-            decode(payload, encoding, SensorReport)
+            report = decode(payload, encoding, SensorReport)
         except ProtocolError:
-            return
+            return None
         with self._lock:
             self.latest[key] = (key, payload, encoding)
+        return report.stamp_ns
 
     def _put(self, key: str, payload: bytes, encoding: str) -> None:
         with self._lock:

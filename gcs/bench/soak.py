@@ -133,6 +133,7 @@ class _Soak:
         self.silence_s = 0.0
         self.processes: list[subprocess.Popen | None] = [None] * len(self.groups)
         self.killed: set[int] = set()
+        self.newest_stamp_ns = 0
         self._first = [str(kind) for kind in self.rng.permutation(["kill", "silence", "inject"])]
         self.others: list[subprocess.Popen] = []
         self._lock = threading.Lock()
@@ -195,8 +196,17 @@ class _Soak:
             kind = key.rsplit("/", 1)[-1] if "/vehicle/" in key else "truth"
             with self._lock:
                 self.observed[kind] += 1
-            injector.observe(key, sample.payload.to_bytes(), str(sample.encoding))
+            stamp = injector.observe(key, sample.payload.to_bytes(), str(sample.encoding))
+            if stamp is not None and stamp > self.newest_stamp_ns:
+                self.newest_stamp_ns = stamp
         return on_sample
+
+    def clock_start(self, start_at: float) -> float:
+        """The ``--start-at`` that joins the vehicles where their data is now (their newest report), not where
+        the wall clock says they should be: on a machine that cannot keep the rate they run behind it."""
+        if self.newest_stamp_ns <= EPOCH_NS:
+            return start_at
+        return time.time() - (self.newest_stamp_ns - EPOCH_NS) / NS_PER_S / self.options.rate
 
     def status(self, session: zenoh.Session, timeout_s: float = 5.0) -> DaemonStatus | None:
         for sample in query(session, status_key(), timeout_s):
@@ -284,7 +294,7 @@ def run_soak(options: SoakOptions, command: str = "", progress: Callable[[str], 
             for due, index in [item for item in restarts if item[0] <= now or closing]:
                 restarts.remove((due, index))
                 if not closing:
-                    soak.start_vehicles(index, start_at)
+                    soak.start_vehicles(index, soak.clock_start(start_at))
                     soak.faults["restarts"] += 1
             if start_at + margin < wall < end_at - margin and wall >= next_fault:
                 soak.fault(injector, now, restarts, unmutes)

@@ -82,6 +82,9 @@ class Ingest:
         self.unlisted: list[str] = []
         """Vehicles outside the roster accepted so far, in order of arrival (only with ``accept_unlisted``)."""
         self.counters: Counter = Counter()
+        self.off_clock: set[str] = set()
+        """Vehicles whose latest report was rejected for its stamp (``future`` or ``stale``: a clock gone wrong):
+        the step assembler does not wait for them until one of their reports is accepted again."""
         self._stamps: dict[tuple[str, str], _Recent] = {}
         self._targets: set[str] = set()
         self._keys: dict[str, ParsedKey] = {}
@@ -134,6 +137,7 @@ class Ingest:
         if self._newest_ns is not None and stamp > self._newest_ns + MAX_AHEAD_NS:
             self.reject("future", f"{received.key}: stamp {stamp} is more than "
                                   f"{MAX_AHEAD_NS // 1_000_000_000} s after the newest ({self._newest_ns})")
+            self._off_clock(parsed.kind, source, True)
             return None
         recent = self._stamps.get((parsed.kind, source))
         if recent is None:
@@ -146,14 +150,25 @@ class Ingest:
             self.reject(verdict, f"{received.key}: stamp {stamp} " + (
                 "was accepted already" if verdict == "duplicate" else
                 f"is more than {REORDER_WINDOW_NS / 1e9:g} s older than the newest ({newest})"))
+            if verdict == "stale":  # a duplicate says nothing about the vehicle's clock
+                self._off_clock(parsed.kind, source, True)
             return None
         recent.add(stamp)
+        self._off_clock(parsed.kind, source, False)
         self._newest_ns = stamp if self._newest_ns is None else max(self._newest_ns, stamp)
         if parsed.kind != "truth" and source not in self.roster:
             self.counters[f"accepted.unlisted.{parsed.kind}"] += 1
         else:
             self.counters[f"accepted.{parsed.kind}"] += 1
         return message
+
+    def _off_clock(self, kind: str, source: str, rejected: bool) -> None:
+        if kind != "report":
+            return
+        if rejected:
+            self.off_clock.add(source)
+        else:
+            self.off_clock.discard(source)
 
     def _admit_unlisted(self, vehicle_id: str) -> bool:
         """With ``accept_unlisted``: True for a vehicle already admitted, or a new one while there is room."""

@@ -15,7 +15,8 @@ never changes a result. Steps are released in index order, each once:
   arrived (a vehicle may have died without its liveliness token being
   withdrawn yet); the first step of a run always waits this long;
 * or, earlier, when **complete**: every vehicle the daemon expects (those
-  alive) has a report in the step, or has already reported for step
+  alive, less those whose latest report ingest refused for its stamp: see
+  :attr:`gcs.daemon.ingest.Ingest.off_clock`) has a report in the step, or has already reported for step
   ``k + 1 + reorder_steps`` or later (it skipped the step and is not waited
   for), and the step follows the last released one directly (after a step
   that nobody reported for, the next step waits for its timeout).

@@ -173,3 +173,16 @@ def test_absurd_but_valid_reports_are_implausible() -> None:
     long_range = SensorReport(**{**{f: getattr(long_range, f) for f in long_range.__struct_fields__}, "range_m": 5e7})
     assert ingest.accept(_received(report_key("uav1"), long_range)) is None
     assert ingest.counters == {"rejected.implausible": 2}
+
+
+def test_a_vehicle_whose_reports_are_refused_for_their_stamps_is_not_waited_for_until_one_is_taken() -> None:
+    ingest = _ingest()
+    assert ingest.accept(_received(report_key("uav1"), _report("uav1", 100 * S))) is not None
+    assert ingest.accept(_received(report_key("uav2"), _report("uav2", 500 * S))) is None  # minutes ahead
+    assert ingest.off_clock == {"uav2"}
+    assert ingest.accept(_received(report_key("uav1"), _report("uav1", 80 * S, seq=2))) is None  # stale
+    assert ingest.off_clock == {"uav1", "uav2"}
+    assert ingest.accept(_received(report_key("uav2"), _report("uav2", 101 * S, seq=2))) is not None
+    assert ingest.off_clock == {"uav1"}
+    assert ingest.accept(_received(report_key("uav1"), _report("uav1", 100 * S, seq=3))) is None  # a duplicate
+    assert ingest.off_clock == {"uav1"}  # says nothing about its clock
