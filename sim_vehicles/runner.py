@@ -243,11 +243,13 @@ class Runner:
         reports, navs = _Timer(sim.report_rate_hz), _Timer(sim.nav_rate_hz)
         progress = _Timer(1.0 / 30.0)
         skipped = 0
-        if self.options.start_at_ns is not None:
-            self.stop_event.wait(max(0.0, (self.options.start_at_ns - time.time_ns()) / 1e9))
+        ahead_s = None if self.options.start_at_ns is None else (self.options.start_at_ns - time.time_ns()) / 1e9
+        if ahead_s is not None and ahead_s <= 0:  # the clock started already: join it where it is now
             skipped = self._join(dt, (heartbeat, telemetry, reports, navs, progress))
-            wall_start = self.clock() - max(0.0, (time.time_ns() - self.options.start_at_ns) / 1e9)  # shared clock
+            wall_start = self.clock() - (time.time_ns() - self.options.start_at_ns) / 1e9
         else:
+            if ahead_s is not None:
+                self.stop_event.wait(ahead_s)
             wall_start = self.clock()
         steps_total = None if self.options.duration_s is None else round(self.options.duration_s / dt) - skipped
         while not self.stop_event.is_set() and (steps_total is None or self.summary.steps < steps_total):

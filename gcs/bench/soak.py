@@ -201,12 +201,16 @@ class _Soak:
                 self.newest_stamp_ns = stamp
         return on_sample
 
-    def clock_start(self, start_at: float) -> float:
-        """The ``--start-at`` that joins the vehicles where their data is now (their newest report), not where
-        the wall clock says they should be: on a machine that cannot keep the rate they run behind it."""
-        if self.newest_stamp_ns <= EPOCH_NS:
+    def clock_start(self, session: zenoh.Session, start_at: float) -> float:
+        """The ``--start-at`` that joins the vehicles where their data is now, not where the wall clock says
+        they should be (on a machine that cannot keep the rate they run behind it): the newest report the
+        daemon has taken in, so that the restarted vehicles' stamps are not older than their last ones there."""
+        status = self.status(session, 2.0)
+        stamps = [v.last_report_stamp_ns for v in status.vehicles if v.last_report_stamp_ns] if status else []
+        newest = max(stamps, default=self.newest_stamp_ns)
+        if newest <= EPOCH_NS:
             return start_at
-        return time.time() - (self.newest_stamp_ns - EPOCH_NS) / NS_PER_S / self.options.rate
+        return time.time() - (newest - EPOCH_NS) / NS_PER_S / self.options.rate
 
     def status(self, session: zenoh.Session, timeout_s: float = 5.0) -> DaemonStatus | None:
         for sample in query(session, status_key(), timeout_s):
@@ -294,7 +298,7 @@ def run_soak(options: SoakOptions, command: str = "", progress: Callable[[str], 
             for due, index in [item for item in restarts if item[0] <= now or closing]:
                 restarts.remove((due, index))
                 if not closing:
-                    soak.start_vehicles(index, soak.clock_start(start_at))
+                    soak.start_vehicles(index, soak.clock_start(session, start_at))
                     soak.faults["restarts"] += 1
             if start_at + margin < wall < end_at - margin and wall >= next_fault:
                 soak.fault(injector, now, restarts, unmutes)

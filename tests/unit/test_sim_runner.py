@@ -112,3 +112,14 @@ def test_a_process_joining_a_clock_already_running_sees_the_same_target_and_ends
     for _ in range(200):
         reference.advance(0.05, {})
     assert runner.scene.target.position == pytest.approx(reference.target.position)
+
+
+def test_a_start_time_still_ahead_is_waited_for_and_nothing_is_skipped() -> None:
+    import time
+
+    clock = FakeClock()
+    runner = Runner(SCENARIO, WORLD, RunOptions(rate=40.0, duration_s=3.0, seed=1, only=("uav1",),
+                                                start_at_ns=time.time_ns() + 200_000_000), clock=clock,
+                    sleep=clock.sleep)
+    summary = runner.run()
+    assert summary.reports["uav1"] == 3 and summary.steps == 60  # the reports of t = 0, 1 and 2 s
