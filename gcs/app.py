@@ -53,14 +53,15 @@ from gcs.core.geometry import LocalFrame
 from gcs.core.kinematics import VehicleState
 from gcs.core.filters.uif import GaussianEstimate
 from gcs.core.tracker import TrackerConfig, prediction
-from gcs.daemon.fusion import PlanMemory, fuse_step, plan_commands, track_message
+from gcs.daemon.fusion import (FusionDiverged, PlanMemory, fuse_step, plan_commands, track_message,
+                               with_observers)
 from gcs.core.world import World
 from gcs.daemon.ingest import Ingest
 from gcs.daemon.planning import Planner, PlanJob, PlanOutcome, start_planner
 from gcs.daemon.live import LiveMap
 from gcs.daemon.registry import Registry
 from gcs.daemon.steps import ReadyStep, StepAssembler
-from gcs.tracking import scenario_planner, subset_config, tracker_config
+from gcs.tracking import observer_sensor_model, scenario_planner, subset_config, tracker_config
 from protocols.keys import parse_key
 from protocols.messages import DaemonStatus, NavReport, SensorReport, TargetTruth, VehicleStatus
 
@@ -110,6 +111,10 @@ class DaemonOptions:
         one); None: no page.
     foxglove : FoxgloveOptions or None
         Also send the map to a Foxglove WebSocket server and/or MCAP file.
+    accept_unlisted : bool
+        Accept reports from vehicles outside the scenario's roster (default: rejected as
+        ``unknown_vehicle``); their detections are fused with the scenario's sensor model, and they
+        are never planned for or commanded.
     """
 
     zenoh: ZenohSettings
@@ -124,6 +129,7 @@ class DaemonOptions:
     planner_mode: str = "process"
     http: tuple[str, int] | None = None
     foxglove: FoxgloveOptions | None = None
+    accept_unlisted: bool = False
 
 
 @dataclass(frozen=True)
@@ -201,10 +207,11 @@ class Daemon:
         self.frame = LocalFrame(scenario.origin.lat_deg, scenario.origin.lon_deg, scenario.origin.height_m)
         self.roster = [v.id for v in scenario.vehicles]
         self.vehicle_config = {v.id: v for v in scenario.vehicles}
-        self.ingest = Ingest(set(self.roster), options.prefix)
+        self.ingest = Ingest(set(self.roster), options.prefix, accept_unlisted=options.accept_unlisted)
         self.steps = StepAssembler(round(scenario.time.step_s * NS_PER_S), options.max_wait_s)
         self.planner_name = options.planner or scenario_planner(scenario)
         self.tracker: TrackerConfig = tracker_config(scenario, world, self.planner_name)
+        self._observer_sensor = observer_sensor_model(scenario)
         self.recorder: Recorder | None = None
         self.zenoh = ZenohIO(options.zenoh, options.prefix, tap=self._record_published)
         self.commander: MavlinkCommander | None = None
@@ -307,14 +314,21 @@ class Daemon:
         planned = self._apply_finished_plans()
         received = self.zenoh.drain()
         for item in received:
-            self._handle(item, now)
+            try:
+                self._handle(item, now)
+            except Exception:  # a bug on one input must not take the ground station down
+                self.counters["errors.ingest"] += 1
+                log.exception("handling %s on %s failed; continuing", item.kind, item.key)
         if self.commander is not None:
             self.commander.poll(now)
-        expected = {vid for vid in self.roster if self.registry.alive(vid, now)}
+        expected = {vid for vid in self.roster if self.registry.alive(vid, now)} - self.ingest.off_clock
         ready = self.steps.ready(expected, now)
         for position, step_ in enumerate(ready):
             try:
                 self._decide(step_, now, plan_now=position == len(ready) - 1)
+            except FusionDiverged as error:  # absurd data: the previous estimate stands
+                self.counters["rejected.diverged"] += 1
+                log.warning("decision step %d not fused: %s", step_.index, error)
             except Exception:  # a bug in one step must not take the ground station down
                 self.counters["errors.decision"] += 1
                 log.exception("decision step %d failed; continuing", step_.index)
@@ -351,10 +365,12 @@ class Daemon:
         if self.live is not None:
             self.live.observe(message)
         if isinstance(message, SensorReport):
-            self.registry.on_report(message)
+            if message.vehicle_id in self.registry.entries:  # else a vehicle outside the roster (accept_unlisted)
+                self.registry.on_report(message)
             self.steps.add(message, now)
         elif isinstance(message, NavReport):
-            self.registry.on_nav(message)
+            if message.vehicle_id in self.registry.entries:
+                self.registry.on_nav(message)
         elif isinstance(message, TargetTruth):
             self.loop.truth[message.stamp_ns] = message.position_enu_m
             if len(self.loop.truth) > 4096:
@@ -372,14 +388,15 @@ class Daemon:
     def _decide(self, ready: ReadyStep, now: float, plan_now: bool = True) -> None:
         """Fuse one step's reports (every roster vehicle's) and publish the track; hand the
         planning for the vehicles alive now to the planner, unless a newer step is already waiting."""
-        estimate, detections = fuse_step(self.tracker, self.loop.estimate, ready, self.roster)
+        roster, tracker = with_observers(self.tracker, self.roster, self.ingest.unlisted, self._observer_sensor)
+        estimate, detections = fuse_step(tracker, self.loop.estimate, ready, roster)
         self.loop.estimate = estimate
         predicted = None
         if estimate is not None:
             predicted = prediction(self.tracker, estimate)  # published with the track, and planned on
             self.loop.track_seq += 1
             self.loop.last_track_stamp_ns = ready.stamp_ns
-            contributing = sorted({self.roster[d.vehicle] for d in detections})
+            contributing = sorted({roster[d.vehicle] for d in detections})
             self.zenoh.publish_track(track_message(self.tracker, estimate, self.scenario.target.id,
                                                    self.scenario.estimator.model, self.loop.track_seq, contributing,
                                                    predicted))
@@ -478,7 +495,8 @@ class Daemon:
         estimate_xy = None if estimate is None else (float(estimate.mean[0]), float(estimate.mean[1]))
         seen = {v: False for v in self.roster}
         for report in ready.reports:
-            seen[report.vehicle_id] = seen[report.vehicle_id] or report.detected
+            if report.vehicle_id in seen:
+                seen[report.vehicle_id] = seen[report.vehicle_id] or report.detected
         record = StepRecord(ready.index, ready.stamp_ns, seen, estimate_xy, None, tuple(active), time.time_ns())
         self._unscored.append((record, self.clock() + TRUTH_WAIT_S))
         self._score(flush=False)

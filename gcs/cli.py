@@ -20,6 +20,7 @@ from gcs.bench.cli import add_bench
 from gcs.daemon.cli import add_run, add_status
 from gcs.demo import add_demo
 from gcs.replay import add_record, add_replay
+from gcs.router import add_router
 from gcs.config import ScenarioError
 from gcs.scenarios import DEFAULT_SCENARIO, list_scenarios, load_scenario
 
@@ -57,7 +58,8 @@ def _add_scenario(sub: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=_cmd_scenario)
 
 
-SUBCOMMANDS: tuple[Callable[[argparse._SubParsersAction], None], ...] = (add_demo, add_run, add_status, add_record, add_replay, _add_scenario, add_bench)
+SUBCOMMANDS: tuple[Callable[[argparse._SubParsersAction], None], ...] = (add_demo, add_run, add_status, add_record, add_replay,
+                                                                      add_router, _add_scenario, add_bench)
 """Registration functions, one per subcommand, in the order ``--help`` lists them."""
 
 

@@ -43,7 +43,7 @@ from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, op
 from gcs.config import Scenario, ScenarioError
 from gcs.core.tracker import plan, prediction
 from gcs.core.world import World
-from gcs.daemon.fusion import PlanMemory, fuse_step, plan_commands, track_message
+from gcs.daemon.fusion import FusionDiverged, PlanMemory, fuse_step, plan_commands, track_message
 from gcs.daemon.ingest import Ingest
 from gcs.daemon.registry import Registry
 from gcs.daemon.steps import StepAssembler
@@ -141,11 +141,16 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
     plans: list[PlanCommand] = []
     memory = PlanMemory()
     estimate = None
+    diverged: Counter = Counter()
 
     def release(ready_steps, now: float) -> None:
         nonlocal estimate
         for ready in ready_steps:
-            estimate, detections = fuse_step(config, estimate, ready, roster)
+            try:
+                estimate, detections = fuse_step(config, estimate, ready, roster)
+            except FusionDiverged:  # as the daemon: counted, the previous estimate stands
+                diverged["rejected.diverged"] += 1
+                continue
             if estimate is None:
                 continue
             contributing = sorted({roster[d.vehicle] for d in detections})
@@ -180,9 +185,9 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
             reporters.add(message.vehicle_id)
             steps.add(message, now)
             alive = {v for v, entry in registry.entries.items() if entry.token}
-            release(steps.ready(alive | reporters, now), now)
+            release(steps.ready((alive | reporters) - ingest.off_clock, now), now)
     release(steps.ready(reporters, math.inf), now)
-    return tracks, plans, Counter(ingest.counters) + steps.counters
+    return tracks, plans, Counter(ingest.counters) + steps.counters + diverged
 
 
 def write_outputs(tracks: list[TrackEstimate], plans: list[PlanCommand], out: Path,
@@ -290,7 +295,11 @@ def add_record(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_record(args: argparse.Namespace) -> int:
-    settings = settings_from_arguments(args)
+    try:
+        settings = settings_from_arguments(args)
+    except ValueError as error:
+        log.error("%s", error)
+        return 2
     if settings is None:
         log.error("gcs record needs zenoh")
         return 2

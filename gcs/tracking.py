@@ -21,7 +21,8 @@ from gcs.core.planners import (GeneticPlanner, LmGcrlbPlanner, OneStepHeadingPla
 from gcs.core.tracker import TrackerConfig
 from gcs.core.world import VisibilityMaps, World
 
-__all__ = ["PLANNERS", "URBAN_PLANNERS", "AOA_PLANNERS", "FROM_SCENARIO", "filter_sensor_models", "tracker_config", "target_imm", "scenario_planner", "subset_config"]
+__all__ = ["PLANNERS", "URBAN_PLANNERS", "AOA_PLANNERS", "FROM_SCENARIO", "filter_sensor_models", "observer_sensor_model",
+           "tracker_config", "target_imm", "scenario_planner", "subset_config"]
 
 URBAN_PLANNERS = ("ga_k5", "ga_k0", "orbit", "pursuit")
 """wang2012: GA-RHC on k+5 predictions or on the current estimate (k+0, the paper's
@@ -46,13 +47,18 @@ def scenario_planner(scenario: Scenario) -> str:
 
 def filter_sensor_models(scenario: Scenario) -> tuple[SensorModel, ...]:
     """The filter's sensor model of every vehicle (wang2012 eq. 3-4; zuo2021 eq. 2 noise)."""
-    models = []
-    for vehicle in scenario.vehicles:
-        cfg = scenario.sensor_for(vehicle)
-        components, std = cfg.layout()
-        models.append(SensorModel(components, std, distance_dependent=cfg.noise == "distance_dependent",
-                                  reference_range_m=cfg.reference_range_m))
-    return tuple(models)
+    return tuple(_sensor_model(scenario.sensor_for(vehicle)) for vehicle in scenario.vehicles)
+
+
+def observer_sensor_model(scenario: Scenario) -> SensorModel:
+    """The filter's model of a vehicle outside the roster (``gcs run --accept-unlisted``): the scenario's sensor."""
+    return _sensor_model(scenario.sensor)
+
+
+def _sensor_model(cfg) -> SensorModel:
+    components, std = cfg.layout()
+    return SensorModel(components, std, distance_dependent=cfg.noise == "distance_dependent",
+                       reference_range_m=cfg.reference_range_m)
 
 
 def _planner(name: str, scenario: Scenario, generations: int | None, stall: int | None | str):

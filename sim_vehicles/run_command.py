@@ -46,7 +46,8 @@ def add_run(sub: argparse._SubParsersAction) -> None:
                              "first reports are not lost while the connection comes up (default 5; 0: don't)")
     parser.add_argument("--start-at", type=float, default=None, metavar="UNIX_TIME",
                         help="start the simulation clock at this Unix time (seconds), e.g. to keep vehicles flown "
-                             "by several processes on one clock")
+                             "by several processes on one clock; a time already past joins that clock (a restarted "
+                             "vehicle process: the scene is advanced to it first, --duration counts from zero)")
     parser.add_argument("--json", type=Path, metavar="FILE", help="write the closing summary as JSON")
     parser.set_defaults(handler=_cmd_run)
 

@@ -77,7 +77,10 @@ class RunOptions:
         published by the process that flies the scenario's first vehicle.
     start_at_ns : int or None
         Start the simulation clock at this Unix time (ns), after the waits above, so
-        that vehicles flown by several processes keep one clock.
+        that vehicles flown by several processes keep one clock. A time already past
+        joins a run in flight (a vehicle process restarted after a crash): the scene
+        is first advanced, publishing nothing, to the clock's time, so that the target
+        is where the other processes have it; ``duration_s`` still counts from zero.
     wait_for_subscriber_s : float
         Before the clock starts, wait up to this long (wall time) for subscribers
         to every key (a ground station), so that the first reports are not
@@ -239,10 +242,16 @@ class Runner:
         heartbeat, telemetry = _Timer(1.0), _Timer(sim.telemetry_rate_hz)
         reports, navs = _Timer(sim.report_rate_hz), _Timer(sim.nav_rate_hz)
         progress = _Timer(1.0 / 30.0)
-        if self.options.start_at_ns is not None:
-            self.stop_event.wait(max(0.0, (self.options.start_at_ns - time.time_ns()) / 1e9))
-        wall_start = self.clock()
-        steps_total = None if self.options.duration_s is None else round(self.options.duration_s / dt)
+        skipped = 0
+        ahead_s = None if self.options.start_at_ns is None else (self.options.start_at_ns - time.time_ns()) / 1e9
+        if ahead_s is not None and ahead_s <= 0:  # the clock started already: join it where it is now
+            skipped = self._join(dt, (heartbeat, telemetry, reports, navs, progress))
+            wall_start = self.clock() - (time.time_ns() - self.options.start_at_ns) / 1e9
+        else:
+            if ahead_s is not None:
+                self.stop_event.wait(ahead_s)
+            wall_start = self.clock()
+        steps_total = None if self.options.duration_s is None else round(self.options.duration_s / dt) - skipped
         while not self.stop_event.is_set() and (steps_total is None or self.summary.steps < steps_total):
             self._receive()
             now = scene.elapsed_s
@@ -278,6 +287,24 @@ class Runner:
         self.summary.wall_s = self.clock() - wall_start
         self.summary.modes = {vid: (self.autopilots[vid].mode_name if vid in self.autopilots else "LOITER")
                               for vid in scene.vehicles}
+
+    def _join(self, dt: float, timers: tuple[_Timer, ...]) -> int:
+        """Join a run whose clock started before now (``start_at_ns`` in the past, e.g. a vehicle process
+        restarted after a crash): advance the scene, publishing nothing, to the shared clock's time, so
+        that the target is where the other processes have it; the timers then fire from the next period."""
+        behind_s = (time.time_ns() - self.options.start_at_ns) / 1e9 * self.options.rate
+        if behind_s <= 0:
+            return 0
+        steps = math.ceil(behind_s / dt)
+        for done in range(steps):
+            if self.stop_event.is_set():
+                return done
+            self.scene.advance(dt, {})
+        elapsed = self.scene.elapsed_s
+        for timer in timers:
+            timer.count = math.ceil(elapsed / timer.period_s - 1e-9)
+        log.info("joined the run at t = %.1f s (the scene advanced %d steps without publishing)", elapsed, steps)
+        return steps
 
     def _receive(self) -> None:
         if self.endpoints is None:

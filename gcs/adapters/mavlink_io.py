@@ -87,6 +87,8 @@ DEFAULT_MAX_TURN_RATE_RAD_S = 0.2
 """Turn-rate bound of a vehicle not given one (wang2012's UAVs)."""
 MODE_REQUEST_PERIOD_S = 1.0
 HEARTBEAT_PERIOD_S = 1.0
+MAX_ABS_ALTITUDE_M = 100_000.0
+"""Altitudes relative to home beyond this are not a fixed-wing's (telemetry rejected as ``bad_telemetry``)."""
 HEADING_RESEND_RAD = math.radians(0.5)
 AIRSPEED_RESEND_MPS = 0.1
 ALTITUDE_RESEND_M = 0.5
@@ -147,7 +149,9 @@ class VehicleLink:
 
 
 def update_from_message(link: VehicleLink, message, now_s: float, frame: LocalFrame) -> str | None:
-    """Apply one message from the vehicle to ``link``; returns ``"heartbeat"`` for a vehicle HEARTBEAT.
+    """Apply one message from the vehicle to ``link``; returns ``"heartbeat"`` for a vehicle HEARTBEAT and
+    ``"bad_telemetry"`` for a position off the globe (or beyond :data:`MAX_ABS_ALTITUDE_M`), a heading out of
+    range or a non-finite yaw, which change nothing (the caller counts them).
 
     GLOBAL_POSITION_INT: ``x, y`` from lat/lon through ``frame`` (at the origin
     height plus ``relative_alt``), ``z = relative_alt``; velocity NED cm/s ->
@@ -164,14 +168,21 @@ def update_from_message(link: VehicleLink, message, now_s: float, frame: LocalFr
         link.last_heartbeat_s = now_s
         return "heartbeat"
     if kind == "GLOBAL_POSITION_INT":
-        altitude_m = message.relative_alt * 1e-3
-        enu = frame.to_enu(message.lat * 1e-7, message.lon * 1e-7, frame.height_m + altitude_m)
+        lat, lon, altitude_m = message.lat * 1e-7, message.lon * 1e-7, message.relative_alt * 1e-3
+        if not (abs(lat) <= 90.0 and abs(lon) <= 180.0 and abs(altitude_m) <= MAX_ABS_ALTITUDE_M
+                and (message.hdg == _UNKNOWN_HDG or message.hdg < 36000)):
+            return "bad_telemetry"
+        enu = frame.to_enu(lat, lon, frame.height_m + altitude_m)
+        if not (math.isfinite(enu[0]) and math.isfinite(enu[1])):
+            return "bad_telemetry"
         link.position_enu_m = np.array([enu[0], enu[1], altitude_m])
         link.velocity_enu_mps = np.array([message.vy, message.vx, -message.vz], dtype=np.float64) * 1e-2
         if message.hdg != _UNKNOWN_HDG:
             link.heading_enu_rad = ned_yaw_from_enu_heading(math.radians(message.hdg * 1e-2))
         link.position_stamp_s = now_s
     elif kind == "ATTITUDE":
+        if not math.isfinite(message.yaw):
+            return "bad_telemetry"
         link.heading_enu_rad = ned_yaw_from_enu_heading(float(message.yaw))
     return None
 
@@ -490,7 +501,11 @@ class MavlinkCommander:
             return
         was_up = vehicle.alive(now_s, self.link_timeout_s)
         was_guided = in_guided_mode(vehicle.autopilot, vehicle.custom_mode)
-        if update_from_message(vehicle, message, now_s, self.frame) != "heartbeat":
+        outcome = update_from_message(vehicle, message, now_s, self.frame)
+        if outcome == "bad_telemetry":
+            self._count("bad_telemetry", vehicle)
+            return
+        if outcome != "heartbeat":
             return
         if not was_up:
             self._count("link_up", vehicle)

@@ -9,12 +9,23 @@ may start first (a peer retries its connections in the background). A
 
 Publishers use ``CongestionControl.BLOCK``: reports and commands are not
 dropped under load (the default DROP loses about a fifth at saturation).
+
+**A zenoh configuration file** (``--zenoh-config FILE``: JSON5, zenoh's own
+format, see zenoh's ``DEFAULT_CONFIG.json5``) is loaded first, so that
+everything zenoh can be told passes through: user/password authentication
+(``transport/auth/usrpwd``: ``user`` and ``password`` on the connecting side,
+``dictionary_file`` of ``user:password`` lines on the listening side), TLS
+(``tls/`` endpoints and ``transport/link/tls``), leases, and so on. The
+explicit options (``--zenoh-mode``, ``--zenoh-listen``, ``--zenoh-connect``)
+then override the file's mode and endpoints, and the file's values are used
+where they are not given; multicast scouting stays off whatever the file says.
 """
 
 from __future__ import annotations
 
 import json
 import time
+from pathlib import Path
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -24,7 +35,7 @@ from protocols.codec import encode, encoding_for
 from protocols.messages import Message
 
 __all__ = ["DEFAULT_ENDPOINT", "ZenohSettings", "open_session", "declare_publisher", "publish", "add_zenoh_arguments",
-           "settings_from_arguments", "query"]
+           "settings_from_arguments", "query", "load_config_file"]
 
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 """Where the daemon listens and the vehicles connect unless told otherwise."""
@@ -46,6 +57,7 @@ class ZenohSettings:
     mode: str = "peer"
     listen: Sequence[str] = ()
     connect: Sequence[str] = (DEFAULT_ENDPOINT,)
+    config_file: str | None = None
 
     def __post_init__(self) -> None:
         if self.mode not in ("peer", "client", "router"):
@@ -54,14 +66,31 @@ class ZenohSettings:
             raise ValueError("a zenoh client needs at least one --zenoh-connect endpoint")
 
     def config(self) -> zenoh.Config:
-        """The ``zenoh.Config`` for these settings, with multicast scouting off."""
-        config = zenoh.Config()
+        """The ``zenoh.Config`` for these settings: the configuration file's, if any, with this mode and
+        these endpoints, multicast scouting off."""
+        config = load_config_file(self.config_file) if self.config_file is not None else zenoh.Config()
         config.insert_json5("mode", json.dumps(self.mode))
         config.insert_json5("scouting/multicast/enabled", "false")
         config.insert_json5("scouting/delay", "0")
         config.insert_json5("listen/endpoints", json.dumps(list(self.listen)))
         config.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
         return config
+
+
+def load_config_file(path: str) -> zenoh.Config:
+    """A zenoh configuration file (JSON5, JSON or YAML by its suffix); ValueError naming the file when it cannot."""
+    if not Path(path).is_file():
+        raise ValueError(f"zenoh configuration file {path}: no such file")
+    try:
+        return zenoh.Config.from_file(path)
+    except (zenoh.ZError, ValueError) as error:
+        raise ValueError(f"zenoh configuration file {path}: {error}") from error
+
+
+def _given_by_file(config: zenoh.Config, key: str):
+    """The file's value at ``key`` (decoded JSON), or None where it leaves zenoh's default."""
+    value = json.loads(config.get_json(key))
+    return None if value == json.loads(zenoh.Config().get_json(key)) else value
 
 
 def open_session(settings: ZenohSettings) -> zenoh.Session:
@@ -87,9 +116,14 @@ def publish(publisher: zenoh.Publisher, message: Message) -> int:
 
 
 def add_zenoh_arguments(parser, listen: Sequence[str], connect: Sequence[str]) -> None:
-    """``--zenoh-mode``, ``--zenoh-listen``, ``--zenoh-connect`` and ``--prefix`` with these defaults."""
-    parser.add_argument("--zenoh-mode", choices=["peer", "client", "none"], default="peer",
-                        help="zenoh session mode; 'none' opens no session (default peer)")
+    """``--zenoh-config``, ``--zenoh-mode``, ``--zenoh-listen``, ``--zenoh-connect`` and ``--prefix`` with
+    these defaults (used where neither an option nor the configuration file gives a value)."""
+    parser.add_argument("--zenoh-config", metavar="FILE",
+                        help="zenoh configuration file (JSON5, zenoh's format), e.g. for user/password "
+                             "authentication or TLS; the options below override its mode and endpoints")
+    parser.add_argument("--zenoh-mode", choices=["peer", "client", "none"], default=None,
+                        help="zenoh session mode; 'none' opens no session (default: the configuration file's, "
+                             "else peer)")
     parser.add_argument("--zenoh-listen", action="append", default=None, metavar="ENDPOINT",
                         help=f"endpoint to listen on, repeatable (default {', '.join(listen) or 'none'})")
     parser.add_argument("--zenoh-connect", action="append", default=None, metavar="ENDPOINT",
@@ -99,12 +133,29 @@ def add_zenoh_arguments(parser, listen: Sequence[str], connect: Sequence[str]) -
 
 
 def settings_from_arguments(args) -> ZenohSettings | None:
-    """The settings :func:`add_zenoh_arguments` parsed (None for ``--zenoh-mode none``)."""
+    """The settings :func:`add_zenoh_arguments` parsed (None for ``--zenoh-mode none``): each of mode,
+    listen and connect from its option, else from the configuration file, else the default.
+    ValueError for a configuration file that cannot be read."""
     if args.zenoh_mode == "none":
         return None
-    listen = tuple(args.zenoh_listen) if args.zenoh_listen is not None else args.zenoh_default_listen
-    connect = tuple(args.zenoh_connect) if args.zenoh_connect is not None else args.zenoh_default_connect
-    return ZenohSettings(mode=args.zenoh_mode, listen=listen, connect=connect)
+    path = getattr(args, "zenoh_config", None)
+    file = load_config_file(path) if path is not None else None
+    mode = args.zenoh_mode or (file is not None and _given_by_file(file, "mode")) or "peer"
+    endpoints = {}
+    for side, given, default in (("listen", args.zenoh_listen, args.zenoh_default_listen),
+                                 ("connect", args.zenoh_connect, args.zenoh_default_connect)):
+        from_file = _given_by_file(file, f"{side}/endpoints") if file is not None else None
+        if given is not None:
+            endpoints[side] = tuple(given)
+        elif isinstance(from_file, list):
+            endpoints[side] = tuple(from_file)
+        elif isinstance(from_file, dict):  # per-mode endpoints: {"router": [...], "peer": [...], "client": [...]}
+            endpoints[side] = tuple(from_file.get(mode, ()))
+        elif side == "listen" and mode == "client":
+            endpoints[side] = ()  # a client does not listen: the command's default is for a peer
+        else:
+            endpoints[side] = tuple(default)
+    return ZenohSettings(mode=mode, listen=endpoints["listen"], connect=endpoints["connect"], config_file=path)
 
 
 def query(session: zenoh.Session, selector: str, timeout_s: float) -> list[zenoh.Sample]:

@@ -214,6 +214,30 @@ def _cmd_imm(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_soak(args: argparse.Namespace) -> int:
+    from gcs.bench import soak
+
+    options = soak.SoakOptions(scenario=args.scenario, vehicles=args.vehicles, processes=args.processes,
+                               duration_s=args.duration, rate=args.rate, seed=args.seed,
+                               fault_every_s=args.fault_every, planner=args.planner)
+    command = (f"gcs bench soak --vehicles {args.vehicles} --processes {args.processes} --duration {args.duration:g} "
+               f"--rate {args.rate:g} --fault-every {args.fault_every:g} --seed {args.seed}")
+    try:
+        report = soak.run_soak(options, command=command, progress=_progress, workdir=args.workdir)
+    except (RuntimeError, ValueError) as error:
+        print(f"gcs bench soak: {error}", file=sys.stderr)
+        return 1
+    print(soak.format_report(report))
+    if args.json:
+        soak.write_json(report, args.json)
+        print(f"wrote {args.json}")
+    if args.plots:
+        from gcs.bench.soak_plots import write_plots
+
+        _wrote(write_plots(report, args.plots))
+    return 0 if report["lost"] == 0 and report["crashes_total"] == 0 else 1
+
+
 def _positive_int(text: str) -> int:
     value = int(text)
     if value < 1:
@@ -372,3 +396,25 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     imm.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     imm.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
     imm.set_defaults(handler=_outputs_checked(_cmd_imm))
+
+    soak = benches.add_parser(
+        "soak", help="the whole ground station for a long run with random faults: nothing lost, no crash, memory",
+        description="Runs a router, the daemon and simulated vehicle processes on 127.0.0.1 for a long simulated "
+                    "run, killing and restarting vehicle processes, silencing MAVLink links and injecting bad "
+                    "samples at random; reports the samples published vs those the daemon took in (accepted or "
+                    "rejected by reason), crashes, and the daemon's memory. Exit 1 if anything was lost or crashed.")
+    soak.add_argument("--scenario", default="wang2012_urban", help="shipped name or .toml path (default wang2012_urban)")
+    soak.add_argument("--vehicles", type=_positive_int, default=10, help="simulated vehicles (default 10)")
+    soak.add_argument("--processes", type=_positive_int, default=5,
+                      help="vehicle processes, the vehicles shared among them (default 5)")
+    soak.add_argument("--duration", type=_positive_float, default=1800.0, help="simulated seconds (default 1800)")
+    soak.add_argument("--rate", type=_positive_float, default=20.0,
+                      help="simulated seconds per wall second (default 20)")
+    soak.add_argument("--fault-every", type=_positive_float, default=3.0, metavar="S",
+                      help="mean wall seconds between faults (default 3)")
+    soak.add_argument("--planner", choices=PLANNERS, default=None, help="the daemon's planner (default the scenario's)")
+    soak.add_argument("--seed", type=int, default=0, help="seed of the vehicles and of the faults (default 0)")
+    soak.add_argument("--workdir", type=Path, metavar="DIR", help="where the logs go (default a temporary folder)")
+    soak.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
+    soak.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
+    soak.set_defaults(handler=_outputs_checked(_cmd_soak))

@@ -47,6 +47,9 @@ def add_daemon_arguments(parser: argparse.ArgumentParser) -> None:
                              "in its loop (each plan before the next step is fused)")
     add_http_argument(parser, "the live map (vehicles, track, plans, status)")
     add_foxglove_arguments(parser)
+    parser.add_argument("--accept-unlisted", action="store_true",
+                        help="also accept and fuse reports from vehicles outside the scenario's roster (default: "
+                             "rejected and counted as rejected.unknown_vehicle); they are never commanded")
 
 
 def add_run(sub: argparse._SubParsersAction) -> None:
@@ -74,7 +77,7 @@ def build_daemon(args: argparse.Namespace, **kwargs):
                             mavlink=connections_from_arguments(args, [v.id for v in scenario.vehicles]),
                             signing_key=signing_key_from_arguments(args), seed=args.seed, planner=args.planner,
                             record=args.record, planner_mode=args.planner_mode, http=args.http,
-                            foxglove=foxglove_options(args))
+                            foxglove=foxglove_options(args), accept_unlisted=args.accept_unlisted)
     base_dir = scenario_base_dir(args.scenario)
     return Daemon(scenario, build_world(scenario, base_dir), options, **kwargs)
 
@@ -132,7 +135,11 @@ def format_status(status: DaemonStatus) -> list[str]:
 
 
 def _cmd_status(args: argparse.Namespace) -> int:
-    settings = settings_from_arguments(args)
+    try:
+        settings = settings_from_arguments(args)
+    except ValueError as error:
+        log.error("%s", error)
+        return 2
     if settings is None:
         log.error("gcs status needs zenoh")
         return 2

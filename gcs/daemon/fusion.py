@@ -9,20 +9,21 @@ planned for, and the prediction is the tracker's own (eq. 16-17).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from gcs.core.filters.prediction import HorizonPrediction
-from gcs.core.filters.uif import GaussianEstimate
+from gcs.core.filters.uif import GaussianEstimate, NotPositiveDefinite
 from gcs.core.geometry import wrap_angle
 from gcs.core.kinematics import VehicleState, rollout
+from gcs.core.models.sensor import SensorModel
 from gcs.core.tracker import Detection, TrackerConfig, TrackerState, fuse, prediction
 from gcs.daemon.steps import ReadyStep
 from gcs.config import VehicleConfig
 from protocols.messages import PlanCommand, PredictedPoint, SensorReport, TrackEstimate
 
-__all__ = ["step_detections", "fuse_step", "track_message", "plan_commands", "PlanMemory"]
+__all__ = ["step_detections", "fuse_step", "FusionDiverged", "check_estimate", "track_message", "plan_commands", "PlanMemory", "with_observers"]
 
 
 def _measurement(report: SensorReport, components: tuple[str, ...]) -> np.ndarray | None:
@@ -48,6 +49,15 @@ def step_detections(ready: ReadyStep, roster: Sequence[str], config: TrackerConf
     return tuple(detections)
 
 
+def with_observers(config: TrackerConfig, roster: Sequence[str], observers: Sequence[str], sensor: SensorModel
+                   ) -> tuple[list[str], TrackerConfig]:
+    """The roster and tracker that fuse ``observers`` (vehicles outside the roster, accepted on request)
+    after the roster's own vehicles, each with ``sensor``; planning keeps the roster's tracker."""
+    if not observers:
+        return list(roster), config
+    return [*roster, *observers], replace(config, sensors=config.sensors + (sensor,) * len(observers))
+
+
 def _symmetric(matrix: np.ndarray) -> np.ndarray:
     """Exactly symmetric copy (the wire checks symmetry)."""
     return 0.5 * (matrix + matrix.T)
@@ -68,11 +78,44 @@ def track_message(config: TrackerConfig, estimate: GaussianEstimate, target_id: 
                          contributing_vehicles=tuple(contributing), prediction=points)
 
 
+class FusionDiverged(ValueError):
+    """A step's detections gave no usable estimate (non-finite, not positive definite, or a position
+    standard deviation beyond :data:`MAX_POSITION_VARIANCE_M2`); the previous estimate stands."""
+
+
+MAX_POSITION_VARIANCE_M2 = 1e12
+"""A position variance beyond (1000 km)^2 is no estimate of a ground target: the step is rejected."""
+
+
+def check_estimate(estimate: GaussianEstimate | None) -> None:
+    """Raise :class:`FusionDiverged` unless the estimate is finite with a positive-definite covariance."""
+    if estimate is None:
+        return
+    mean, cov = estimate.mean, estimate.cov
+    if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(cov))):
+        raise FusionDiverged("the fused estimate is not finite")
+    if not np.all(np.diag(cov)[:2] <= MAX_POSITION_VARIANCE_M2):
+        raise FusionDiverged(f"the fused position variance {np.diag(cov)[:2]} is beyond {MAX_POSITION_VARIANCE_M2:g}")
+    try:
+        np.linalg.cholesky(_symmetric(cov))
+    except np.linalg.LinAlgError as error:
+        raise FusionDiverged("the fused covariance is not positive definite") from error
+
+
 def fuse_step(config: TrackerConfig, estimate: GaussianEstimate | None, ready: ReadyStep, roster: Sequence[str]
               ) -> tuple[GaussianEstimate | None, tuple[Detection, ...]]:
-    """The estimate after one step, and the detections that went into it."""
+    """The estimate after one step, and the detections that went into it.
+
+    Raises :class:`FusionDiverged` when the detections (valid on the wire, but absurd together or with
+    the prior) give no usable estimate, so that one bad step cannot poison the track that follows.
+    """
     detections = step_detections(ready, roster, config)
-    return fuse(config, estimate, ready.stamp_ns, detections), detections
+    try:
+        fused = fuse(config, estimate, ready.stamp_ns, detections)
+    except (NotPositiveDefinite, np.linalg.LinAlgError, ArithmeticError) as error:
+        raise FusionDiverged(f"fusing step {ready.index} failed: {error}") from error
+    check_estimate(fused)
+    return fused, detections
 
 
 def plan_commands(vehicles: VehicleState, configs: Sequence[VehicleConfig], controls: np.ndarray,

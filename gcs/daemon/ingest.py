@@ -8,12 +8,24 @@ flood of bad input cannot flood the log); nothing raises. Reasons:
 * the codec's (:data:`protocols.REJECT_REASONS`): ``key``, ``encoding``,
   ``unexpected_type``, ``malformed``, ``invalid``, ``oversize``;
 * ``id_mismatch``: the message's ``vehicle_id`` differs from its key's;
-* ``unknown_vehicle``: not in the scenario's roster;
-* ``out_of_order``: a stamp not newer than the last accepted one of the same
-  kind from the same vehicle (duplicates included);
+* ``unknown_vehicle``: not in the scenario's roster (unless ``accept_unlisted``:
+  then up to :data:`MAX_UNLISTED` other vehicles are accepted, counted under
+  ``accepted.unlisted.<kind>``, and reported by :attr:`Ingest.unlisted`);
+* ``implausible``: valid on the wire but absurd here: a position more than
+  :data:`MAX_ABS_POSITION_M` from the scenario's origin, a range beyond
+  :data:`MAX_RANGE_M`;
+* ``duplicate``: the same stamp as an accepted message of the same kind from
+  the same source (a message is identified by its source and stamp; ``seq``
+  is informational, it starts again when a vehicle restarts);
+* ``stale``: a stamp more than :data:`REORDER_WINDOW_NS` older than the
+  newest accepted one of the same kind from the same source. Inside that
+  window an older stamp is accepted (out-of-order arrival): the step
+  assembler (:mod:`gcs.daemon.steps`) decides whether a report is still in
+  time for its decision step, and the registry keeps the newest navigation;
 * ``future``: a stamp more than :data:`MAX_AHEAD_NS` after the newest accepted
   one from anybody (a clock gone wrong must not make that vehicle's later
   reports look old, nor hold the decision steps back);
+* ``unknown_target``: truth of more than :data:`MAX_TARGETS` targets;
 * ``unexpected_kind``: a key of the key space the daemon does not consume.
 
 Accepted messages are counted under ``accepted.<kind>``.
@@ -21,6 +33,7 @@ Accepted messages are counted under ``accepted.<kind>``.
 
 from __future__ import annotations
 
+import heapq
 import logging
 from collections import Counter
 
@@ -42,16 +55,38 @@ MAX_AHEAD_NS = 60 * 1_000_000_000
 """How far a stamp may run ahead of the newest accepted one (a minute of data time)."""
 MAX_CACHED_KEYS = 4096
 """Parsed keys remembered (a few per vehicle); a flood of made-up keys cannot grow the cache beyond this."""
+REORDER_WINDOW_NS = 10 * 1_000_000_000
+"""How far (data time) behind a source's newest stamp a message may come and still be accepted; the stamps
+inside the window are remembered to recognise duplicates, so older ones cannot be checked and are stale."""
+MAX_RECENT = 4096
+"""Stamps remembered per source and kind (10 s of a 400 Hz stream); bounds the memory a flood can take."""
+MAX_UNLISTED = 64
+"""Vehicles outside the roster accepted with ``accept_unlisted`` (the rest are ``unknown_vehicle``)."""
+MAX_ABS_POSITION_M = 1_000_000.0
+"""Positions (ENU, about the scenario's origin) further than 1000 km east or north are ``implausible``."""
+MAX_ABS_ALTITUDE_M = 100_000.0
+MAX_RANGE_M = 1_000_000.0
+"""Sensor ranges beyond 1000 km are ``implausible``."""
+MAX_TARGETS = 16
+"""Targets whose (simulated) truth is accepted; more are ``unknown_target`` (bounds the memory per source)."""
 
 
 class Ingest:
     """Decode and validate samples for a roster of vehicles under a key prefix."""
 
-    def __init__(self, roster: set[str], prefix: str = "gcs") -> None:
+    def __init__(self, roster: set[str], prefix: str = "gcs", accept_unlisted: bool = False) -> None:
+        """``accept_unlisted``: take reports from vehicles outside the roster too (see the module docstring)."""
         self.roster = set(roster)
         self.prefix = prefix
+        self.accept_unlisted = accept_unlisted
+        self.unlisted: list[str] = []
+        """Vehicles outside the roster accepted so far, in order of arrival (only with ``accept_unlisted``)."""
         self.counters: Counter = Counter()
-        self._last_stamp: dict[tuple[str, str], int] = {}
+        self.off_clock: set[str] = set()
+        """Vehicles whose latest report was rejected for its stamp (``future`` or ``stale``: a clock gone wrong):
+        the step assembler does not wait for them until one of their reports is accepted again."""
+        self._stamps: dict[tuple[str, str], _Recent] = {}
+        self._targets: set[str] = set()
         self._keys: dict[str, ParsedKey] = {}
         self._newest_ns: int | None = None
 
@@ -81,25 +116,118 @@ class Ingest:
         except ProtocolError as error:
             self.reject(error.reason, f"{received.key}: {error}")
             return None
+        problem = _implausible(message)
+        if problem is not None:
+            self.reject("implausible", f"{received.key}: {problem}")
+            return None
         if parsed.kind == "truth":
             source = message.target_id
+            if ("truth", source) not in self._stamps and len(self._targets) >= MAX_TARGETS:
+                self.reject("unknown_target", f"{received.key}: more than {MAX_TARGETS} targets")
+                return None
         else:
             source = message.vehicle_id
             if source != parsed.ident:
                 self.reject("id_mismatch", f"{received.key}: message says vehicle_id={source!r}")
                 return None
-            if source not in self.roster:
+            if source not in self.roster and not self._admit_unlisted(source):
                 self.reject("unknown_vehicle", f"{received.key}: {source!r} is not in the roster")
                 return None
-        last = self._last_stamp.get((parsed.kind, source))
-        if last is not None and message.stamp_ns <= last:
-            self.reject("out_of_order", f"{received.key}: stamp {message.stamp_ns} not after {last}")
-            return None
-        if self._newest_ns is not None and message.stamp_ns > self._newest_ns + MAX_AHEAD_NS:
-            self.reject("future", f"{received.key}: stamp {message.stamp_ns} is more than "
+        stamp = message.stamp_ns
+        if self._newest_ns is not None and stamp > self._newest_ns + MAX_AHEAD_NS:
+            self.reject("future", f"{received.key}: stamp {stamp} is more than "
                                   f"{MAX_AHEAD_NS // 1_000_000_000} s after the newest ({self._newest_ns})")
+            self._off_clock(parsed.kind, source, True)
             return None
-        self._last_stamp[(parsed.kind, source)] = message.stamp_ns
-        self._newest_ns = message.stamp_ns if self._newest_ns is None else max(self._newest_ns, message.stamp_ns)
-        self.counters[f"accepted.{parsed.kind}"] += 1
+        recent = self._stamps.get((parsed.kind, source))
+        if recent is None:
+            recent = self._stamps[(parsed.kind, source)] = _Recent()
+            if parsed.kind == "truth":
+                self._targets.add(source)
+        verdict = recent.check(stamp)
+        if verdict is not None:
+            newest = recent.newest
+            self.reject(verdict, f"{received.key}: stamp {stamp} " + (
+                "was accepted already" if verdict == "duplicate" else
+                f"is more than {REORDER_WINDOW_NS / 1e9:g} s older than the newest ({newest})"))
+            if verdict == "stale":  # a duplicate says nothing about the vehicle's clock
+                self._off_clock(parsed.kind, source, True)
+            return None
+        recent.add(stamp)
+        self._off_clock(parsed.kind, source, False)
+        self._newest_ns = stamp if self._newest_ns is None else max(self._newest_ns, stamp)
+        if parsed.kind != "truth" and source not in self.roster:
+            self.counters[f"accepted.unlisted.{parsed.kind}"] += 1
+        else:
+            self.counters[f"accepted.{parsed.kind}"] += 1
         return message
+
+    def _off_clock(self, kind: str, source: str, rejected: bool) -> None:
+        if kind != "report":
+            return
+        if rejected:
+            self.off_clock.add(source)
+        else:
+            self.off_clock.discard(source)
+
+    def _admit_unlisted(self, vehicle_id: str) -> bool:
+        """With ``accept_unlisted``: True for a vehicle already admitted, or a new one while there is room."""
+        if not self.accept_unlisted:
+            return False
+        if vehicle_id in self.unlisted:
+            return True
+        if len(self.unlisted) >= MAX_UNLISTED:
+            return False
+        self.unlisted.append(vehicle_id)
+        log.warning("accepting reports from %r, which is not in the roster (accept_unlisted)", vehicle_id)
+        return True
+
+
+def _implausible(message) -> str | None:
+    """What makes a valid message absurd for a ground station (positions beyond :data:`MAX_ABS_POSITION_M`
+    of the origin, ranges beyond :data:`MAX_RANGE_M`), or None."""
+    if isinstance(message, SensorReport):
+        x, y, z = message.vehicle_position_enu_m
+        if not (abs(x) <= MAX_ABS_POSITION_M and abs(y) <= MAX_ABS_POSITION_M and abs(z) <= MAX_ABS_ALTITUDE_M):
+            return f"vehicle position {message.vehicle_position_enu_m} m is beyond {MAX_ABS_POSITION_M:g} m"
+        if message.range_m is not None and message.range_m > MAX_RANGE_M:
+            return f"range {message.range_m} m is beyond {MAX_RANGE_M:g} m"
+    elif isinstance(message, TargetTruth):
+        if not all(abs(v) <= MAX_ABS_POSITION_M for v in message.position_enu_m):
+            return f"target position {message.position_enu_m} m is beyond {MAX_ABS_POSITION_M:g} m"
+    return None
+
+
+class _Recent:
+    """The stamps accepted from one source within :data:`REORDER_WINDOW_NS` of its newest (for duplicates),
+    at most :data:`MAX_RECENT` of them: a stamp at or below one forgotten cannot be checked, so it is stale."""
+
+    __slots__ = ("newest", "forgotten", "_stamps", "_heap")
+
+    def __init__(self) -> None:
+        self.newest: int | None = None
+        self.forgotten: int | None = None
+        self._stamps: set[int] = set()
+        self._heap: list[int] = []
+
+    def check(self, stamp: int) -> str | None:
+        """None if ``stamp`` may be accepted, else the rejection reason."""
+        if stamp in self._stamps:
+            return "duplicate"
+        if self.newest is not None and stamp < self.newest - REORDER_WINDOW_NS:
+            return "stale"
+        if self.forgotten is not None and stamp <= self.forgotten:
+            return "stale"
+        return None
+
+    def add(self, stamp: int) -> None:
+        """Remember an accepted stamp; forget those that fell out of the window (or beyond the bound)."""
+        self._stamps.add(stamp)
+        heapq.heappush(self._heap, stamp)
+        self.newest = stamp if self.newest is None else max(self.newest, stamp)
+        floor = self.newest - REORDER_WINDOW_NS
+        while self._heap and (self._heap[0] < floor or len(self._heap) > MAX_RECENT):
+            oldest = heapq.heappop(self._heap)
+            self._stamps.discard(oldest)
+            if oldest >= floor:  # forgotten for room, not age: what is not after it can no longer be checked
+                self.forgotten = oldest if self.forgotten is None else max(self.forgotten, oldest)

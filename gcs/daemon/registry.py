@@ -2,7 +2,10 @@
 
 A vehicle is **alive** while its Zenoh liveliness token is declared or its
 MAVLink heartbeat is recent (within ``lost_after_s``, 5 s: MAVProxy's
-link-loss convention). It is **plannable** when alive and its navigation is
+link-loss convention). A withdrawn token (the vehicle's process ended or was
+killed: Zenoh withdraws it within milliseconds on loopback) makes it lost at
+once, unless its MAVLink heartbeat goes on after the withdrawal; a silent loss
+of both links shows after the heartbeat's 5 s or Zenoh's lease (10 s). It is **plannable** when alive and its navigation is
 known: a position (from its reports) and a heading (from its nav reports).
 The planner state comes only from stamped Zenoh data, never from MAVLink
 telemetry, so that a replay of the same reports plans the same way.
@@ -23,6 +26,9 @@ from protocols.messages import NavReport, SensorReport
 __all__ = ["VehicleEntry", "Registry", "LOST_AFTER_S"]
 
 LOST_AFTER_S = 5.0
+AFTER_WITHDRAWAL_S = 0.5
+"""A heartbeat must be this much younger than a withdrawn liveliness token to keep the vehicle alive (one
+sent just before the process died may be read just after its token went)."""
 NS_PER_S = 1_000_000_000
 
 
@@ -63,16 +69,21 @@ class Registry:
             entry.token, entry.token_changed_s = alive, now_s
 
     def on_report(self, report: SensorReport) -> None:
-        """An accepted sensor report: the vehicle's own position at the report's stamp."""
+        """An accepted sensor report: the vehicle's own position at the report's stamp (unless a newer one is
+        known already: reports may arrive out of order)."""
         entry = self.entries[report.vehicle_id]
         entry.reports += 1
+        if entry.last_report_stamp_ns is not None and report.stamp_ns < entry.last_report_stamp_ns:
+            return
         entry.last_report_stamp_ns = report.stamp_ns
         entry.position_enu_m = np.asarray(report.vehicle_position_enu_m, dtype=np.float64)
         entry.position_stamp_ns = report.stamp_ns
 
     def on_nav(self, nav: NavReport) -> None:
-        """An accepted nav report: heading and velocity."""
+        """An accepted nav report: heading and velocity (unless a newer nav report is known already)."""
         entry = self.entries[nav.vehicle_id]
+        if entry.nav_stamp_ns is not None and nav.stamp_ns < entry.nav_stamp_ns:
+            return
         if nav.heading_rad is not None:
             entry.heading_rad = nav.heading_rad
         elif nav.velocity_enu_mps is not None and math.hypot(*nav.velocity_enu_mps[:2]) > 1.0:
@@ -82,10 +93,16 @@ class Registry:
         entry.nav_stamp_ns = nav.stamp_ns
 
     def alive(self, vehicle_id: str, now_s: float) -> bool:
-        """Liveliness token declared, or a MAVLink heartbeat within :data:`LOST_AFTER_S`."""
+        """Liveliness token declared, or a MAVLink heartbeat within :data:`LOST_AFTER_S`; after the token
+        was withdrawn, only a heartbeat heard more than :data:`AFTER_WITHDRAWAL_S` later counts (a killed
+        vehicle process is lost at once, not when its last heartbeat has aged)."""
         entry = self.entries[vehicle_id]
+        if entry.token:
+            return True
         age = self.heartbeat_age(vehicle_id, now_s)
-        return entry.token or (age is not None and age <= LOST_AFTER_S)
+        if age is None or age > LOST_AFTER_S:
+            return False
+        return entry.token_changed_s is None or now_s - age > entry.token_changed_s + AFTER_WITHDRAWAL_S
 
     def link_state(self, vehicle_id: str, now_s: float) -> str:
         """``ok``, ``lost`` (was alive, is not) or ``unknown`` (never heard of)."""

@@ -1,16 +1,38 @@
-"""Grouping sensor reports into decision steps by their stamps.
+"""Grouping sensor reports into decision steps by their stamps, with a documented reorder window.
 
-Decision step ``k`` is the stamp ``T_k = T_0 + k * step`` (``T_0`` is the first
-report's stamp); a report belongs to the step nearest its stamp,
-``k = round((stamp - T_0) / step)``. A step is **ready** when every vehicle the
-daemon expects has reported for it or a later step, or when ``max_wait_s`` of
-wall time has passed since its first report (a vehicle may have died without
-its liveliness token being withdrawn yet). Steps are released in order, each
-once; a report for a step already released is late and is counted, not used.
+Decision step ``k`` is the stamp ``T_k = T_0 + k * step``; a report belongs to
+the step nearest its stamp, ``k = round((stamp - T_0) / step)``. ``T_0`` is the
+earliest stamp filed before the first step is released (so it does not depend
+on which vehicle's first report happened to arrive first).
+
+**Reorder window.** A step is *open* from its first report until it is
+released; every report that arrives while its step is open is used, whatever
+the order in which the reports came, and a released step's reports are handed
+on in stamp order (ties by vehicle id, then sequence number), so arrival order
+never changes a result. Steps are released in index order, each once:
+
+* by **timeout**, ``max_wait_s`` of wall time after the step's first report
+  arrived (a vehicle may have died without its liveliness token being
+  withdrawn yet); the first step of a run always waits this long;
+* or, earlier, when **complete**: every vehicle the daemon expects (those
+  alive, less those whose latest report ingest refused for its stamp: see
+  :attr:`gcs.daemon.ingest.Ingest.off_clock`) has a report in the step, or has already reported for step
+  ``k + 1 + reorder_steps`` or later (it skipped the step and is not waited
+  for), and the step follows the last released one directly (after a step
+  that nobody reported for, the next step waits for its timeout).
+
+So a report is used when it arrives (a) within ``max_wait_s`` (0.5 s) of the
+first report of its step, and (b) before its own vehicle's report for
+``reorder_steps + 1`` (2) steps later: one vehicle's report may swap with its
+next step's. With stamps ``step`` apart sent ``D`` wall seconds apart (``D =
+step / rate``) and jitter below ``D / 4``, a report delayed by less than
+``min(max_wait_s - D / 2, 1.5 D)`` is inside the window whatever the other
+reports do. A report for a step already released is outside the window: it
+is counted as ``rejected.late`` and dropped, never used out of order.
 
 Because membership depends only on stamps, live, replayed and in-process runs
-group the same reports into the same steps whatever the arrival timing, as long
-as nothing arrives later than ``max_wait_s``.
+group the same reports into the same steps whatever the arrival timing, as
+long as every report arrives within the window.
 """
 
 from __future__ import annotations
@@ -20,16 +42,23 @@ from dataclasses import dataclass, field
 
 from protocols.messages import SensorReport
 
-__all__ = ["StepAssembler", "ReadyStep"]
+__all__ = ["StepAssembler", "ReadyStep", "REORDER_STEPS"]
+
+REORDER_STEPS = 1
+"""How many later steps a vehicle may have reported for before its report for a step is no longer waited for."""
 
 
 @dataclass(frozen=True)
 class ReadyStep:
-    """One decision step: its stamp and the reports that belong to it, in arrival order."""
+    """One decision step: its stamp and the reports that belong to it, in stamp order."""
 
     index: int
     stamp_ns: int
     reports: tuple[SensorReport, ...]
+
+
+def _stamp_order(report: SensorReport) -> tuple[int, str, int]:
+    return report.stamp_ns, report.vehicle_id, report.seq
 
 
 @dataclass
@@ -39,11 +68,13 @@ class StepAssembler:
     step_ns: int
     max_wait_s: float = 0.5
     origin_ns: int | None = None
+    reorder_steps: int = REORDER_STEPS
     counters: Counter = field(default_factory=Counter)
     _open: dict[int, list[SensorReport]] = field(default_factory=dict)
     _first_seen_s: dict[int, float] = field(default_factory=dict)
+    _reported: dict[int, set[str]] = field(default_factory=dict)
     _latest_step: dict[str, int] = field(default_factory=dict)
-    _next: int = 0
+    _next: int | None = None
 
     def index_of(self, stamp_ns: int) -> int:
         """Step index of a stamp (the origin is set by the first report)."""
@@ -56,28 +87,52 @@ class StepAssembler:
         assert self.origin_ns is not None
         return self.origin_ns + index * self.step_ns
 
+    @property
+    def open_steps(self) -> int:
+        """Steps holding reports, not yet released."""
+        return len(self._open)
+
     def add(self, report: SensorReport, now_s: float) -> bool:
         """File a report; False (and counted as ``rejected.late``) when its step was already released."""
+        if self._next is None and self.origin_ns is not None and report.stamp_ns < self.origin_ns and self._open:
+            self._reanchor(report.stamp_ns)
         index = self.index_of(report.stamp_ns)
-        if index < self._next:
+        if self._next is not None and index < self._next:
             self.counters["rejected.late"] += 1
             return False
         self._open.setdefault(index, []).append(report)
         self._first_seen_s.setdefault(index, now_s)
+        self._reported.setdefault(index, set()).add(report.vehicle_id)
         self._latest_step[report.vehicle_id] = max(index, self._latest_step.get(report.vehicle_id, index))
         return True
+
+    def _reanchor(self, origin_ns: int) -> None:
+        """Before the first release: move the origin to an earlier stamp and file the open reports again."""
+        reports = [(r, self._first_seen_s[i]) for i, rs in self._open.items() for r in rs]
+        self.origin_ns = origin_ns
+        self._open, self._first_seen_s, self._reported, self._latest_step = {}, {}, {}, {}
+        for report, seen_s in sorted(reports, key=lambda item: item[1]):
+            self.add(report, seen_s)
+
+    def _complete(self, index: int, expected: set[str]) -> bool:
+        if index != self._next:  # the first step, or a gap before it: wait for the timeout
+            return False
+        reported = self._reported[index]
+        return all(v in reported or self._latest_step.get(v, -(2**62)) > index + self.reorder_steps
+                   for v in expected)
 
     def ready(self, expected: set[str], now_s: float) -> list[ReadyStep]:
         """Release, in order, every step that is complete or has waited long enough."""
         out = []
         while self._open:
             index = min(self._open)
-            complete = all(self._latest_step.get(v, -1) >= index for v in expected)
+            complete = self._complete(index, expected)
             if not complete and now_s - self._first_seen_s[index] < self.max_wait_s:
                 break
             if not complete:
                 self.counters["steps_released_by_timeout"] += 1
-            out.append(ReadyStep(index, self.stamp_of(index), tuple(self._open.pop(index))))
-            del self._first_seen_s[index]
+            reports = sorted(self._open.pop(index), key=_stamp_order)
+            out.append(ReadyStep(index, self.stamp_of(index), tuple(reports)))
+            del self._first_seen_s[index], self._reported[index]
             self._next = index + 1
         return out

@@ -1,8 +1,10 @@
-"""Finding the installed console scripts, for tests that run them as processes."""
+"""Finding the installed console scripts, and stopping them, for tests that run them as processes."""
 
 from __future__ import annotations
 
 import shutil
+import signal
+import subprocess
 import sys
 from pathlib import Path
 
@@ -16,3 +18,15 @@ def script(name: str) -> str:
     if found is None:
         pytest.fail(f"console script {name!r} is not installed; run `make test` (it installs the project)")
     return found
+
+
+def stop(process: subprocess.Popen, timeout: float = 20.0) -> int:
+    """Stop a process as a user would (SIGINT), SIGKILL it if it does not return in time; its exit status."""
+    if process.poll() is None:
+        process.send_signal(signal.SIGINT)
+        try:
+            process.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+    return process.returncode

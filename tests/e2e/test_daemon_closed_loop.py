@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 import math
 import queue
-import signal
 import subprocess
 import time
 
@@ -25,23 +24,12 @@ from gcs.world_loader import build_world
 from protocols.codec import decode
 from protocols.keys import reports_selector, tracks_selector, truth_selector
 from protocols.messages import SensorReport, TargetTruth, TrackEstimate
-from tests.e2e.processes import script
+from tests.e2e.processes import script, stop
 from tests.loopback import free_tcp_port, free_udp_port
 
 DURATION_S = 120
 RATE = 2.0
 SEED = 0
-
-
-def _stop(process: subprocess.Popen, timeout: float = 20.0) -> int:
-    if process.poll() is None:
-        process.send_signal(signal.SIGINT)
-        try:
-            process.wait(timeout=timeout)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
-    return process.returncode
 
 
 def test_daemon_with_three_vehicle_processes_tracks_like_the_in_process_loop(tmp_path) -> None:
@@ -73,8 +61,8 @@ def test_daemon_with_three_vehicle_processes_tracks_like_the_in_process_loop(tmp
             received.append(inbox.get())
     finally:
         for process in vehicles:
-            _stop(process)
-        code = _stop(daemon)
+            stop(process)
+        code = stop(daemon)
     assert code == 0, (tmp_path / "daemon.log").read_text()[-3000:]
 
     seen: dict[int, bool] = {}

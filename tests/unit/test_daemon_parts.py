@@ -65,16 +65,17 @@ def test_bad_input_is_rejected_by_reason(key: str, payload: bytes, encoding: str
     assert ingest.counters == {f"rejected.{reason}": 1}
 
 
-def test_unknown_vehicles_mismatched_ids_and_stale_stamps_are_rejected() -> None:
+def test_unknown_vehicles_mismatched_ids_duplicates_and_stale_stamps_are_rejected() -> None:
     ingest = _ingest()
     assert ingest.accept(_received(report_key("intruder"), _report("intruder"))) is None
     assert ingest.accept(_received(report_key("uav2"), _report("uav1"))) is None
-    assert ingest.accept(_received(report_key("uav1"), _report(stamp=5 * S))) is not None
-    assert ingest.accept(_received(report_key("uav1"), _report(stamp=5 * S, seq=2))) is None  # duplicate
-    assert ingest.accept(_received(report_key("uav1"), _report(stamp=4 * S, seq=3))) is None  # older
-    assert ingest.accept(_received(report_key("uav1"), _report(stamp=6 * S, seq=4))) is not None
-    assert ingest.counters == {"rejected.unknown_vehicle": 1, "rejected.id_mismatch": 1,
-                               "rejected.out_of_order": 2, "accepted.report": 2}
+    assert ingest.accept(_received(report_key("uav1"), _report(stamp=50 * S))) is not None
+    assert ingest.accept(_received(report_key("uav1"), _report(stamp=50 * S, seq=2))) is None  # duplicate stamp
+    assert ingest.accept(_received(report_key("uav1"), _report(stamp=49 * S, seq=3))) is not None  # in the window
+    assert ingest.accept(_received(report_key("uav1"), _report(stamp=39 * S, seq=4))) is None  # 11 s old: stale
+    assert ingest.accept(_received(report_key("uav1"), _report(stamp=51 * S, seq=1))) is not None  # seq restarted
+    assert ingest.counters == {"rejected.unknown_vehicle": 1, "rejected.id_mismatch": 1, "rejected.duplicate": 1,
+                               "rejected.stale": 1, "accepted.report": 3}
 
 
 @given(st.binary(max_size=300), st.text(max_size=60))
@@ -90,11 +91,14 @@ def test_steps_release_when_every_expected_vehicle_has_reported() -> None:
     steps.add(_report("uav1", 100 * S), now_s=0.0)
     assert steps.ready(expected, now_s=0.1) == []
     steps.add(_report("uav2", 100 * S), now_s=0.1)
-    (first,) = steps.ready(expected, now_s=0.1)
+    assert steps.ready(expected, now_s=0.1) == []  # the first step always waits: an earlier stamp may come
+    (first,) = steps.ready(expected, now_s=0.5)
     assert first.index == 0 and first.stamp_ns == 100 * S and len(first.reports) == 2
     steps.add(_report("uav1", 101 * S + S // 10), now_s=0.2)  # 0.1 s off the grid: still step 1
-    steps.add(_report("uav2", 102 * S), now_s=0.2)  # uav2 skipped step 1 and reported step 2
-    released = steps.ready(expected, now_s=0.2)
+    steps.add(_report("uav2", 102 * S), now_s=0.2)  # uav2's step 1 may still come (reorder window)
+    assert steps.ready(expected, now_s=0.2) == []
+    steps.add(_report("uav2", 103 * S), now_s=0.3)  # two steps on: uav2 skipped step 1
+    released = steps.ready(expected, now_s=0.3)
     assert [r.index for r in released] == [1]  # step 2 waits for uav1
     assert released[0].stamp_ns == 101 * S
 
@@ -147,3 +151,38 @@ def test_position_is_moved_on_with_the_velocity_to_the_step_stamp() -> None:
     registry.on_nav(NavReport(vehicle_id="uav1", seq=1, stamp_ns=10 * S, velocity_enu_mps=(3.0, -4.0, 0.0)))
     assert registry.position_at("uav1", 12 * S) == pytest.approx(np.array([106.0, 192.0, 200.0]))
     assert registry.position_at("uav1", 10 * S) == pytest.approx(np.array([100.0, 200.0, 200.0]))
+
+
+def test_estimates_that_are_not_finite_or_positive_definite_are_refused() -> None:
+    from gcs.core.filters.uif import GaussianEstimate
+    from gcs.daemon.fusion import FusionDiverged, check_estimate
+
+    check_estimate(None)
+    check_estimate(GaussianEstimate(np.zeros(4), np.eye(4), 0))
+    for mean, cov in [(np.array([np.nan, 0, 0, 0]), np.eye(4)), (np.zeros(4), np.diag([1.0, -1.0, 1.0, 1.0])),
+                      (np.zeros(4), np.diag([1e13, 1.0, 1.0, 1.0])), (np.zeros(4), np.full((4, 4), np.inf))]:
+        with pytest.raises(FusionDiverged):
+            check_estimate(GaussianEstimate(mean, cov, 0))
+
+
+def test_absurd_but_valid_reports_are_implausible() -> None:
+    ingest = _ingest()
+    far = SensorReport(vehicle_id="uav1", seq=1, stamp_ns=S, vehicle_position_enu_m=(5e7, 0.0, 200.0), detected=False)
+    assert ingest.accept(_received(report_key("uav1"), far)) is None
+    long_range = _report(stamp=2 * S)
+    long_range = SensorReport(**{**{f: getattr(long_range, f) for f in long_range.__struct_fields__}, "range_m": 5e7})
+    assert ingest.accept(_received(report_key("uav1"), long_range)) is None
+    assert ingest.counters == {"rejected.implausible": 2}
+
+
+def test_a_vehicle_whose_reports_are_refused_for_their_stamps_is_not_waited_for_until_one_is_taken() -> None:
+    ingest = _ingest()
+    assert ingest.accept(_received(report_key("uav1"), _report("uav1", 100 * S))) is not None
+    assert ingest.accept(_received(report_key("uav2"), _report("uav2", 500 * S))) is None  # minutes ahead
+    assert ingest.off_clock == {"uav2"}
+    assert ingest.accept(_received(report_key("uav1"), _report("uav1", 80 * S, seq=2))) is None  # stale
+    assert ingest.off_clock == {"uav1", "uav2"}
+    assert ingest.accept(_received(report_key("uav2"), _report("uav2", 101 * S, seq=2))) is not None
+    assert ingest.off_clock == {"uav1"}
+    assert ingest.accept(_received(report_key("uav1"), _report("uav1", 100 * S, seq=3))) is None  # a duplicate
+    assert ingest.off_clock == {"uav1"}  # says nothing about its clock

@@ -1,0 +1,73 @@
+"""A MAVLink link that goes silent for 10 s: the daemon stops commanding it, and resumes when it returns.
+
+The simulated vehicles reach the daemon through a UDP relay on 127.0.0.1
+(:class:`gcs.bench.faults.UdpRelay`, the soak's) that the test can mute (both
+directions dropped), like a radio out of range, while their Zenoh reports
+keep flowing.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from contextlib import ExitStack
+
+from gcs.adapters.zenoh_session import ZenohSettings
+from gcs.app import Daemon, DaemonOptions
+from gcs.bench.faults import UdpRelay
+from tests.integration.sim_harness import SCENARIO, WORLD, options, running_vehicles
+from tests.loopback import free_tcp_port, free_udp_port
+
+SILENCE_S = 10.0
+ROSTER = tuple(v.id for v in SCENARIO.vehicles)
+
+
+def _wait(condition, timeout_s: float, what: str) -> float:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if condition():
+            return time.monotonic()
+        time.sleep(0.05)
+    raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
+
+
+def test_commands_stop_while_the_link_is_silent_and_resume_when_it_returns() -> None:
+    endpoint, port = f"tcp/127.0.0.1:{free_tcp_port()}", free_udp_port()
+    with ExitStack() as stack:
+        relay = UdpRelay(port)
+        stack.callback(relay.close)
+        daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=ZenohSettings(listen=(endpoint,), connect=()),
+                                                       mavlink={v: f"udpin:127.0.0.1:{port}" for v in ROSTER},
+                                                       planner="orbit", planner_mode="inline"))
+        thread = threading.Thread(target=daemon.run, name="daemon", daemon=True)
+        thread.start()
+        stack.callback(thread.join, 20)
+        stack.callback(daemon.stop)
+        runner = stack.enter_context(running_vehicles(options(
+            relay.port, rate=2.0, zenoh=ZenohSettings(connect=(endpoint,)), epoch_ns=10**15,
+            wait_for_subscriber_s=5)))
+
+        def carrots() -> int:  # what uav1's autopilot received (its autopilots appear once the runner is open)
+            autopilot = runner.autopilots.get("uav1")
+            return 0 if autopilot is None else autopilot.counters["SET_POSITION_TARGET_GLOBAL_INT"]
+
+        _wait(lambda: carrots() >= 5 and daemon.counters["decisions"] >= 3, 60, "commands before the silence")
+        relay.muted = True
+        muted_at = time.monotonic()
+        at_mute = carrots()
+        _wait(lambda: daemon.commander.counters()["link_lost"] >= len(ROSTER), 15, "the daemon to see the links lost")
+        decisions = daemon.counters["decisions"]
+        sent_after_loss = daemon.commander.counters()["carrots"]
+        time.sleep(max(0.0, muted_at + SILENCE_S - time.monotonic()))  # the rest of the 10 s of silence
+        assert carrots() == at_mute  # nothing got through
+        assert daemon.commander.counters()["carrots"] == sent_after_loss  # nor was sent to a lost link
+        assert daemon.counters["decisions"] > decisions  # planning went on from the Zenoh reports
+        assert daemon.registry.alive("uav1", time.monotonic())  # still alive on Zenoh: planned for
+
+        relay.muted = False
+        _wait(lambda: daemon.commander.counters()["link_up"] >= 2 * len(ROSTER), 15, "the links to come back")
+        _wait(lambda: carrots() >= at_mute + 5, 15, "commands to resume")
+        counters = daemon.commander.counters()
+    assert relay.dropped > 0 and not thread.is_alive()
+    assert counters["link_lost"] == len(ROSTER) and counters["link_up"] == 2 * len(ROSTER)
+    assert not any(name.startswith("errors.") for name in daemon.counters), daemon.counters

@@ -1,0 +1,216 @@
+"""The daemon's whole ingest path, fuzzed: whatever arrives, the loop goes on and counts what it rejects.
+
+A :class:`~gcs.app.Daemon` runs its real loop (:meth:`Daemon.turn`: ingest,
+registry, step assembly, fusion, planning, publication) on a fake Zenoh inbox
+fed by Hypothesis: valid reports from roster and unknown vehicles with absurd
+but valid values, duplicates, stale, future and out-of-order stamps, random
+bytes, NaN in JSON, wrong encodings and keys, liveliness coming and going.
+"""
+
+from __future__ import annotations
+
+import math
+
+import msgspec
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from gcs.adapters.zenoh_io import Received
+from gcs.adapters.zenoh_session import ZenohSettings
+from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.planning import start_planner
+from gcs.scenarios import load_scenario
+from gcs.world_loader import build_world
+from protocols.codec import encode
+from protocols.keys import nav_key, report_key, truth_key
+from protocols.messages import NavReport, SensorReport, TargetTruth
+from tests.unit.test_protocols_codec import nav_reports, sensor_reports
+
+SCENARIO = load_scenario("wang2012_urban")
+WORLD = build_world(SCENARIO)
+S = 1_000_000_000
+EPOCH_NS = 1_000_000 * S
+ROSTER = tuple(v.id for v in SCENARIO.vehicles)
+VEHICLE_IDS = st.sampled_from(ROSTER + ("intruder", "uav9"))
+STAMPS = st.one_of(st.integers(-5, 40).map(lambda k: EPOCH_NS + k * S),  # on the step grid (duplicates likely)
+                   st.integers(EPOCH_NS - 100 * S, EPOCH_NS + 200 * S),  # anywhere near: stale, future
+                   st.integers(0, 2**63 - 1))
+
+
+class FakeZenoh:
+    """The daemon's Zenoh port without a session: an inbox the test fills, and what was published."""
+
+    def __init__(self) -> None:
+        self.inbox: list[Received] = []
+        self.published: list = []
+
+    def drain(self) -> list[Received]:
+        out, self.inbox = self.inbox, []
+        return out
+
+    def publish_track(self, track) -> None:
+        self.published.append(track)
+
+    def publish_plan(self, plan) -> None:
+        self.published.append(plan)
+
+    def publish_status(self, status) -> None:
+        self.published.append(status)
+
+    def answer_queries(self, status=None) -> int:
+        return 0
+
+    def close(self) -> None:
+        pass
+
+
+def _daemon(accept_unlisted: bool = False) -> Daemon:
+    daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=ZenohSettings(), planner="pursuit", planner_mode="inline",
+                                                   accept_unlisted=accept_unlisted))
+    daemon.zenoh = FakeZenoh()
+    daemon.planner = start_planner("inline", SCENARIO, WORLD, "pursuit", 0, daemon._subset)
+    return daemon
+
+
+def _sample(key: str, message) -> Received:
+    payload, encoding = encode(message)
+    return Received("sample", key, payload, encoding, 0)
+
+
+@st.composite
+def report_samples(draw) -> Received:
+    vehicle = draw(VEHICLE_IDS)
+    report = msgspec.structs.replace(draw(sensor_reports()), vehicle_id=vehicle, stamp_ns=draw(STAMPS))
+    key_vehicle = vehicle if draw(st.integers(0, 9)) else draw(VEHICLE_IDS)  # sometimes under another's key
+    return _sample(report_key(key_vehicle), report)
+
+
+@st.composite
+def nav_samples(draw) -> Received:
+    vehicle = draw(VEHICLE_IDS)
+    return _sample(nav_key(vehicle), msgspec.structs.replace(draw(nav_reports()), vehicle_id=vehicle,
+                                                              stamp_ns=draw(STAMPS)))
+
+
+@st.composite
+def truth_samples(draw) -> Received:
+    value = st.floats(-1e6, 1e6)
+    return _sample(truth_key("target"), TargetTruth(target_id="target", seq=1, stamp_ns=draw(STAMPS),
+                                                    position_enu_m=(draw(value), draw(value)),
+                                                    velocity_enu_mps=(0.0, 0.0)))
+
+
+@st.composite
+def plausible_reports(draw) -> Received:
+    """Reports a vehicle could send: the target seen about 300 m away, on the step grid."""
+    vehicle = draw(st.sampled_from(ROSTER))
+    x, y = draw(st.floats(0.0, 3000.0)), draw(st.floats(0.0, 3000.0))
+    report = SensorReport(vehicle_id=vehicle, seq=1, stamp_ns=EPOCH_NS + draw(st.integers(0, 40)) * S,
+                          vehicle_position_enu_m=(x, y, 200.0), detected=True, range_m=draw(st.floats(50.0, 800.0)),
+                          range_std_m=10.0, azimuth_rad=draw(st.floats(-math.pi, math.pi)), azimuth_std_rad=0.05,
+                          elevation_rad=draw(st.floats(-1.5, -0.1)), elevation_std_rad=0.05)
+    return _sample(report_key(vehicle), report)
+
+
+@st.composite
+def plausible_navs(draw) -> Received:
+    vehicle = draw(st.sampled_from(ROSTER))
+    heading = draw(st.floats(-math.pi, math.pi))
+    nav = NavReport(vehicle_id=vehicle, seq=1, stamp_ns=EPOCH_NS + draw(st.integers(0, 40)) * S,
+                    velocity_enu_mps=(25.0 * math.cos(heading), 25.0 * math.sin(heading), 0.0), heading_rad=heading)
+    return _sample(nav_key(vehicle), nav)
+
+
+garbage = st.builds(
+    lambda key, payload, encoding: Received("sample", key, payload, encoding, 0),
+    st.sampled_from([report_key("uav1"), nav_key("uav2"), truth_key("target"), "gcs/plan/uav1", "gcs/vehicle//report",
+                     "gcs/vehicle/uav1/unknown", "other/vehicle/uav1/report"]),
+    st.one_of(st.binary(max_size=200),
+              st.just(b'{"vehicle_id":"uav1","seq":1,"stamp_ns":1,"vehicle_position_enu_m":[NaN,0,0],"detected":false}'),
+              st.just(b'{"vehicle_id":"uav1","seq":"one","stamp_ns":1e400}'), st.just(b"[]"), st.just(b"null")),
+    st.sampled_from(["application/json;gcs.SensorReport/1", "application/json;gcs.NavReport/1", "text/plain", "",
+                     "application/json;gcs.SensorReport/99"]))
+liveliness = st.builds(lambda vehicle, up: Received("alive" if up else "gone", f"gcs/vehicle/{vehicle}/alive", b"",
+                                                  "", 0),
+                       VEHICLE_IDS | st.just("bad id"), st.integers(0, 3).map(bool))
+items = st.one_of(report_samples(), nav_samples(), truth_samples(), plausible_reports(), plausible_reports(),
+                  plausible_navs(), garbage, liveliness)
+
+
+def _run(daemon: Daemon, batches: list[tuple[float, list[Received]]]) -> None:
+    now = 0.0
+    for advance, batch in batches:
+        now += advance
+        daemon.zenoh.inbox.extend(batch)
+        daemon.turn(now)
+    daemon.turn(now + 10.0)  # every open step times out
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@given(st.lists(st.tuples(st.floats(0.0, 0.7), st.lists(items, max_size=8)), min_size=1, max_size=12),
+       st.booleans())
+def test_whatever_arrives_the_daemon_goes_on_and_counts_every_rejection(batches, accept_unlisted) -> None:
+    daemon = _daemon(accept_unlisted)
+    try:
+        _run(daemon, batches)
+        status = daemon.status(100.0)
+    finally:
+        daemon.planner.close()
+    samples = sum(1 for _, batch in batches for item in batch if item.kind == "sample" or " " in item.key)
+    counters = status.counters
+    ingest = sum(v for k, v in counters.items() if k.startswith("accepted.")) + \
+        sum(v for k, v in counters.items() if k.startswith("rejected.") and k != "rejected.late")
+    assert ingest == samples, counters  # every sample (and bad liveliness key) accepted or rejected by reason
+    assert not any(k.startswith("errors.") for k in counters), counters
+    if not accept_unlisted:
+        assert not any(k.startswith("accepted.unlisted") for k in counters)
+    for message in daemon.zenoh.published:
+        encode(message)  # everything published is a valid, finite message
+
+
+def _seen_from(vehicle: str, stamp_ns: int) -> Received:
+    tx, ty = SCENARIO.target.start_enu_m
+    x, y = tx - 300.0, ty
+    ground = math.hypot(tx - x, ty - y)
+    report = SensorReport(vehicle_id=vehicle, seq=1, stamp_ns=stamp_ns, vehicle_position_enu_m=(x, y, 200.0),
+                          detected=True, range_m=math.hypot(ground, 200.0), range_std_m=10.0, azimuth_rad=0.0,
+                          azimuth_std_rad=0.05, elevation_rad=-math.atan2(200.0, ground), elevation_std_rad=0.05)
+    return _sample(report_key(vehicle), report)
+
+
+def test_reports_from_outside_the_roster_are_rejected_unless_accepted_on_request() -> None:
+    for accept in (False, True):
+        daemon = _daemon(accept_unlisted=accept)
+        try:
+            _run(daemon, [(0.1 * k, [_seen_from("observer1", EPOCH_NS + k * S)]) for k in range(3)])
+        finally:
+            daemon.planner.close()
+        tracks = [m for m in daemon.zenoh.published if type(m).__name__ == "TrackEstimate"]
+        counters = daemon.status(0.0).counters
+        if accept:
+            assert counters["accepted.unlisted.report"] == 3 and "rejected.unknown_vehicle" not in counters
+            assert len(tracks) == 3 and all(t.contributing_vehicles == ("observer1",) for t in tracks)
+            assert not any(type(m).__name__ == "PlanCommand" for m in daemon.zenoh.published)  # never commanded
+        else:
+            assert counters["rejected.unknown_vehicle"] == 3 and tracks == []
+
+
+def test_a_step_whose_fusion_diverges_is_counted_and_the_previous_estimate_stands(monkeypatch) -> None:
+    import gcs.daemon.fusion as fusion
+    from gcs.core.filters.uif import NotPositiveDefinite
+
+    daemon = _daemon()
+    try:
+        _run(daemon, [(0.1, [_seen_from("uav1", EPOCH_NS)])])
+        before = daemon.loop.estimate
+        assert before is not None
+
+        def diverging(*args, **kwargs):
+            raise NotPositiveDefinite("made to fail")
+
+        monkeypatch.setattr(fusion, "fuse", diverging)
+        _run(daemon, [(0.1, [_seen_from("uav1", EPOCH_NS + S)])])
+    finally:
+        daemon.planner.close()
+    assert daemon.counters["rejected.diverged"] == 1 and daemon.loop.estimate is before
+    assert "errors.decision" not in daemon.counters
