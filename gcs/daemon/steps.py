@@ -11,9 +11,13 @@ the order in which the reports came, and a released step's reports are handed
 on in stamp order (ties by vehicle id, then sequence number), so arrival order
 never changes a result. Steps are released in index order, each once:
 
-* by **timeout**, ``max_wait_s`` of wall time after the step's first report
-  arrived (a vehicle may have died without its liveliness token being
-  withdrawn yet); the first step of a run always waits this long;
+* by **timeout**, ``max_wait_s`` of wall time after half the vehicles it
+  waits for (at least one) have reported for it (a vehicle may have died
+  without its liveliness token being withdrawn yet), and at the latest
+  :data:`HOLD_WAITS` ``max_wait_s`` (5 s) after its first report. Counting
+  from half the vehicles rather than from the first report keeps one vehicle
+  whose clock runs ahead of the others (its reports come early) from cutting
+  their wait short; the first step of a run always waits for the timeout;
 * or, earlier, when **complete**: every vehicle the daemon expects (those
   alive, less those whose latest report ingest refused for its stamp: see
   :attr:`gcs.daemon.ingest.Ingest.off_clock`) has a report in the step, or has already reported for step
@@ -22,7 +26,8 @@ never changes a result. Steps are released in index order, each once:
   that nobody reported for, the next step waits for its timeout).
 
 So a report is used when it arrives (a) within ``max_wait_s`` (0.5 s) of the
-first report of its step, and (b) before its own vehicle's report for
+time half the vehicles had reported for its step (within 5 s of the step's
+first report), and (b) before its own vehicle's report for
 ``reorder_steps + 1`` (2) steps later: one vehicle's report may swap with its
 next step's. With stamps ``step`` apart sent ``D`` wall seconds apart (``D =
 step / rate``) and jitter below ``D / 4``, a report delayed by less than
@@ -42,10 +47,12 @@ from dataclasses import dataclass, field
 
 from protocols.messages import SensorReport
 
-__all__ = ["StepAssembler", "ReadyStep", "REORDER_STEPS"]
+__all__ = ["StepAssembler", "ReadyStep", "REORDER_STEPS", "HOLD_WAITS"]
 
 REORDER_STEPS = 1
 """How many later steps a vehicle may have reported for before its report for a step is no longer waited for."""
+HOLD_WAITS = 10
+"""A step is released at the latest this many ``max_wait_s`` after its first report, quorum or not."""
 
 
 @dataclass(frozen=True)
@@ -71,8 +78,7 @@ class StepAssembler:
     reorder_steps: int = REORDER_STEPS
     counters: Counter = field(default_factory=Counter)
     _open: dict[int, list[SensorReport]] = field(default_factory=dict)
-    _first_seen_s: dict[int, float] = field(default_factory=dict)
-    _reported: dict[int, set[str]] = field(default_factory=dict)
+    _arrived_s: dict[int, dict[str, float]] = field(default_factory=dict)
     _latest_step: dict[str, int] = field(default_factory=dict)
     _next: int | None = None
 
@@ -101,25 +107,34 @@ class StepAssembler:
             self.counters["rejected.late"] += 1
             return False
         self._open.setdefault(index, []).append(report)
-        self._first_seen_s.setdefault(index, now_s)
-        self._reported.setdefault(index, set()).add(report.vehicle_id)
+        self._arrived_s.setdefault(index, {}).setdefault(report.vehicle_id, now_s)
         self._latest_step[report.vehicle_id] = max(index, self._latest_step.get(report.vehicle_id, index))
         return True
 
     def _reanchor(self, origin_ns: int) -> None:
         """Before the first release: move the origin to an earlier stamp and file the open reports again."""
-        reports = [(r, self._first_seen_s[i]) for i, rs in self._open.items() for r in rs]
+        reports = [(r, self._arrived_s[i][r.vehicle_id]) for i, rs in self._open.items() for r in rs]
         self.origin_ns = origin_ns
-        self._open, self._first_seen_s, self._reported, self._latest_step = {}, {}, {}, {}
+        self._open, self._arrived_s, self._latest_step = {}, {}, {}
         for report, seen_s in sorted(reports, key=lambda item: item[1]):
             self.add(report, seen_s)
 
     def _complete(self, index: int, expected: set[str]) -> bool:
         if index != self._next:  # the first step, or a gap before it: wait for the timeout
             return False
-        reported = self._reported[index]
+        reported = self._arrived_s[index]
         return all(v in reported or self._latest_step.get(v, -(2**62)) > index + self.reorder_steps
                    for v in expected)
+
+    def deadline_s(self, index: int, expected: set[str]) -> float:
+        """When step ``index`` times out: ``max_wait_s`` after half the expected vehicles (at least one)
+        have reported for it, and at the latest :data:`HOLD_WAITS` ``max_wait_s`` after its first report."""
+        arrived = self._arrived_s[index]
+        first = min(arrived.values())
+        times = sorted(t for v, t in arrived.items() if v in expected) if expected else [first]
+        quorum = max(1, (len(expected) + 1) // 2)
+        hold = first + HOLD_WAITS * self.max_wait_s
+        return hold if len(times) < quorum else min(times[quorum - 1] + self.max_wait_s, hold)
 
     def ready(self, expected: set[str], now_s: float) -> list[ReadyStep]:
         """Release, in order, every step that is complete or has waited long enough."""
@@ -127,12 +142,12 @@ class StepAssembler:
         while self._open:
             index = min(self._open)
             complete = self._complete(index, expected)
-            if not complete and now_s - self._first_seen_s[index] < self.max_wait_s:
+            if not complete and now_s < self.deadline_s(index, expected):
                 break
             if not complete:
                 self.counters["steps_released_by_timeout"] += 1
             reports = sorted(self._open.pop(index), key=_stamp_order)
             out.append(ReadyStep(index, self.stamp_of(index), tuple(reports)))
-            del self._first_seen_s[index], self._reported[index]
+            del self._arrived_s[index]
             self._next = index + 1
         return out

@@ -164,3 +164,33 @@ def test_a_whole_step_overtaken_by_the_next_is_still_used_and_the_earliest_stamp
     released, steps = _assemble(reports, [arrivals[(r.seq - 1, r.vehicle_id)] for r in reports], both)
     assert released == _in_stamp_order(reports, both) and steps.counters["rejected.late"] == 0
     assert [s.index for s in released] == [0, 1, 2] and released[0].stamp_ns == EPOCH_NS - S // 5
+
+
+def test_a_vehicle_whose_clock_runs_ahead_does_not_cut_the_others_wait_short() -> None:
+    """uav1 sends each step a second early: its report opens step 2 long before the others report for it."""
+    three = set(VEHICLES)
+    steps = StepAssembler(step_ns=S, max_wait_s=MAX_WAIT_S)
+    for vehicle in VEHICLES:
+        steps.add(_report(vehicle, 0, 1), 0.0)
+    assert [s.index for s in steps.ready(three, 0.5)] == [0]
+    steps.add(_report("uav1", S, 2), 0.6)
+    steps.add(_report("uav1", 2 * S, 3), 0.6)
+    steps.add(_report("uav2", S, 2), 0.9)
+    steps.add(_report("uav3", S, 2), 0.95)
+    assert [s.index for s in steps.ready(three, 0.95)] == [1]
+    assert steps.ready(three, 1.5) == []  # 0.9 s after uav1's report: only one of three, no quorum yet
+    steps.add(_report("uav2", 2 * S, 3), 1.9)
+    assert steps.ready(three, 2.0) == []  # half of them now: the wait runs from here
+    steps.add(_report("uav3", 2 * S, 3), 2.05)
+    (two,) = steps.ready(three, 2.05)
+    assert len(two.reports) == 3 and steps.counters["rejected.late"] == 0
+
+
+def test_a_step_is_released_at_the_latest_after_the_hold_without_a_quorum() -> None:
+    from gcs.daemon.steps import HOLD_WAITS
+
+    three = set(VEHICLES)
+    steps = StepAssembler(step_ns=S, max_wait_s=MAX_WAIT_S)
+    steps.add(_report("uav1", 0, 1), 0.0)  # the other two are silent, their tokens not yet withdrawn
+    assert steps.ready(three, HOLD_WAITS * MAX_WAIT_S - 0.01) == []
+    assert [s.index for s in steps.ready(three, HOLD_WAITS * MAX_WAIT_S)] == [0]
