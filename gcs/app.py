@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from gcs import __version__
+from gcs.adapters.foxglove_out import FoxgloveOptions
 from gcs.adapters.mavlink_io import HeadingCommand, MavlinkCommander
 from gcs.adapters.recording import Recorder
 from gcs.adapters.zenoh_io import ZenohIO
@@ -57,6 +58,7 @@ from gcs.daemon.fusion import (FusionDiverged, PlanMemory, fuse_step, plan_comma
 from gcs.core.world import World
 from gcs.daemon.ingest import Ingest
 from gcs.daemon.planning import Planner, PlanJob, PlanOutcome, start_planner
+from gcs.daemon.live import LiveMap
 from gcs.daemon.registry import Registry
 from gcs.daemon.steps import ReadyStep, StepAssembler
 from gcs.tracking import observer_sensor_model, scenario_planner, subset_config, tracker_config
@@ -104,6 +106,11 @@ class DaemonOptions:
         default: a child process, so that planning never takes the interpreter
         from the loop), ``thread``, or ``inline`` (in the loop, each plan applied
         before the next step is fused).
+    http : (host, port) or None
+        Serve the live map there (:mod:`gcs.daemon.live`; port 0 picks a free
+        one); None: no page.
+    foxglove : FoxgloveOptions or None
+        Also send the map to a Foxglove WebSocket server and/or MCAP file.
     accept_unlisted : bool
         Accept reports from vehicles outside the scenario's roster (default: rejected as
         ``unknown_vehicle``); their detections are fused with the scenario's sensor model, and they
@@ -120,6 +127,8 @@ class DaemonOptions:
     plan_fraction: float = 0.6
     record: Path | None = None
     planner_mode: str = "process"
+    http: tuple[str, int] | None = None
+    foxglove: FoxgloveOptions | None = None
     accept_unlisted: bool = False
 
 
@@ -218,6 +227,8 @@ class Daemon:
         self._subset_configs: dict[tuple[int, ...], TrackerConfig] = {}
         self._next_steer_s = 0.0
         self._closed = False
+        self._opened = False
+        self.live: LiveMap | None = None
 
     # ------------------------------------------------------------- lifecycle
 
@@ -232,13 +243,26 @@ class Daemon:
         return None if heard is None else now_s - heard
 
     def _record_published(self, key: str, payload: bytes, encoding: str, time_ns: int) -> None:
+        if self.live is not None:
+            self.live.observe_wire(payload, encoding)
         if self.recorder is not None and not key.endswith("/daemon/status"):
             self.recorder.write(key, payload, encoding, time_ns)
 
     def open(self) -> None:
-        """Open the recording, Zenoh and MAVLink, and start the planner thread."""
+        """Open the recording, Zenoh, MAVLink and the live map, and start the planner (idempotent: ``run``
+        opens if not yet open)."""
+        if self._opened:
+            return
+        self._opened = True
         self.planner = start_planner(self.options.planner_mode, self.scenario, self.world, self.planner_name,
                                      self.options.seed, self._subset)
+        if self.options.http is not None or self.options.foxglove is not None:
+            try:
+                self.live = LiveMap.open(self.options.http, self.scenario, self.world,
+                                         foxglove=self.options.foxglove)
+            except (OSError, RuntimeError) as error:  # the map is for the operator; the vehicles fly without it
+                self.counters["errors.live_map_open"] += 1
+                log.error("live map off: %s", error)
         if self.options.record is not None:
             self.recorder = Recorder(self.options.record, library=f"gcs {__version__}")
         self.zenoh.open()
@@ -260,6 +284,8 @@ class Daemon:
         if self.commander is not None and not self._closed:
             self.commander.close()
         self._closed = True
+        if self.live is not None:
+            self.live.close()
         self.zenoh.close()
         if self.recorder is not None:
             self.recorder.finish()
@@ -315,6 +341,8 @@ class Daemon:
                 self._next_steer_s = now + 1.0 / STEER_RATE_HZ
             self.commander.service(now)
         self.zenoh.answer_queries(status=lambda: self.status(now))
+        if self.live is not None:
+            self.live.publish(now, lambda: self.status(now))
         return bool(received or ready or planned)
 
     def _handle(self, item, now: float) -> None:
@@ -334,6 +362,8 @@ class Daemon:
                 log.info("vehicle %s %s", parsed.ident, "joined" if item.kind == "alive" else "left")
             return
         message = self.ingest.accept(item)
+        if self.live is not None:
+            self.live.observe(message)
         if isinstance(message, SensorReport):
             if message.vehicle_id in self.registry.entries:  # else a vehicle outside the roster (accept_unlisted)
                 self.registry.on_report(message)

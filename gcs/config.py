@@ -172,14 +172,25 @@ class TargetConfig(_Config):
 
 class EstimatorConfig(_Config):
     """Target estimator. ``duif``: wang2012 section 3 (range-bearing sensors); ``vgukf``:
-    zuo2021's ML initialisation and variable-gain UKF (bearing-only sensors). ``model``
-    names the state layout."""
+    zuo2021's ML initialisation and variable-gain UKF (bearing-only sensors); ``imm``: an IMM
+    of constant velocity (``accel_psd_m2_s3``) and coordinated turn, each mode updated by the
+    DUIF (the switching machinery of feng2019; ``model`` must be ``cv2d``). ``model`` names
+    the state layout."""
 
-    kind: Literal["duif", "vgukf"] = "duif"
+    kind: Literal["duif", "vgukf", "imm"] = "duif"
     model: Literal["cv2d", "ca2d"] = "cv2d"
     accel_psd_m2_s3: NonNegative = 1.96
     initial_position_std_m: Positive = 50.0
     initial_velocity_std_mps: Positive = 10.0
+    turn_accel_psd_m2_s3: NonNegative = 2.0
+    """``imm``: white acceleration of the coordinated-turn mode (``accel_psd_m2_s3`` is then the
+    constant-velocity mode's, which can be much quieter than a single model's)."""
+    turn_rate_psd_rad2_s3: NonNegative = 0.01
+    """``imm``: random walk of the coordinated-turn mode's turn rate."""
+    initial_turn_rate_std_rad_s: Positive = 0.3
+    """``imm``: spread of the turn rate when a track starts (and of the CV mode's)."""
+    mode_switch_probability: Annotated[float, msgspec.Meta(gt=0.0, lt=1.0)] = 0.05
+    """``imm``: probability per step of leaving constant velocity (twice that of leaving the turn)."""
 
 
 class PlannerConfig(_Config):
@@ -333,6 +344,8 @@ def validate_scenario(scenario: Scenario) -> Scenario:
     tx, ty = scenario.target.start_enu_m
     if not (0.0 <= tx <= width and 0.0 <= ty <= height):
         problems.append(f"$.target.start_enu_m: {scenario.target.start_enu_m} is outside the city [0, {width}] x [0, {height}]")
+    if scenario.estimator.kind == "imm" and scenario.estimator.model != "cv2d":
+        problems.append("$.estimator.model: the imm estimator needs model = 'cv2d'")
     if scenario.target.motion == "scripted" and not scenario.target.path_file:
         problems.append("$.target.path_file: required when motion = 'scripted'")
     if scenario.city.min_height_m > scenario.city.max_height_m:

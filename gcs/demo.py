@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from gcs.adapters.foxglove_out import FoxgloveMissing
 from gcs.adapters.ports import free_tcp_port, free_udp_port
 from gcs.app import Daemon, PlanRecord, StepRecord
 from gcs.config import ScenarioError
@@ -112,7 +113,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         return 2
     try:
         daemon = build_daemon(args)
-    except (ScenarioError, ValueError, OSError, ProtocolError) as error:
+    except (ScenarioError, ValueError, OSError, ProtocolError, FoxgloveMissing) as error:
         log.error("%s", error)
         return 2
     duration = args.duration if args.duration is not None else daemon.scenario.time.duration_s
@@ -122,8 +123,19 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     command = [sys.executable, "-m", "sim_vehicles.cli", "--log-level", "WARNING", "run", "--scenario", args.scenario,
                "--rate", str(args.rate), "--duration", str(duration), "--seed", str(args.seed),
                "--mavlink", f"udpout:127.0.0.1:{mavlink_port}", "--zenoh-connect", endpoint]
+    try:
+        daemon.open()  # before the vehicles start, and so that the live map's address is known
+    except RuntimeError as error:  # zenoh could not open
+        log.error("%s", error)
+        daemon.close()
+        return 1
     print(f"demo: {daemon.scenario.name}, {len(daemon.scenario.vehicles)} UAVs, {duration:g} s at {args.rate:g}x; "
           f"zenoh {endpoint}, MAVLink udpin:127.0.0.1:{mavlink_port}; simulator log {log_file}", flush=True)
+    live = daemon.live
+    print(f"live map: {(live.url if live is not None else None) or 'off'}", flush=True)
+    if live is not None and live.foxglove is not None:
+        print(f"foxglove: {live.foxglove.url or 'no server'}" + (f", MCAP {args.foxglove_mcap}" if args.foxglove_mcap
+                                                                else ""), flush=True)
     stopped = _run_together(daemon, command, log_file)
     progress.end()
     summary = summarise(daemon.records, daemon.plans, daemon.roster)

@@ -6,6 +6,9 @@
 * ``gcs replay FILE [--rate R | --fast]`` republishes the recorded inputs
   (reports, nav, truth; liveliness as tokens) so that a running daemon consumes
   them, keeping their recorded spacing divided by ``R``, or as fast as possible.
+* ``gcs replay FILE --view [--rate R] [--http ADDRESS]`` shows it on the live map
+  with play/pause and speed (:mod:`gcs.replay_view`); ``--foxglove-mcap OUT``
+  converts it to an MCAP file of Foxglove's map schemas.
 * ``gcs replay FILE --process [--plan] [--out TRACKS.mcap|.csv]`` runs the
   estimator (and the planner) on the file directly, without Zenoh: the same validation, step assembly and
   fusion as the daemon (:mod:`gcs.daemon.fusion`), so a recording of a live run
@@ -32,7 +35,9 @@ from pathlib import Path
 import numpy as np
 import zenoh
 
+from gcs.adapters.foxglove_out import FoxgloveMissing, add_foxglove_arguments
 from gcs.adapters.recording import LIVELINESS_ENCODING, Recorded, Recorder, RecordingError, read_recording
+from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_io import Received
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, settings_from_arguments
 from gcs.config import Scenario, ScenarioError
@@ -363,12 +368,21 @@ def add_replay(sub: argparse._SubParsersAction) -> None:
                              ".mcap --out")
     parser.add_argument("--seed", type=int, default=0, help="--process --plan: the planner's seed (default 0)")
     parser.add_argument("--json", action="store_true", help="--info: print JSON")
+    parser.add_argument("--view", action="store_true",
+                        help="show the recording on the live map (play/pause, speed; --rate is the starting speed, "
+                             "--scenario draws the city) until Ctrl-C")
+    add_http_argument(parser, "the live map of --view")
+    add_foxglove_arguments(parser)
     add_zenoh_arguments(parser, listen=(), connect=(DEFAULT_ENDPOINT,))
     parser.set_defaults(handler=_cmd_replay)
 
 
 def _cmd_replay(args: argparse.Namespace) -> int:
     try:
+        if args.view or args.foxglove_mcap is not None or args.foxglove is not None:
+            from gcs.replay_view import cmd_view
+
+            return cmd_view(args, _stop_on_signals)
         if args.info:
             info = summarise(args.file)
             if args.json:
@@ -401,7 +415,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
         counts = republish(args.file, settings, args.prefix, None if args.fast else args.rate, stop)
         print("republished " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
         return 0
-    except (RecordingError, ScenarioError, ValueError, OSError) as error:
+    except (RecordingError, ScenarioError, ValueError, OSError, FoxgloveMissing) as error:
         log.error("%s", error)
         return 2
     except RuntimeError as error:

@@ -11,6 +11,7 @@ from dataclasses import replace
 import numpy as np
 
 from gcs.config import Scenario
+from gcs.core.filters.imm_target import ImmTargetFilter
 from gcs.core.filters.uif import UnscentedInformationFilter
 from gcs.core.filters.vgukf import VariableGainUKF
 from gcs.core.models.motion import motion_model
@@ -20,7 +21,8 @@ from gcs.core.planners import (GeneticPlanner, LmGcrlbPlanner, OneStepHeadingPla
 from gcs.core.tracker import TrackerConfig
 from gcs.core.world import VisibilityMaps, World
 
-__all__ = ["PLANNERS", "URBAN_PLANNERS", "AOA_PLANNERS", "FROM_SCENARIO", "filter_sensor_models", "observer_sensor_model", "tracker_config", "scenario_planner", "subset_config"]
+__all__ = ["PLANNERS", "URBAN_PLANNERS", "AOA_PLANNERS", "FROM_SCENARIO", "filter_sensor_models", "observer_sensor_model",
+           "tracker_config", "target_imm", "scenario_planner", "subset_config"]
 
 URBAN_PLANNERS = ("ga_k5", "ga_k0", "orbit", "pursuit")
 """wang2012: GA-RHC on k+5 predictions or on the current estimate (k+0, the paper's
@@ -105,7 +107,18 @@ def tracker_config(scenario: Scenario, world: World | None, planner: str, genera
         initial_position_std_m=scenario.estimator.initial_position_std_m,
         initial_velocity_std_mps=scenario.estimator.initial_velocity_std_mps,
         bearing_filter=VariableGainUKF(motion) if scenario.estimator.kind == "vgukf" else None,
+        target_imm=target_imm(scenario) if scenario.estimator.kind == "imm" else None,
     )
+
+
+def target_imm(scenario: Scenario) -> ImmTargetFilter:
+    """The CV + coordinated-turn IMM of a scenario's ``[estimator]`` (kind ``imm``)."""
+    est = scenario.estimator
+    p = est.mode_switch_probability
+    return ImmTargetFilter(cv_accel_psd_m2_s3=est.accel_psd_m2_s3, ct_accel_psd_m2_s3=est.turn_accel_psd_m2_s3,
+                           turn_psd_rad2_s3=est.turn_rate_psd_rad2_s3,
+                           initial_turn_std_rad_s=est.initial_turn_rate_std_rad_s,
+                           transition=((1.0 - p, p), (2.0 * p, 1.0 - 2.0 * p)))
 
 
 def subset_config(config: TrackerConfig, indices: tuple[int, ...]) -> TrackerConfig:

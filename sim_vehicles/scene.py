@@ -33,7 +33,7 @@ from sim_vehicles.truth.ins import InsModel
 from sim_vehicles.truth.sensor import TargetSensor
 from sim_vehicles.truth.target import TargetState, start_state, target_model
 
-__all__ = ["Scene", "SimVehicle", "DEAD_RECKONING_GROWTH"]
+__all__ = ["Scene", "SimVehicle", "DEAD_RECKONING_GROWTH", "simple_navigation"]
 
 DEAD_RECKONING_GROWTH = 0.05
 """Growth of the dead-reckoned position's 1-sigma per metre flown without GPS (ours)."""
@@ -219,14 +219,24 @@ class Scene:
         distance, turn = vehicle.ins_model.increment(true_distance, true_turn, dt, vehicle.rng_ins)
         vehicle.ins_distance_m += distance
         vehicle.ins_turn_rad += turn
-        if vehicle.gps.position_enu_m is not None:
-            vehicle.nav_position_enu_m = vehicle.gps.position_enu_m.copy()
-            vehicle.nav_heading_rad = vehicle.state.heading_rad  # the compass re-anchors the heading
-            vehicle.nav_std_m = vehicle.gps.horizontal_std_m
-            return
-        mid = vehicle.nav_heading_rad + 0.5 * turn
-        position = vehicle.nav_position_enu_m + np.array([distance * math.cos(mid), distance * math.sin(mid), 0.0])
-        position[2] = vehicle.state.position_enu_m[2]  # the barometer holds altitude
-        vehicle.nav_position_enu_m = position
-        vehicle.nav_heading_rad += turn
-        vehicle.nav_std_m += DEAD_RECKONING_GROWTH * distance
+        vehicle.nav_position_enu_m, vehicle.nav_heading_rad, vehicle.nav_std_m = simple_navigation(
+            vehicle.nav_position_enu_m, vehicle.nav_heading_rad, vehicle.nav_std_m, vehicle.gps,
+            vehicle.state.heading_rad, vehicle.state.position_enu_m[2], distance, turn)
+
+
+def simple_navigation(position_enu_m: np.ndarray, heading_rad: float, std_m: float, gps: GpsReading,
+                      true_heading_rad: float, true_altitude_m: float, distance_m: float,
+                      turn_rad: float) -> tuple[np.ndarray, float, float]:
+    """The simulated vehicles' own navigation over one INS increment: ``(position (3,), heading, std)``.
+
+    With a fix: the fix, the true heading (a compass) and the fix's accuracy. Without:
+    dead reckoning by feng2019 eq. (1) from the previous values, the altitude held by the
+    barometer (the truth's) and the standard deviation grown by :data:`DEAD_RECKONING_GROWTH`
+    per metre.
+    """
+    if gps.position_enu_m is not None:
+        return gps.position_enu_m.copy(), true_heading_rad, gps.horizontal_std_m
+    mid = heading_rad + 0.5 * turn_rad
+    position = position_enu_m + np.array([distance_m * math.cos(mid), distance_m * math.sin(mid), 0.0])
+    position[2] = true_altitude_m
+    return position, heading_rad + turn_rad, std_m + DEAD_RECKONING_GROWTH * distance_m

@@ -25,8 +25,11 @@ import numpy as np
 from scipy.stats import wilcoxon
 
 from gcs.bench.aoa import ESTIMATORS, PLANNERS, AoaScenario, LoopRecord, run_estimators, run_loop
+from gcs.bench.plots import pyplot, write_markdown
+from gcs.bench.plots import save as save_figure
 
-__all__ = ["SENSOR_COUNTS", "UNEQUAL_SIGMA0_DEG", "run_benchmark", "format_report", "write_json", "write_plots"]
+__all__ = ["SENSOR_COUNTS", "UNEQUAL_SIGMA0_DEG", "run_benchmark", "format_report", "write_json", "write_plots",
+           "write_table"]
 
 SENSOR_COUNTS = (2, 3, 4, 5, 6)
 UNEQUAL_SIGMA0_DEG = (1.0, 0.8, 0.1)
@@ -163,20 +166,41 @@ def write_json(report: dict, path: Path) -> None:
     path.write_text(json.dumps(report, indent=2) + "\n")
 
 
+def write_table(report: dict, directory: Path, written: list[Path] | None = None) -> Path:
+    """``aoa.md``: the estimators', planners', sensor-count and accuracy tables, and the goals."""
+    loop_columns = ["final MSE m^2", "final median m^2", "MSE over time m^2", "bound m^2", "violations",
+                    "step ms (median)", "step ms (p99)", "LM iterations (median)"]
+
+    def loop_rows(rows: dict) -> list[tuple]:
+        return [(name, p["final_mse"], p["final_se_median"], p["mean_mse"], p["final_bound"], p["violations"],
+                 p["step_ms_median"], p["step_ms_p99"], p["iterations_median"]) for name, p in rows.items()]
+
+    estimators = [(name, e["final_mse"], e["final_se_median"], e["mean_mse"]) for name, e in report["estimators"].items()]
+    paired = [(name, p["wins"], p["runs"], p["wilcoxon_p"]) for name, p in report["paired"].items()]
+    sections = [
+        ("Estimators on straight flight (Fig. 2)", ["estimator", "final MSE m^2", "final median m^2",
+                                                    "MSE over time m^2"], estimators),
+        ("Planners (Figs. 3-6)", ["planner", *loop_columns], loop_rows(report["planners"])),
+        ("Paired comparisons of the final squared error", ["pair", "wins", "runs", "Wilcoxon p"], paired),
+        ("Sensor count (Fig. 7)", ["UAVs", *loop_columns],
+         loop_rows({int(n): row for n, row in report["sensor_count"].items()})),
+        ("Sensor accuracy (Fig. 8)", ["accuracy", *loop_columns], loop_rows(report["accuracy"])),
+        ("Goals", ["goal", "met"], list(report["goals"].items())),
+    ]
+    s = report["scenario"]
+    return write_markdown(directory, "aoa.md", "gcs bench aoa: zuo2021 bearing-only tracking", sections,
+                          [f"{report['runs']} paired runs from seed {report['seed']}, {s['steps']} steps of "
+                           f"{s['step_s']:g} s"], written)
+
+
 def write_plots(report: dict, records: dict, directory: Path) -> list[Path]:
-    """PNG plots: estimator MSE (Fig. 2), trajectories (Figs. 3-5, 8), planner MSE (Fig. 6), sensor count (Fig. 7)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    directory.mkdir(parents=True, exist_ok=True)
+    """PNG plots: estimator MSE (Fig. 2), trajectories (Figs. 3-5, 8), planner MSE (Fig. 6), sensor count (Fig. 7);
+    and the tables (``aoa.md``)."""
+    plt = pyplot()
     written: list[Path] = []
 
     def save(fig, name: str) -> None:
-        written.append(directory / name)
-        fig.savefig(written[-1], dpi=120, bbox_inches="tight")
-        plt.close(fig)
+        save_figure(fig, directory, name, written)
 
     def curves(title: str, series: dict[str, dict], name: str, bounds: bool = False, medians: bool = False) -> None:
         fig, ax = plt.subplots(figsize=(9, 4))
@@ -220,4 +244,5 @@ def write_plots(report: dict, records: dict, directory: Path) -> list[Path]:
     paths(axes[0], records["planners"]["gcrlb_lm"][0], "GCRLB-LM, sigma0 1 / 1 / 1 deg")
     paths(axes[1], records["unequal"][0], "GCRLB-LM, sigma0 1 / 0.8 / 0.1 deg (Fig. 8)")
     save(fig, "aoa_unequal_trajectories.png")
+    write_table(report, directory, written)
     return written

@@ -12,10 +12,37 @@ import sys
 from pathlib import Path
 
 from gcs.bench import PLANNERS
+from gcs.bench.urban_nav import NAVIGATION_MODES
+
+PLOTS_HELP = "write PNG plots and a markdown table (<benchmark>.md) into DIR"
 
 
 def _progress(message: str) -> None:
     print(f"  ... {message}", file=sys.stderr, flush=True)
+
+
+def _wrote(paths) -> None:
+    for path in paths:
+        print(f"wrote {path}")
+
+
+def _outputs_checked(handler):
+    """Check --json's folder and make --plots DIR before the benchmark runs (not after an hour of it)."""
+
+    def checked(args: argparse.Namespace) -> int:
+        json_path, plots = getattr(args, "json", None), getattr(args, "plots", None)
+        if json_path is not None and not json_path.parent.is_dir():
+            print(f"gcs bench: --json {json_path}: no folder {json_path.parent}", file=sys.stderr)
+            return 2
+        if plots is not None:
+            try:
+                plots.mkdir(parents=True, exist_ok=True)
+            except OSError as error:
+                print(f"gcs bench: --plots {plots}: {error}", file=sys.stderr)
+                return 2
+        return handler(args)
+
+    return checked
 
 
 def _cmd_estimation(args: argparse.Namespace) -> int:
@@ -28,6 +55,8 @@ def _cmd_estimation(args: argparse.Namespace) -> int:
     if args.json:
         estimation.write_json(report, args.json)
         print(f"wrote {args.json}")
+    if args.plots:
+        _wrote(estimation.write_plots(report, args.plots))
     return 0
 
 
@@ -38,6 +67,8 @@ def _cmd_urban(args: argparse.Namespace) -> int:
 
     scenario = load_scenario(args.scenario)
     world = build_world(scenario)
+    if args.gps_denied:
+        return _urban_gps_denied(args, scenario, world)
     report, records = urban_report.run_benchmark(
         scenario, world, runs=args.runs, seed=args.seed, planners=args.planner or PLANNERS, duration_s=args.duration,
         motion=args.motion, scaling=() if args.no_scaling else (3, 6, 10, 20), progress=_progress,
@@ -47,8 +78,25 @@ def _cmd_urban(args: argparse.Namespace) -> int:
         urban_report.write_json(report, args.json)
         print(f"wrote {args.json}")
     if args.plots:
-        for path in urban_report.write_plots(report, records, world, args.plots):
-            print(f"wrote {path}")
+        _wrote(urban_report.write_plots(report, records, world, args.plots))
+    return 0
+
+
+def _urban_gps_denied(args: argparse.Namespace, scenario, world) -> int:
+    from gcs.bench import urban_nav_report
+
+    report = urban_nav_report.run_benchmark(
+        scenario, world, runs=args.runs, seed=args.seed, planners=args.planner or ("ga_k5",),
+        navigations=args.navigation or urban_nav_report.NAVIGATION_MODES, duration_s=args.duration,
+        motion=args.motion, progress=_progress)
+    print(urban_nav_report.format_report(report))
+    if args.json:
+        urban_nav_report.write_json(report, args.json)
+        print(f"wrote {args.json}")
+    if args.plots:
+        from gcs.bench.navigation_plots import write_gps_denied_plots
+
+        _wrote(write_gps_denied_plots(report, args.plots))
     return 0
 
 
@@ -69,6 +117,10 @@ def _cmd_daemon(args: argparse.Namespace) -> int:
     if args.json:
         daemon.write_json(report, args.json)
         print(f"wrote {args.json}")
+    if args.plots:
+        from gcs.bench.daemon_plots import write_plots
+
+        _wrote(write_plots(report, args.plots))
     if profiler is not None:
         profiler.dump_stats(args.profile)
         print(f"wrote {args.profile} (python -m pstats {args.profile}; the profiler slows the daemon, so rates "
@@ -83,11 +135,13 @@ def _cmd_replay(args: argparse.Namespace) -> int:
 
     scenario = load_scenario(args.scenario)
     report = replay.run_benchmark(scenario, build_world(scenario), duration_s=args.duration, repeats=args.repeats,
-                                  seed=args.seed)
+                                  seed=args.seed, progress=_progress)
     print(replay.format_report(report))
     if args.json:
         args.json.write_text(json.dumps(report, indent=2))
         print(f"wrote {args.json}")
+    if args.plots:
+        _wrote(replay.write_plots(report, args.plots))
     return 0
 
 
@@ -100,8 +154,63 @@ def _cmd_aoa(args: argparse.Namespace) -> int:
         aoa_report.write_json(report, args.json)
         print(f"wrote {args.json}")
     if args.plots:
-        for path in aoa_report.write_plots(report, records, args.plots):
-            print(f"wrote {path}")
+        _wrote(aoa_report.write_plots(report, records, args.plots))
+    return 0
+
+
+def _cmd_livemap(args: argparse.Namespace) -> int:
+    from gcs.bench import livemap
+    from gcs.scenarios import load_scenario
+    from gcs.world_loader import build_world
+
+    scenario = load_scenario(args.scenario)
+    command = (f"gcs bench livemap --vehicles {' '.join(map(str, args.vehicles))} --warm-up {args.warm_up} "
+               f"--seconds {args.seconds}")
+    report = livemap.run_benchmark(scenario, build_world(scenario), vehicle_counts=args.vehicles,
+                                   warm_up_s=args.warm_up, measure_s=args.seconds, command=command,
+                                   progress=_progress)
+    print(livemap.format_report(report))
+    if args.json:
+        args.json.write_text(json.dumps(report, indent=2) + "\n")
+        print(f"wrote {args.json}")
+    if args.plots:
+        _wrote(livemap.write_plots(report, args.plots))
+    return 0
+
+
+def _cmd_skf(args: argparse.Namespace) -> int:
+    from gcs.bench import skf_report
+
+    report = skf_report.run_benchmark(runs=args.runs, seed=args.seed, methods=args.method or skf_report.METHODS,
+                                      gps_outage_s=tuple(args.gps_outage) if args.gps_outage else None,
+                                      progress=_progress)
+    print(skf_report.format_report(report))
+    if args.json:
+        skf_report.write_json(report, args.json)
+        print(f"wrote {args.json}")
+    if args.plots:
+        from gcs.bench.navigation_plots import write_skf_plots
+
+        _wrote(write_skf_plots(report, args.plots))
+    return 0
+
+
+def _cmd_imm(args: argparse.Namespace) -> int:
+    from gcs.bench import imm
+    from gcs.scenarios import load_scenario
+    from gcs.world_loader import build_world
+
+    scenario = load_scenario(args.scenario)
+    report = imm.run_benchmark(scenario, build_world(scenario), runs=args.runs, seed=args.seed, steps=args.steps,
+                               progress=_progress)
+    print(imm.format_report(report))
+    if args.json:
+        imm.write_json(report, args.json)
+        print(f"wrote {args.json}")
+    if args.plots:
+        from gcs.bench.navigation_plots import write_imm_plots
+
+        _wrote(write_imm_plots(report, args.plots))
     return 0
 
 
@@ -122,6 +231,10 @@ def _cmd_soak(args: argparse.Namespace) -> int:
     if args.json:
         soak.write_json(report, args.json)
         print(f"wrote {args.json}")
+    if args.plots:
+        from gcs.bench.soak_plots import write_plots
+
+        _wrote(write_plots(report, args.plots))
     return 0 if report["lost"] == 0 and report["crashes_total"] == 0 else 1
 
 
@@ -149,7 +262,8 @@ def _non_negative_int(text: str) -> int:
 def add_bench(sub: argparse._SubParsersAction) -> None:
     """Register ``gcs bench`` and its benchmarks."""
     parser = sub.add_parser("bench", help="reproduce the papers' experiments and measure speed",
-                            description="Benchmarks: each prints its table and can write --json.")
+                            description="Benchmarks: each prints its table (progress on stderr) and can write --json, and "
+                                "--plots DIR: PNG plots and the tables in markdown.")
     benches = parser.add_subparsers(dest="bench", required=True, metavar="BENCHMARK")
     est = benches.add_parser(
         "estimation",
@@ -164,7 +278,8 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     est.add_argument("--table-runs", type=_positive_int, default=5, help="runs per row of the vehicle-count table (default 5)")
     est.add_argument("--seed", type=int, default=2012, help="seed of the generated data (default 2012)")
     est.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
-    est.set_defaults(handler=_cmd_estimation)
+    est.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
+    est.set_defaults(handler=_outputs_checked(_cmd_estimation))
 
     urb = benches.add_parser(
         "urban",
@@ -183,8 +298,13 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
                      help="target motion (default: the scenario's)")
     urb.add_argument("--no-scaling", action="store_true", help="skip the 3/6/10/20-UAV GA timing table")
     urb.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
-    urb.add_argument("--plots", type=Path, metavar="DIR", help="write PNG plots into DIR")
-    urb.set_defaults(handler=_cmd_urban, planner=None)
+    urb.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
+    urb.add_argument("--gps-denied", action="store_true",
+                     help="GPS-denied zones (the scenario's, else a 1.5 km square about the target's start): target "
+                          "RMSE with the vehicles' own navigation (perfect, raw GPS, SKF); planner default ga_k5")
+    urb.add_argument("--navigation", action="append", choices=NAVIGATION_MODES,
+                     help="with --gps-denied: navigation to run (repeatable; default all)")
+    urb.set_defaults(handler=_outputs_checked(_cmd_urban), planner=None, navigation=None)
 
     dmn = benches.add_parser(
         "daemon",
@@ -201,9 +321,10 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     dmn.add_argument("--solve-steps", type=_non_negative_int, default=5,
                      help="real-time decision steps to time the GA's solve over, 0 to skip (default 5)")
     dmn.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
+    dmn.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
     dmn.add_argument("--profile", type=Path, metavar="FILE",
                      help="profile the daemon's loop (cProfile) during the rate searches and write the stats to FILE")
-    dmn.set_defaults(handler=_cmd_daemon)
+    dmn.set_defaults(handler=_outputs_checked(_cmd_daemon))
 
     rpl = benches.add_parser(
         "replay", help="gcs replay --process speed in multiples of real time (goal 1000x)",
@@ -214,7 +335,8 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     rpl.add_argument("--repeats", type=_positive_int, default=5, help="timed runs; the median is reported (default 5)")
     rpl.add_argument("--seed", type=int, default=0, help="seed of the simulated scene (default 0)")
     rpl.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
-    rpl.set_defaults(handler=_cmd_replay)
+    rpl.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
+    rpl.set_defaults(handler=_outputs_checked(_cmd_replay))
 
     aoa = benches.add_parser(
         "aoa", help="zuo2021 bearing-only tracking: estimators, GCRLB-LM vs CRLB vs straight-line planners",
@@ -225,8 +347,55 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     aoa.add_argument("--steps", type=_positive_int, default=100, help="1 s steps per run (default 100)")
     aoa.add_argument("--seed", type=int, default=2021, help="seed of the first run (default 2021)")
     aoa.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
-    aoa.add_argument("--plots", type=Path, metavar="DIR", help="write PNG plots into DIR")
-    aoa.set_defaults(handler=_cmd_aoa)
+    aoa.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
+    aoa.set_defaults(handler=_outputs_checked(_cmd_aoa))
+
+    lmp = benches.add_parser(
+        "livemap", help="what the live map costs the daemon's loop: per message and per snapshot",
+        description="Feeds the live map's picture the messages of 3, 10 and 100 vehicles (nav with GPS at 5 Hz, "
+                    "reports, plans, a track and the truth each step) until the trails are full, then times "
+                    "observing each message against the codec's decoding of it, and the snapshots.")
+    lmp.add_argument("--scenario", default="wang2012_urban", help="shipped name or .toml path (default wang2012_urban)")
+    lmp.add_argument("--vehicles", type=_positive_int, nargs="+", default=[3, 10, 100], metavar="N",
+                     help="team sizes (default 3 10 100)")
+    lmp.add_argument("--warm-up", type=_positive_int, default=600, metavar="S",
+                     help="simulated seconds fed before measuring, to fill the trails (default 600)")
+    lmp.add_argument("--seconds", type=_positive_int, default=20, metavar="S",
+                     help="simulated seconds measured (default 20)")
+    lmp.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
+    lmp.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
+    lmp.set_defaults(handler=_outputs_checked(_cmd_livemap))
+
+    from gcs.bench.skf_methods import METHODS as SKF_METHODS
+
+    skf = benches.add_parser(
+        "skf", help="feng2019 Table 1: switching Kalman filter navigation (CF, DF) vs FilterPy's IMM and KF",
+        description="Rebuilds feng2019 section 4 (200 m/s, 600 m snake from 40 s to 90 s, straight to 120 s) with "
+                    "the simulator's INS and GPS models and a noisy map database, and prints RMS position and "
+                    "velocity errors and time per run for SKF-CF, SKF-DF, our filter without the map, "
+                    "FilterPy's IMMEstimator and KalmanFilter on the same data.")
+    skf.add_argument("--runs", type=_positive_int, default=150, help="Monte Carlo runs (default 150, the paper's)")
+    skf.add_argument("--seed", type=int, default=2019, help="seed of the first run (default 2019)")
+    skf.add_argument("--method", action="append", choices=SKF_METHODS,
+                     help=f"method to run (repeatable; default all: {', '.join(SKF_METHODS)})")
+    skf.add_argument("--gps-outage", type=float, nargs=2, metavar=("START_S", "END_S"),
+                     help="no GPS fix between these times (not in the paper)")
+    skf.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
+    skf.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
+    skf.set_defaults(handler=_outputs_checked(_cmd_skf), method=None)
+
+    imm = benches.add_parser(
+        "imm", help="CV + coordinated-turn IMM vs the single-model DUIF on the street-following target",
+        description="Paired runs on the same detections (three UAVs circling the street-following target in the "
+                    "scenario's city, occluded by its buildings): position and velocity RMSE, RMSE after the "
+                    "target's turns, NEES and time per step of the DUIF and of the IMM estimator.")
+    imm.add_argument("--scenario", default="wang2012_urban", help="shipped name or .toml path (default wang2012_urban)")
+    imm.add_argument("--runs", type=_positive_int, default=50, help="paired runs (default 50)")
+    imm.add_argument("--steps", type=_positive_int, default=300, help="1 s steps per run (default 300)")
+    imm.add_argument("--seed", type=int, default=3000, help="seed of the first run (default 3000)")
+    imm.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
+    imm.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
+    imm.set_defaults(handler=_outputs_checked(_cmd_imm))
 
     soak = benches.add_parser(
         "soak", help="the whole ground station for a long run with random faults: nothing lost, no crash, memory",
@@ -247,4 +416,5 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     soak.add_argument("--seed", type=int, default=0, help="seed of the vehicles and of the faults (default 0)")
     soak.add_argument("--workdir", type=Path, metavar="DIR", help="where the logs go (default a temporary folder)")
     soak.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
-    soak.set_defaults(handler=_cmd_soak)
+    soak.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
+    soak.set_defaults(handler=_outputs_checked(_cmd_soak))

@@ -51,6 +51,7 @@ import numpy as np
 from gcs.adapters.ports import LOCALHOST, free_tcp_port
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.app import Daemon, DaemonOptions, PlanRecord, StepRecord
+from gcs.daemon.planning import START_TIMEOUT_S
 from gcs.bench.daemon_load import Fleet, publisher_main
 from gcs.bench.urban import with_vehicles
 from gcs.config import Scenario
@@ -240,8 +241,9 @@ class _Run:
         registry = self.daemon.registry
         yield from self._wait(lambda: all(registry.alive(v, 0.0) for v in self.roster), 10.0, "liveliness tokens")
         yield from self._call("warmup")
-        yield from self._wait(lambda: len(registry.plannable(0.0)) == len(self.roster) and self.plans, 10.0,
-                              "the warm-up step's plan")
+        # the first plan waits for the planner process to start (a few seconds on a busy machine)
+        yield from self._wait(lambda: len(registry.plannable(0.0)) == len(self.roster) and self.plans,
+                              START_TIMEOUT_S, "the warm-up step's plan")
         yield from self.pause(0.2)
 
     def trial(self, rate: float, seconds: float, burst: bool = False, scored: bool = True

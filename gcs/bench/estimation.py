@@ -39,13 +39,15 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import chi2
 
+from gcs.bench.plots import pyplot, save, write_markdown
 from gcs.core.filters.uif import GaussianEstimate, UnscentedInformationFilter
 from gcs.core.models.motion import constant_velocity
 from gcs.core.models.sensor import SensorModel
 from gcs.core.pcrlb import pcrlb
 from sim_vehicles.truth.sensor import exact_measurements
 
-__all__ = ["EstimationDataset", "generate_dataset", "run_duif", "run_filterpy_ukf", "evaluate", "run_benchmark"]
+__all__ = ["EstimationDataset", "generate_dataset", "run_duif", "run_filterpy_ukf", "evaluate", "run_benchmark",
+           "write_plots"]
 
 ACCEL_PSD = 1.96  # m^2/s^3: wang2012's 1.4 m/s velocity noise per 1 s step
 SENSOR_STD = (10.0, 0.05, 0.05)  # range m, azimuth rad, elevation rad (wang2012 section 5)
@@ -189,11 +191,15 @@ METHODS: dict[str, Callable[[EstimationDataset, int], tuple[NDArray, NDArray, li
 }
 
 
-def run_methods(data: EstimationDataset, methods: dict = METHODS) -> dict[str, FilterRun]:
-    """Run every method on every run, alternating methods run by run."""
+def run_methods(data: EstimationDataset, methods: dict = METHODS,
+                progress: Callable[[str], None] | None = None) -> dict[str, FilterRun]:
+    """Run every method on every run, alternating methods run by run (``progress`` hears every tenth run)."""
     runs, steps, _ = data.shape
     collected = {name: ([], [], []) for name in methods}
+    every = max(1, runs // 10)
     for run in range(runs):
+        if progress is not None and run and run % every == 0:
+            progress(f"run {run}/{runs}")
         for name, method in methods.items():
             means, covs, seconds = method(data, run)
             collected[name][0].append(means)
@@ -226,6 +232,12 @@ def evaluate(data: EstimationDataset, result: FilterRun, bound_trace: NDArray[np
     }
 
 
+def rmse_by_step(data: EstimationDataset, result: FilterRun) -> list[float]:
+    """Position RMSE over the runs at each step (m), shape (K,)."""
+    squared = np.sum((result.means - data.truth)[..., :2] ** 2, axis=-1)
+    return [float(x) for x in np.sqrt(squared.mean(axis=0))]
+
+
 def nees_band(runs: int, dim: int = 4) -> tuple[float, float]:
     """Two-sided 95% band of the run-averaged NEES of a consistent filter (chi-square, R n dof)."""
     low, high = chi2.ppf([0.025, 0.975], runs * dim) / runs
@@ -239,8 +251,10 @@ def run_benchmark(runs: int, seed: int, steps: int = 100, vehicle_counts: tuple[
     say(f"3 vehicles: {runs} runs x {steps} steps")
     data = generate_dataset(runs, steps, 3, seed)
     bound = position_bound(data)
-    results = run_methods(data)
+    results = run_methods(data, progress=say)
     methods = {name: evaluate(data, result, bound) for name, result in results.items()}
+    curves = {"pcrlb_m": [float(x) for x in np.sqrt(bound)],
+              **{name: rmse_by_step(data, result) for name, result in results.items()}}
     table = []
     for count in vehicle_counts:
         say(f"table: {count} vehicles, {table_runs} runs")
@@ -255,6 +269,7 @@ def run_benchmark(runs: int, seed: int, steps: int = 100, vehicle_counts: tuple[
         "methods": methods,
         "speedup_duif_vs_filterpy": speedup,
         "table": table,
+        "rmse_by_step_m": curves,
     }
 
 
@@ -285,3 +300,47 @@ def format_report(report: dict) -> str:
 def write_json(report: dict, path: Path) -> None:
     """Write the report as JSON (keys ``methods.<name>.{rmse_m, rmse_over_pcrlb, nees, us_per_step_median}``)."""
     path.write_text(json.dumps(report, indent=2) + "\n")
+
+
+def write_plots(report: dict, directory: Path) -> list[Path]:
+    """``estimation_rmse.png`` (RMSE by step against the PCRLB), ``estimation_speed.png`` (microseconds per
+    step by vehicle count) and ``estimation.md`` (the tables)."""
+    plt = pyplot()
+    written: list[Path] = []
+    curves = report["rmse_by_step_m"]
+    fig, ax = plt.subplots(figsize=(9, 4))
+    for name, metrics in report["methods"].items():
+        ax.plot(curves[name], label=f"{name} (RMSE {metrics['rmse_m']:.2f} m)")
+    ax.plot(curves["pcrlb_m"], "k--", linewidth=1.0, label="sqrt(PCRLB position trace)")
+    ax.set_yscale("log")
+    ax.set_xlabel("step")
+    ax.set_ylabel(f"position RMSE over {report['runs']} runs (m)")
+    ax.set_title(f"{report['vehicles']} vehicles, {report['runs']} runs, seed {report['seed']}", fontsize=10)
+    ax.legend(fontsize=8)
+    save(fig, directory, "estimation_rmse.png", written)
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    counts = [row["vehicles"] for row in report["table"]]
+    for name in report["methods"]:
+        ax.plot(counts, [row[name]["us_per_step_median"] for row in report["table"]], "o-", label=name)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("vehicles")
+    ax.set_ylabel("microseconds per predict + update (median)")
+    ax.legend(fontsize=8)
+    save(fig, directory, "estimation_speed.png", written)
+
+    low, high = report["nees_band_95"]
+    methods = [(name, m["rmse_m"], m["rmse_over_pcrlb"], m["nees"], m["us_per_step_median"])
+               for name, m in report["methods"].items()]
+    table = [(row["vehicles"], row["duif"]["us_per_step_median"], row["filterpy_ukf"]["us_per_step_median"],
+              row["filterpy_ukf"]["us_per_step_median"] / row["duif"]["us_per_step_median"], row["duif"]["rmse_m"],
+              row["filterpy_ukf"]["rmse_m"], row["duif"]["rmse_over_pcrlb"]) for row in report["table"]]
+    write_markdown(directory, "estimation.md", "gcs bench estimation: DUIF against FilterPy's UKF", [
+        (f"{report['vehicles']} vehicles", ["method", "RMSE m", "RMSE / sqrt(PCRLB)", "NEES", "us/step (median)"],
+         methods),
+        ("By vehicle count", ["vehicles", "DUIF us/step", "UKF us/step", "UKF / DUIF", "DUIF RMSE m", "UKF RMSE m",
+                              "DUIF RMSE / sqrt(PCRLB)"], table),
+    ], [f"{report['runs']} runs x {report['steps']} steps, seed {report['seed']}; NEES 95% band "
+        f"[{low:.3f}, {high:.3f}]; DUIF speed-up {report['speedup_duif_vs_filterpy']:.2f}x"], written)
+    return written

@@ -31,6 +31,7 @@ import msgspec
 import numpy as np
 from numpy.typing import NDArray
 
+from gcs.bench.urban_nav import FleetNavigation
 from gcs.config import Scenario
 from gcs.core.filters.uif import NS_PER_S
 from gcs.core.kinematics import VehicleState, step_vehicles
@@ -57,6 +58,9 @@ class RunRecord:
     vehicle_xy: NDArray[np.float64]  # (K, V, 2)
     target_xy: NDArray[np.float64]  # (K, 2)
     estimate_xy: NDArray[np.float64]  # (K, 2)
+    navigation: str = "perfect"
+    nav_error_m: NDArray[np.float64] | None = None  # (K, V) the vehicles' own position error, with navigation
+    gps_fix: NDArray[np.bool_] | None = None  # (K, V) whether each vehicle had a GPS fix, with navigation
 
     @property
     def seen_any(self) -> int:
@@ -91,10 +95,13 @@ def run_closed_loop(
     generations: int | None = None,
     stall: int | None | str = FROM_SCENARIO,
     clock: Callable[[], float] | None = time.perf_counter,
+    navigation: str | None = None,
 ) -> RunRecord:
     """One closed-loop run. ``clock`` times the planner (and enables its deadline); None for pure runs.
 
     ``generations`` and ``stall`` override the scenario's GA budget (``stall=None``: no early stop).
+    ``navigation`` (one of :data:`gcs.bench.urban_nav.NAVIGATION_MODES`) gives the tracker and planner
+    the vehicles' own navigation instead of their true positions (:mod:`gcs.bench.urban_nav`).
     """
     dt = scenario.time.step_s
     steps = int(round((duration_s or scenario.time.duration_s) / dt))
@@ -116,26 +123,41 @@ def run_closed_loop(
     seen = np.zeros((steps, count), dtype=bool)
     errors, decisions = np.full(steps, np.nan), np.full(steps, np.nan)
     vehicle_xy, target_xy, estimate_xy = np.zeros((steps, count, 2)), np.zeros((steps, 2)), np.full((steps, 2), np.nan)
+    nav = None if navigation is None else FleetNavigation.start(navigation, scenario, seed, vehicles)
+    nav_error, gps_fix = np.zeros((steps, count)), np.ones((steps, count), dtype=bool)
     for k in range(steps):
+        stamp_ns = int(round(k * dt * NS_PER_S))
         if k > 0:
             target = model.step(target, dt, truth_rng)
+            before = vehicles
             vehicles = step_vehicles(vehicles, state.turn_rate, dt, config.max_turn_rate)
+            if nav is not None:
+                nav.fly(before, vehicles, dt, stamp_ns)
+        believed = vehicles if nav is None else nav.believed(vehicles)
         target_xyz = np.array([target.position[0], target.position[1], 0.0])
         detections = []
         for i, sensor in enumerate(truth_sensors):
             obs = sensor.observe(target_xyz, vehicles.xyz[i : i + 1], world.line_of_sight, sensor_rng)
             if obs.detected[0]:
-                detections.append(Detection(i, vehicles.xyz[i], obs.values[0]))
+                detections.append(Detection(i, believed.xyz[i], obs.values[0],
+                                            None if nav is None else nav.covariance(i)))
                 seen[k, i] = True
-        inputs = StepInputs(int(round(k * dt * NS_PER_S)), vehicles, tuple(detections))
+        inputs = StepInputs(stamp_ns, believed, tuple(detections))
         state, _, diagnostics = step(config, state, inputs, plan_rng, now=clock)
+        if nav is not None:
+            nav.commanded(believed, state.plan if state.plan is not None else state.turn_rate[:, None], dt,
+                          config.max_turn_rate)
+            nav_error[k], gps_fix[k] = nav.errors_m(vehicles), nav.fixes
         if diagnostics.plan is not None and clock is not None:
             decisions[k] = diagnostics.plan.elapsed_s
         if state.estimate is not None:
             estimate_xy[k] = state.estimate.mean[:2]
             errors[k] = float(np.hypot(*(state.estimate.mean[:2] - target.position)))
         vehicle_xy[k], target_xy[k] = vehicles.xy, target.position
-    return RunRecord(planner, seed, seen, errors, decisions, vehicle_xy, target_xy, estimate_xy)
+    if nav is None:
+        return RunRecord(planner, seed, seen, errors, decisions, vehicle_xy, target_xy, estimate_xy)
+    return RunRecord(planner, seed, seen, errors, decisions, vehicle_xy, target_xy, estimate_xy, navigation,
+                     nav_error, gps_fix)
 
 
 def with_vehicles(scenario: Scenario, count: int) -> Scenario:

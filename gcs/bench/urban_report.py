@@ -15,11 +15,13 @@ from pathlib import Path
 
 import numpy as np
 
+from gcs.bench.plots import cell, pyplot, write_markdown
+from gcs.bench.plots import save as save_figure
 from gcs.bench.urban import PLANNERS, RunRecord, run_closed_loop, with_vehicles
 from gcs.config import Scenario
 from gcs.core.world import World
 
-__all__ = ["run_benchmark", "summarise", "format_report", "write_plots"]
+__all__ = ["run_benchmark", "summarise", "format_report", "write_plots", "write_table"]
 
 
 def summarise(records: Sequence[RunRecord]) -> dict:
@@ -113,21 +115,34 @@ def write_json(report: dict, path: Path) -> None:
     path.write_text(json.dumps(report, indent=2) + "\n")
 
 
-def write_plots(report: dict, records: dict[str, list[RunRecord]], world: World, directory: Path) -> list[Path]:
-    """PNG plots: city with trajectories (Fig. 4), RMSE over time (Figs. 6, 8), observations (Fig. 7)."""
-    import matplotlib
+def write_table(report: dict, directory: Path, written: list[Path] | None = None) -> Path:
+    """``urban.md``: Table 1 (observations, RMSE, decision time per planner) and the GA timing table."""
+    planners = [(name, p["runs"], p["steps"], p["seen_any_mean"], p["seen_any_min"],
+                 " / ".join(cell(x, 3) for x in p["seen_per_uav_mean"]), p["rmse_m"], p["decision_ms_median"],
+                 p["decision_ms_p99"]) for name, p in report["planners"].items()]
+    scaling = [(row["uavs"], row["decision_ms_median"], row["decision_ms_p99"], row["seen_any"], row["steps"])
+               for row in report["scaling"]]
+    sections = [("Observations and accuracy (wang2012 Table 1)",
+                 ["planner", "runs", "steps", "seen by any (mean)", "seen by any (min)", "seen per UAV (mean)",
+                  "RMSE m", "decision ms (median)", "decision ms (p99)"], planners)]
+    if scaling:
+        sections.append(("GA decision time by team size", ["UAVs", "decision ms (median)", "decision ms (p99)",
+                                                           "seen by any", "steps"], scaling))
+    return write_markdown(directory, "urban.md", f"gcs bench urban: {report['scenario']}", sections,
+                          [f"{report['runs']} paired runs from seed {report['seed']}, target motion {report['motion']}, "
+                           f"GA {report['ga']['population']} x {report['ga']['generations']}"], written)
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+
+def write_plots(report: dict, records: dict[str, list[RunRecord]], world: World, directory: Path) -> list[Path]:
+    """PNG plots: city with trajectories (Fig. 4), RMSE over time (Figs. 6, 8), observations (Fig. 7); and the
+    tables (``urban.md``)."""
     from matplotlib.patches import Polygon
 
-    directory.mkdir(parents=True, exist_ok=True)
-    written = []
+    plt = pyplot()
+    written: list[Path] = []
 
     def save(fig, name: str) -> None:
-        written.append(directory / name)
-        fig.savefig(written[-1], dpi=120, bbox_inches="tight")
-        plt.close(fig)
+        save_figure(fig, directory, name, written)
 
     first = next(iter(records.values()))[0]
     fig, ax = plt.subplots(figsize=(8, 8))
@@ -171,4 +186,5 @@ def write_plots(report: dict, records: dict[str, list[RunRecord]], world: World,
     ax.legend(fontsize=8)
     ax.set_title("Observations (wang2012 Table 1, Fig. 7)")
     save(fig, "urban_observations.png")
+    write_table(report, directory, written)
     return written

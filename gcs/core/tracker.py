@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gcs.core.filters.aoa_init import ml_initialise
+from gcs.core.filters.imm_target import ImmEstimate, ImmTargetFilter
 from gcs.core.filters.prediction import HorizonPrediction, predict_horizon
 from gcs.core.filters.uif import NS_PER_S, GaussianEstimate, UnscentedInformationFilter
 from gcs.core.filters.vgukf import VariableGainUKF
@@ -38,11 +39,32 @@ __all__ = ["Detection", "TrackerConfig", "TrackerState", "StepInputs", "StepDiag
 
 @dataclass(frozen=True)
 class Detection:
-    """One vehicle's detection: its index in the roster, its position (3,) and the measurement (m,)."""
+    """One vehicle's detection: its index in the roster, its position (3,) and the measurement (m,).
+
+    ``vehicle_cov`` is the covariance of that position as the vehicle's navigation
+    knows it, ENU m^2: (2, 2) horizontal (the vertical then counts as exact) or
+    (3, 3); None for an exactly known position. The DUIF then inflates the
+    measurement noise by ``J_s P_s J_s^T`` (:meth:`UnscentedInformationFilter.contribution`).
+    """
 
     vehicle: int
     vehicle_xyz: NDArray[np.float64]
     values: NDArray[np.float64]
+    vehicle_cov: NDArray[np.float64] | None = None
+
+    def __post_init__(self) -> None:
+        if self.vehicle_cov is not None:
+            cov = np.asarray(self.vehicle_cov, dtype=np.float64)
+            if cov.shape == (2, 2):
+                cov = np.pad(cov, ((0, 1), (0, 1)))
+            if cov.shape != (3, 3) or not np.all(np.isfinite(cov)) or np.any(np.diag(cov) < 0.0):
+                raise ValueError(f"vehicle_cov must be a finite (2, 2) or (3, 3) covariance, got {self.vehicle_cov!r}")
+            object.__setattr__(self, "vehicle_cov", 0.5 * (cov + cov.T))
+
+    @property
+    def position_cov(self) -> NDArray[np.float64]:
+        """``vehicle_cov`` as (3, 3), zeros when the position is exact."""
+        return np.zeros((3, 3)) if self.vehicle_cov is None else self.vehicle_cov
 
 
 @dataclass(frozen=True)
@@ -77,6 +99,8 @@ class TrackerConfig:
     initial_velocity_std_mps: float = 10.0
     bearing_filter: VariableGainUKF | None = None
     """zuo2021's VG-UKF: set for bearing-only sensors, replacing the DUIF in :func:`fuse`."""
+    target_imm: ImmTargetFilter | None = None
+    """The CV + coordinated-turn IMM: set to replace the single-model DUIF in :func:`fuse`."""
 
 
 @dataclass(frozen=True)
@@ -128,7 +152,9 @@ def fuse(config: TrackerConfig, estimate: GaussianEstimate | None, stamp_ns: int
     """Step 2 of ASRTP alone: the DUIF update of the estimate with one step's detections (eq. 14-15).
 
     The track starts from the first range-bearing detection (bearing-only sensors:
-    zuo2021's ML initialisation and VG-UKF, when ``config.bearing_filter`` is set). Detections index
+    zuo2021's ML initialisation and VG-UKF, when ``config.bearing_filter`` is set). With
+    ``config.target_imm`` the CV + coordinated-turn IMM replaces the single model, each of its
+    modes updated by the DUIF (:mod:`gcs.core.filters.imm_target`). Detections index
     ``config.sensors`` by their ``vehicle``. Deterministic: the same estimate and
     detections give the same result bit for bit (the daemon and ``gcs replay
     --process`` rely on it). None while nothing has been seen.
@@ -142,15 +168,25 @@ def fuse(config: TrackerConfig, estimate: GaussianEstimate | None, stamp_ns: int
         estimate = initial_estimate(first, config.sensors[first.vehicle], stamp_ns,
                                     config.initial_position_std_m, config.initial_velocity_std_mps,
                                     config.uif.motion.dim)
-    prior = config.uif.predict(estimate, stamp_ns)
     groups: dict[SensorModel, list[Detection]] = {}
     for detection in detections:
         groups.setdefault(config.sensors[detection.vehicle], []).append(detection)
-    contributions = [
-        config.uif.contribution(prior, sensor, np.stack([d.values for d in group]), np.stack([d.vehicle_xyz for d in group]))
-        for sensor, group in groups.items()
-    ]
+    stacked = [(sensor, np.stack([d.values for d in group]), np.stack([d.vehicle_xyz for d in group]),
+                _vehicle_covs(group)) for sensor, group in groups.items()]
+    if config.target_imm is not None:
+        if not isinstance(estimate, ImmEstimate):
+            estimate = config.target_imm.start(estimate)
+        return config.target_imm.step(estimate, stamp_ns, stacked)
+    prior = config.uif.predict(estimate, stamp_ns)
+    contributions = [config.uif.contribution(prior, sensor, z, xyz, covs) for sensor, z, xyz, covs in stacked]
     return config.uif.update(prior, contributions)
+
+
+def _vehicle_covs(group: Sequence[Detection]) -> NDArray[np.float64] | None:
+    """The group's vehicle position covariances (k, 3, 3), or None when every position is exact."""
+    if all(d.vehicle_cov is None for d in group):
+        return None
+    return np.stack([d.position_cov for d in group])
 
 
 def _fuse_bearings(config: TrackerConfig, estimate: GaussianEstimate | None, stamp_ns: int,

@@ -10,10 +10,13 @@ from pathlib import Path
 
 import msgspec
 
+from gcs.adapters.foxglove_out import FoxgloveMissing, add_foxglove_arguments, foxglove_options
 from gcs.adapters.mavlink_cli import add_mavlink_arguments, connections_from_arguments, signing_key_from_arguments
+from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_session import (DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, query,
                                         settings_from_arguments)
 from gcs.config import ScenarioError
+from gcs.daemon.planning import PLANNER_MODES
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
 from gcs.tracking import PLANNERS
 from gcs.world_loader import build_world
@@ -39,6 +42,11 @@ def add_daemon_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of the planner's random generator (default 0)")
     parser.add_argument("--record", type=Path, metavar="FILE.mcap",
                         help="record everything received and published (MCAP), finished on exit")
+    parser.add_argument("--plan-in", choices=PLANNER_MODES, default="process", dest="planner_mode",
+                        help="where plans are made: a child process (default), a thread of the daemon, or inline "
+                             "in its loop (each plan before the next step is fused)")
+    add_http_argument(parser, "the live map (vehicles, track, plans, status)")
+    add_foxglove_arguments(parser)
     parser.add_argument("--accept-unlisted", action="store_true",
                         help="also accept and fuse reports from vehicles outside the scenario's roster (default: "
                              "rejected and counted as rejected.unknown_vehicle); they are never commanded")
@@ -68,7 +76,8 @@ def build_daemon(args: argparse.Namespace, **kwargs):
     options = DaemonOptions(zenoh=zenoh, prefix=args.prefix,
                             mavlink=connections_from_arguments(args, [v.id for v in scenario.vehicles]),
                             signing_key=signing_key_from_arguments(args), seed=args.seed, planner=args.planner,
-                            record=args.record, accept_unlisted=args.accept_unlisted)
+                            record=args.record, planner_mode=args.planner_mode, http=args.http,
+                            foxglove=foxglove_options(args), accept_unlisted=args.accept_unlisted)
     base_dir = scenario_base_dir(args.scenario)
     return Daemon(scenario, build_world(scenario, base_dir), options, **kwargs)
 
@@ -82,7 +91,7 @@ def install_signal_handlers(stop) -> None:
 def _cmd_run(args: argparse.Namespace) -> int:
     try:
         daemon = build_daemon(args)
-    except (ScenarioError, ValueError, OSError, ProtocolError) as error:
+    except (ScenarioError, ValueError, OSError, ProtocolError, FoxgloveMissing) as error:
         log.error("%s", error)
         return 2
     install_signal_handlers(daemon.stop)

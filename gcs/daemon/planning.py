@@ -54,13 +54,15 @@ __all__ = ["PLANNER_MODES", "PlanJob", "PlanOutcome", "Planner", "InlinePlanner"
 log = logging.getLogger(__name__)
 
 PLANNER_MODES = ("process", "thread", "inline")
-PLANNER_NICENESS = 10
+PLANNER_NICENESS = 5
 """How much lower the planner process's scheduling priority is than the daemon's.
 
 When the machine has less CPU than everything wants (more steps per second than
-plans, other programs), the loop (reports, tracks, commands) goes first and the
-plans get what is left: they come a little older, but nothing else waits. With
-CPU to spare, as at one decision step a second, it changes nothing."""
+plans can follow), the loop (reports, tracks, commands) gets about three times
+the planner's share and the plans come a little older. Not more: the planner must
+still get its deadline's worth against other programs on a field laptop (a
+process at +10 gets a tenth of the CPU of one at 0). With CPU to spare, as at one
+decision step a second, it changes nothing."""
 START_TIMEOUT_S = 60.0
 """How long a planner process may take to import, build its tracker and say it is ready."""
 

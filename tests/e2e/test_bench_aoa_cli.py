@@ -7,6 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from tests.markdown_tables import assert_close, assert_pngs, read_tables
+
 
 def test_bench_aoa_writes_json_and_plots(tmp_path: Path) -> None:
     out, plots = tmp_path / "aoa.json", tmp_path / "plots"
@@ -29,6 +31,15 @@ def test_bench_aoa_writes_json_and_plots(tmp_path: Path) -> None:
     assert set(report["sensor_count"]) == {"2", "3", "4", "5", "6"}
     assert all(row["violations"] == 0 for row in report["sensor_count"].values())
     assert report["accuracy"]["unequal"]["violations"] == 0 and report["goals"]["zero_violations"]
-    for name in ("aoa_estimators_mse.png", "aoa_trajectories.png", "aoa_planners_mse.png",
-                 "aoa_sensor_count_mse.png", "aoa_unequal_trajectories.png"):
-        assert (plots / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert_pngs(plots, ["aoa_estimators_mse.png", "aoa_trajectories.png", "aoa_planners_mse.png",
+                        "aoa_sensor_count_mse.png", "aoa_unequal_trajectories.png"])
+    tables = read_tables(plots / "aoa.md")
+    for row in tables["Planners (Figs. 3-6)"]:
+        metrics = report["planners"][row["planner"]]
+        assert_close(row["final MSE m^2"], metrics["final_mse"])
+        assert_close(row["step ms (median)"], metrics["step_ms_median"])
+        assert int(row["violations"]) == metrics["violations"]
+    assert [row["planner"] for row in tables["Planners (Figs. 3-6)"]] == list(report["planners"])
+    for row in tables["Estimators on straight flight (Fig. 2)"]:
+        assert_close(row["final MSE m^2"], report["estimators"][row["estimator"]]["final_mse"])
+    assert [int(row["UAVs"]) for row in tables["Sensor count (Fig. 7)"]] == [2, 3, 4, 5, 6]

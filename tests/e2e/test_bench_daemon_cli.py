@@ -13,14 +13,16 @@ import subprocess
 import sys
 from pathlib import Path
 
+from tests.markdown_tables import assert_close, assert_pngs, number, read_tables
+
 PER_COUNT_KEYS = {"max_reports_per_s_no_loss", "latency_ms_p50", "latency_ms_p99", "solve_ms_median", "solve_ms_p99"}
 
 
-def test_bench_daemon_writes_the_documented_json(tmp_path: Path) -> None:
-    out = tmp_path / "daemon.json"
+def test_bench_daemon_writes_the_documented_json_plots_and_table(tmp_path: Path) -> None:
+    out, plots = tmp_path / "daemon.json", tmp_path / "plots"
     done = subprocess.run(
         [sys.executable, "-m", "gcs.cli", "bench", "daemon", "--vehicles", "3", "--seconds", "0.5",
-         "--solve-steps", "2", "--json", str(out)],
+         "--solve-steps", "2", "--json", str(out), "--plots", str(plots)],
         capture_output=True, text=True, timeout=300,
     )
     assert done.returncode == 0, done.stderr
@@ -43,6 +45,16 @@ def test_bench_daemon_writes_the_documented_json(tmp_path: Path) -> None:
         assert trial["rejected"] == trial["late"] == trial["decision_errors"] == 0
         assert trial["steps"] == trial["published"] // 3
     assert row["realtime_trial"]["passed"] is None
+    assert_pngs(plots, ["daemon_rate_search.png", "daemon_summary.png"])
+    tables = read_tables(plots / "daemon.md")
+    (shown,) = tables["By vehicle count"]
+    assert int(shown["vehicles"]) == 3
+    for column, key in (("max reports/s", "max_reports_per_s_no_loss"), ("latency p50 ms", "latency_ms_p50"),
+                        ("latency p99 ms", "latency_ms_p99"), ("solve ms (median)", "solve_ms_median")):
+        assert_close(shown[column], row[key])
+    assert [number(t["offered /s"]) for t in tables["Trials of the rate search"]] == [t["rate_per_s"] for t in trials]
+    assert [t["kept up"] for t in tables["Trials of the rate search"]] == ["yes" if t["passed"] else "no"
+                                                                          for t in trials]
 
 
 def test_bench_daemon_rejects_a_bad_argument() -> None:

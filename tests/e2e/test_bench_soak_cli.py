@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from gcs.bench.soak import POST_INGEST
+from tests.markdown_tables import assert_pngs, read_tables
 
 
 def test_a_short_soak_loses_nothing_crashes_nothing_and_reports_memory(tmp_path: Path) -> None:
@@ -21,7 +22,7 @@ def test_a_short_soak_loses_nothing_crashes_nothing_and_reports_memory(tmp_path:
     done = subprocess.run(
         [sys.executable, "-m", "gcs.cli", "bench", "soak", "--vehicles", "4", "--processes", "2", "--duration", "60",
          "--rate", "10", "--fault-every", "0.3", "--seed", "1", "--planner", "orbit", "--workdir",
-         str(tmp_path / "logs"), "--json", str(out)],
+         str(tmp_path / "logs"), "--json", str(out), "--plots", str(tmp_path / "plots")],
         capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stdout + done.stderr
     report = json.loads(out.read_text())
@@ -38,3 +39,7 @@ def test_a_short_soak_loses_nothing_crashes_nothing_and_reports_memory(tmp_path:
     memory = report["memory"]
     assert memory["daemon_rss_mb_start"] > 0 and memory["daemon_rss_mb_end"] > 0 and memory["samples"]
     assert report["used_in_steps"] > 0 and report["decisions"] > 0
+    assert_pngs(tmp_path / "plots", ["soak_memory.png"])
+    tables = read_tables(tmp_path / "plots" / "soak.md")
+    counts = {row["what"]: int(row["count"]) for row in tables["samples published and taken in"]}
+    assert counts["total"] == published["total"] and counts["lost"] == 0 and counts["crashes"] == 0

@@ -7,6 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from tests.markdown_tables import assert_close, assert_pngs, read_tables
+
 
 def test_bench_urban_writes_json_and_plots(tmp_path: Path) -> None:
     out, plots = tmp_path / "urban.json", tmp_path / "plots"
@@ -24,6 +26,38 @@ def test_bench_urban_writes_json_and_plots(tmp_path: Path) -> None:
         assert {"seen_any_mean", "seen_per_uav_mean", "rmse_m", "decision_ms_median", "decision_ms_p99"} <= set(metrics)
         assert 0 <= metrics["seen_any_mean"] <= 8 and len(metrics["seen_per_uav_mean"]) == 3
     assert report["planners"]["ga_k5"]["decision_ms_median"] > 0
-    for name in ("urban_trajectories.png", "urban_rmse.png", "urban_observations.png"):
-        png = plots / name
-        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert_pngs(plots, ["urban_trajectories.png", "urban_rmse.png", "urban_observations.png"])
+    (table,) = read_tables(plots / "urban.md").values()  # no scaling table with --no-scaling
+    assert [row["planner"] for row in table] == ["ga_k5", "orbit"]
+    for row in table:
+        metrics = report["planners"][row["planner"]]
+        assert_close(row["seen by any (mean)"], metrics["seen_any_mean"])
+        assert_close(row["RMSE m"], metrics["rmse_m"])
+        assert_close(row["decision ms (median)"], metrics["decision_ms_median"])
+        assert [float(x) for x in row["seen per UAV (mean)"].split(" / ")] == metrics["seen_per_uav_mean"]
+    assert "run 1/1 ga_k5" in done.stderr  # progress
+
+
+def test_bench_urban_gps_denied_writes_the_navigation_comparison(tmp_path: Path) -> None:
+    out, plots = tmp_path / "denied.json", tmp_path / "plots"
+    done = subprocess.run(
+        [sys.executable, "-m", "gcs.cli", "bench", "urban", "--gps-denied", "--runs", "1", "--duration", "6",
+         "--planner", "orbit", "--navigation", "perfect", "--navigation", "raw_gps", "--navigation", "skf",
+         "--seed", "3", "--json", str(out), "--plots", str(plots)],
+        capture_output=True, text=True, timeout=600,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "GPS-denied" in done.stdout and "skf below raw_gps" in done.stdout
+    report = json.loads(out.read_text())
+    assert report["gps_denied"][0]["name"] == "centre"
+    navs = report["planners"]["orbit"]["navigation"]
+    assert set(navs) == {"perfect", "raw_gps", "skf"}
+    for metrics in navs.values():
+        assert {"rmse_m", "rmse_outage_m", "nav_rmse_outage_m", "outage_steps_mean"} <= set(metrics)
+    assert navs["perfect"]["nav_rmse_outage_m"] == 0.0 and navs["skf"]["nav_rmse_outage_m"] > 0.0
+    assert_pngs(plots, ["urban_gps_denied.png"])
+    (table,) = read_tables(plots / "urban_gps_denied.md").values()
+    assert [row["navigation"] for row in table] == ["perfect", "raw_gps", "skf"]
+    for row in table:
+        assert_close(row["target RMSE m"], navs[row["navigation"]]["rmse_m"])
+        assert_close(row["in outages m"], navs[row["navigation"]]["rmse_outage_m"])

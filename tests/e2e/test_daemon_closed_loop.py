@@ -37,7 +37,7 @@ def test_daemon_with_three_vehicle_processes_tracks_like_the_in_process_loop(tmp
     observer = f"tcp/127.0.0.1:{free_tcp_port()}"  # peers do not forward: the vehicles connect to both
     daemon = subprocess.Popen(
         [script("gcs"), "run", "--seed", str(SEED), "--mavlink", f"udpin:127.0.0.1:{mavlink}",
-         "--zenoh-listen", endpoint], stdout=subprocess.PIPE, stderr=open(tmp_path / "daemon.log", "w"), text=True)
+         "--zenoh-listen", endpoint, "--http", "none"], stdout=subprocess.PIPE, stderr=open(tmp_path / "daemon.log", "w"), text=True)
     inbox: queue.Queue = queue.Queue()
     vehicles: list[subprocess.Popen] = []
     try:
@@ -94,12 +94,12 @@ def test_daemon_with_three_vehicle_processes_tracks_like_the_in_process_loop(tmp
                "in_process_rmse_m": in_process.rmse_m, "in_process_seen_any": in_process.seen_any}
     (tmp_path / "summary.json").write_text(json.dumps(summary))
     assert steps == DURATION_S, summary
-    # The issue's bars are 90% of steps seen and an RMSE within 2x of the in-process loop. Measured runs
-    # range from 105 to 119 of 120 steps and from 9.9 to 22.8 m (in process: 120 and 9.4 m), so the bars are
-    # not met reliably and issue 6 stays open; this test checks what does hold in every run seen so far.
-    assert seen_any >= 0.8 * steps, summary
+    # The issue's bars: the target seen in 90% of the steps, and an RMSE within 2x of the in-process loop
+    # (measured with the planner in its own process, three runs on a loaded machine: 118-120 of 120 steps,
+    # RMSE 8.3-9.1 m; in process 120 and 9.4 m).
+    assert seen_any >= 0.9 * steps, summary
     assert len(errors) >= 0.9 * steps, summary
-    assert rmse <= 3.0 * in_process.rmse_m, summary
+    assert rmse <= 2.0 * in_process.rmse_m, summary
     assert status is not None and {v.link for v in status.vehicles} <= {"ok", "lost"}
     assert status.counters.get("accepted.report", 0) == 3 * DURATION_S
     rejected = {k: v for k, v in status.counters.items() if k.startswith("rejected.")}

@@ -24,7 +24,7 @@ def _tracks(path) -> list[bytes]:
 def test_processing_a_recorded_demo_reproduces_the_daemons_tracks_bit_for_bit(tmp_path) -> None:
     recording, demo_json = tmp_path / "demo.mcap", tmp_path / "demo.json"
     done = subprocess.run([script("gcs"), "demo", "--duration", "40", "--rate", "10", "--record", str(recording),
-                           "--json", str(demo_json)], capture_output=True, text=True, timeout=240)
+                           "--json", str(demo_json), "--http", "none"], capture_output=True, text=True, timeout=240)
     assert done.returncode == 0, done.stderr[-3000:]
     assert "rejected.late" not in json.loads(demo_json.read_text())["rejected"]  # the condition for bit-identity
     out_mcap, out_csv = tmp_path / "tracks.mcap", tmp_path / "tracks.csv"
@@ -86,8 +86,8 @@ def test_record_finishes_on_sigint_and_replay_feeds_a_running_daemon(tmp_path) -
 
     daemon_endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
     daemon = subprocess.Popen([script("gcs"), "run", "--zenoh-listen", daemon_endpoint, "--mavlink",
-                               f"udpin:127.0.0.1:{free_udp_port()}"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                              text=True)
+                               f"udpin:127.0.0.1:{free_udp_port()}", "--http", "none"], stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True)
     try:
         assert query_status(ZenohSettings(connect=(daemon_endpoint,)), "gcs", 30.0) is not None
         replayed = subprocess.run([script("gcs"), "replay", str(recording), "--fast", "--zenoh-connect",

@@ -99,3 +99,13 @@ def options(port: int, **changes) -> RunOptions:
     """Every vehicle to ``udpout:127.0.0.1:<port>``, no zenoh, 10x real time."""
     base = RunOptions(rate=10.0, seed=1, mavlink={v.id: f"udpout:127.0.0.1:{port}" for v in SCENARIO.vehicles})
     return replace(base, **changes)
+
+
+def wait_until(condition: Callable[[], object], timeout: float, what: str) -> None:
+    """Poll ``condition`` every 50 ms until it is truthy; AssertionError naming ``what`` after ``timeout`` s."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if condition():
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"timed out waiting for {what}")

@@ -15,20 +15,11 @@ from gcs.daemon.cli import query_status
 from protocols.codec import decode, encode
 from protocols.keys import report_key, track_key
 from protocols.messages import SensorReport, TrackEstimate
-from tests.integration.sim_harness import SCENARIO, WORLD, options, running_vehicles
+from tests.integration.sim_harness import SCENARIO, WORLD, options, running_vehicles, wait_until
 from tests.loopback import free_tcp_port, free_udp_port
 
 RATE = 5.0
 EPOCH_NS = 1_000_000_000_000
-
-
-def _wait(condition, timeout: float, what: str) -> None:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if condition():
-            return
-        time.sleep(0.05)
-    raise AssertionError(f"timed out waiting for {what}")
 
 
 def test_daemon_tracks_answers_rejects_bad_input_and_replans_around_a_lost_vehicle() -> None:
@@ -45,7 +36,7 @@ def test_daemon_tracks_answers_rejects_bad_input_and_replans_around_a_lost_vehic
             third = ExitStack()
             third.enter_context(running_vehicles(options(
                 port, rate=RATE, zenoh=vehicles, epoch_ns=EPOCH_NS, only=("uav3",), wait_for_subscriber_s=5)))
-            _wait(lambda: len(daemon.records) >= 20, 30, "20 decision steps")
+            wait_until(lambda: len(daemon.records) >= 20, 30, "20 decision steps")
             assert {r.vehicles for r in daemon.records[-5:]} == {("uav1", "uav2", "uav3")}
             assert all(pair.autopilots[v].mode == ARDUPLANE_MODES["GUIDED"] for v in ("uav1", "uav2"))
 
@@ -60,20 +51,20 @@ def test_daemon_tracks_answers_rejects_bad_input_and_replans_around_a_lost_vehic
                    (report_key("uav2"), b"{}", "text/plain")]
             for key, payload, encoding in bad:
                 session.put(key, payload, encoding=zenoh.Encoding(encoding))
-            _wait(lambda: daemon.ingest.counters["rejected.malformed"] >= 1
+            wait_until(lambda: daemon.ingest.counters["rejected.malformed"] >= 1
                   and daemon.ingest.counters["rejected.unknown_vehicle"] >= 1
                   and daemon.ingest.counters["rejected.encoding"] >= 1, 10, "the bad input to be counted")
 
             third.close()  # uav3 goes away: liveliness withdrawn, heartbeats stop
-            _wait(lambda: daemon.records[-1].vehicles == ("uav1", "uav2"), 15, "a plan without uav3")
-            _wait(lambda: daemon.registry.link_state("uav3", time.monotonic()) == "lost", 10, "uav3 lost")
+            wait_until(lambda: daemon.records[-1].vehicles == ("uav1", "uav2"), 15, "a plan without uav3")
+            wait_until(lambda: daemon.registry.link_state("uav3", time.monotonic()) == "lost", 10, "uav3 lost")
             decisions = daemon.counters["decisions"]
-            _wait(lambda: daemon.counters["decisions"] >= decisions + 5, 15, "planning to go on with two")
+            wait_until(lambda: daemon.counters["decisions"] >= decisions + 5, 15, "planning to go on with two")
 
             resume = (pair.scene.stamp_ns // 1_000_000_000 + 2) * 1_000_000_000
             stack.enter_context(running_vehicles(options(
                 port, rate=RATE, zenoh=vehicles, epoch_ns=resume, only=("uav3",), wait_for_subscriber_s=5)))
-            _wait(lambda: daemon.records[-1].vehicles == ("uav1", "uav2", "uav3"), 20, "uav3 re-admitted")
+            wait_until(lambda: daemon.records[-1].vehicles == ("uav1", "uav2", "uav3"), 20, "uav3 re-admitted")
             status = query_status(ZenohSettings(connect=(endpoint,)), "gcs", 5.0)
     finally:
         daemon.stop()

@@ -61,3 +61,18 @@ def test_bad_scenario_exits_2_naming_the_key(tmp_path, capsys: pytest.CaptureFix
     bad.write_text('name = "x"\n[origin]\nlat_deg = 100.0\nlon_deg = 0.0\n')
     assert gcs_cli.main(["scenario", "check", str(bad)]) == 2
     assert "$.origin.lat_deg" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("mode", ["process", "thread", "inline"])
+def test_gcs_run_chooses_where_plans_are_made(mode: str) -> None:
+    from gcs.daemon.cli import build_daemon
+
+    args = gcs_cli.build_parser().parse_args(["run", "--plan-in", mode, "--mavlink", "none"])
+    daemon = build_daemon(args)  # nothing is opened (or started) before Daemon.open
+    assert daemon.options.planner_mode == mode and daemon.planner is None
+
+
+def test_gcs_run_rejects_an_unknown_planner_place(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        gcs_cli.build_parser().parse_args(["run", "--plan-in", "gpu"])
+    assert exit_info.value.code == 2 and "--plan-in" in capsys.readouterr().err

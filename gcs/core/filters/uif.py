@@ -249,15 +249,38 @@ class UnscentedInformationFilter:
         sensor: SensorModel,
         z: NDArray[np.float64],
         vehicle_xyz: NDArray[np.float64],
+        vehicle_cov: NDArray[np.float64] | None = None,
     ) -> InformationContribution:
         """Information contributions (eq. 12-13) of measurements ``z`` (..., m) taken from
-        ``vehicle_xyz`` (..., 3), each computed on its own against the shared prior."""
+        ``vehicle_xyz`` (..., 3), each computed on its own against the shared prior.
+
+        ``vehicle_cov`` (..., 3, 3), when given, is the covariance of each vehicle's
+        own position estimate. Its error moves the measurement like noise, to first
+        order ``J_s dp_s`` with ``J_s = dH/dp_s`` (:meth:`SensorModel.vehicle_jacobian`
+        at the prior mean), so ``R`` becomes ``R + J_s P_s J_s^T`` (full, not diagonal)
+        in eq. (13). This treats each report's navigation error as independent of the
+        others', which it is between vehicles but not over time for one vehicle (a
+        slowly drifting error); the result is exact without it (None).
+        """
         vehicle_xyz = np.asarray(vehicle_xyz, dtype=np.float64)
         z_pred, h_pos = pseudo_measurement(prior, sensor, vehicle_xyz, self.sigma)
+        if vehicle_cov is not None:
+            return self._contribution_uncertain_vehicle(prior, sensor, z, vehicle_xyz, vehicle_cov, z_pred, h_pos)
         r_inv = sensor.noise_information(z_pred, prior.mean, vehicle_xyz)  # diagonal of R^-1
         ht_rinv = h_pos.swapaxes(-1, -2) * r_inv[..., None, :]  # (..., 2, m)
         nu = sensor.residual(z, z_pred)
         nu += h_pos @ prior.mean[:2]  # nu + H^p x^-  (eq. 12-13)
+        return InformationContribution((ht_rinv @ nu[..., None])[..., 0], ht_rinv @ h_pos)
+
+    @staticmethod
+    def _contribution_uncertain_vehicle(prior, sensor, z, vehicle_xyz, vehicle_cov, z_pred, h_pos) -> InformationContribution:
+        """Eq. (13) with ``R + J_s P_s J_s^T`` in place of ``R`` (see :meth:`contribution`)."""
+        jac = sensor.vehicle_jacobian(prior.mean[:2], vehicle_xyz)  # (..., m, 3)
+        r = sensor.noise_variance(z_pred, prior.mean, vehicle_xyz)
+        r_full = jac @ np.asarray(vehicle_cov, dtype=np.float64) @ jac.swapaxes(-1, -2)
+        r_full = r_full + np.broadcast_to(r, r_full.shape[:-1])[..., None] * np.eye(sensor.dim)
+        ht_rinv = np.linalg.solve(r_full, h_pos).swapaxes(-1, -2)  # (H^p)^T R^-1, R symmetric: (..., 2, m)
+        nu = sensor.residual(z, z_pred) + h_pos @ prior.mean[:2]
         return InformationContribution((ht_rinv @ nu[..., None])[..., 0], ht_rinv @ h_pos)
 
     def update(self, prior: GaussianEstimate, contributions: Sequence[InformationContribution]) -> GaussianEstimate:

@@ -159,6 +159,31 @@ class SensorModel:
             jac[..., row, 1] = gy
         return jac
 
+    def vehicle_jacobian(self, target_xy: NDArray[np.float64], vehicle_xyz: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``dH/dp_s`` of eq. (4) with respect to the *vehicle's* position (x, y, z), shape (..., m, 3).
+
+        ``H`` depends on ``d = p_t - p_s`` only, so ``dH/dp_s = -dH/dd`` with
+        ``d rho/dd = d / rho``, ``d phi/dd = (-dy, dx, 0) / rho_h^2`` and
+        ``d theta/dd = (-dz dx / (rho^2 rho_h), -dz dy / (rho^2 rho_h), rho_h / rho^2)``.
+        """
+        dx, dy, dz = self._relative(target_xy, vehicle_xyz)
+        h2 = dx * dx + dy * dy
+        r2 = h2 + dz * dz
+        h = np.sqrt(h2)
+        shape = np.broadcast(dx, dy, dz).shape
+        jac = np.zeros(shape + (self.dim, 3))
+        for row, component in enumerate(self.components):
+            if component == RANGE:
+                r = np.sqrt(r2)
+                grads = (dx / r, dy / r, dz / r)
+            elif component == AZIMUTH:
+                grads = (-dy / h2, dx / h2, 0.0)
+            else:
+                grads = (-dz * dx / (r2 * h), -dz * dy / (r2 * h), h / r2)
+            for col, g in enumerate(grads):
+                jac[..., row, col] = -g
+        return jac
+
     def fisher_information_xy(
         self, target_xy: NDArray[np.float64], vehicle_xyz: NDArray[np.float64]
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
