@@ -103,26 +103,10 @@ def parse_encoding(encoding: str) -> type[Message]:
     return tp
 
 
-def _all_finite(value: object) -> bool:
-    """Quick check that every float inside ``value`` is finite; False means "look closer".
-
-    A sequence of numbers is summed at C speed: a NaN or infinity anywhere makes
-    the sum non-finite. (So can an overflow of huge finite values: then
-    :func:`_check_finite` looks at each value and finds nothing wrong.)
-    """
-    if isinstance(value, float):  # numpy's float64 too
-        return math.isfinite(value)
-    kind = type(value)
-    if kind is tuple or kind is list:
-        try:
-            return math.isfinite(sum(value, 0.0))
-        except TypeError:  # not all numbers: nested sequences, structs, strings
-            return all(_all_finite(item) for item in value)
-    if isinstance(value, msgspec.Struct):
-        return all(_all_finite(getattr(value, name)) for name in value.__struct_fields__)
-    if kind is dict:
-        return all(_all_finite(item) for item in value.values())
-    return True
+_NULL = b"null"
+"""JSON has no NaN or infinity: msgspec writes them as ``null``, as it writes ``None``. A payload
+without ``null`` therefore holds only finite floats, and only one with it needs :func:`_check_finite`
+(which walks the message and names the first non-finite float's path)."""
 
 
 def _check_finite(value: object, path: str) -> None:
@@ -211,12 +195,12 @@ def encode(msg: Message) -> tuple[bytes, str]:
         would reject on the other side.
     """
     tp = _registered(type(msg))
-    if not _all_finite(msg):
-        _check_finite(msg, "$")
     try:
         payload = _ENCODER.encode(msg)
     except Exception as exc:  # e.g. a numpy array smuggled into a tuple field
         raise ProtocolError(f"cannot encode {tp.__name__}: {exc}") from exc
+    if _NULL in payload:  # NaN or an infinity (or only a None, or a string holding "null"): look closer
+        _check_finite(msg, "$")
     if len(payload) > MAX_PAYLOAD_BYTES:
         raise ProtocolError(
             f"encoded {tp.__name__} is {len(payload)} bytes, over {MAX_PAYLOAD_BYTES}",

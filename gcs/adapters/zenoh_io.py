@@ -75,13 +75,13 @@ class ZenohIO:
         self._status = self.session.declare_queryable(status_key(self.prefix))
         self._entities += [*self._samples, self._liveliness, self._tracks, self._status]
 
-    def wait(self, timeout_s: float) -> bool:
-        """Wait until something is received or ``timeout_s`` passes (looking every
-        :data:`POLL_S`); True if something was. What came is kept for :meth:`drain`."""
+    def wait(self, timeout_s: float, until: Callable[[], bool] | None = None) -> bool:
+        """Wait until something is received, ``until()`` (if given) is true, or ``timeout_s`` passes
+        (looking every :data:`POLL_S`); True if something was received. What came is kept for :meth:`drain`."""
         deadline = time.monotonic() + timeout_s
         while not self._held:
             self._held = self._take(100_000)
-            if self._held or time.monotonic() >= deadline:
+            if self._held or time.monotonic() >= deadline or (until is not None and until()):
                 break
             time.sleep(POLL_S)
         return bool(self._held)

@@ -68,13 +68,13 @@ def track_message(config: TrackerConfig, estimate: GaussianEstimate, target_id: 
     """The wire message of an estimate, with the k+1..k+n prediction (computed unless given)."""
     if predicted is None:
         predicted = prediction(config, estimate)
+    covs = predicted.states.cov[:, :2, :2]
     points = tuple(
-        PredictedPoint(stamp_ns=int(stamp), position_enu_m=(float(mean[0]), float(mean[1])),
-                       position_cov_m2=tuple(float(c) for c in _symmetric(cov[:2, :2]).ravel()))
-        for stamp, mean, cov in zip(predicted.stamps_ns, predicted.states.mean, predicted.states.cov))
+        PredictedPoint(stamp_ns=stamp, position_enu_m=tuple(mean), position_cov_m2=tuple(cov))
+        for stamp, mean, cov in zip(np.asarray(predicted.stamps_ns).tolist(), predicted.states.mean[:, :2].tolist(),
+                                    (0.5 * (covs + covs.swapaxes(-1, -2))).reshape(-1, 4).tolist()))
     return TrackEstimate(target_id=target_id, seq=seq, stamp_ns=estimate.stamp_ns, model=model,
-                         state=tuple(float(v) for v in estimate.mean),
-                         covariance=tuple(float(c) for c in _symmetric(estimate.cov).ravel()),
+                         state=tuple(estimate.mean.tolist()), covariance=tuple(_symmetric(estimate.cov).ravel().tolist()),
                          contributing_vehicles=tuple(contributing), prediction=points)
 
 
@@ -124,6 +124,7 @@ def plan_commands(vehicles: VehicleState, configs: Sequence[VehicleConfig], cont
     """One ``PlanCommand`` per planned vehicle: the heading at the end of the step
     (``psi + u T``), the first turn rate and the planned path over the horizon."""
     path, _ = rollout(vehicles, controls, step_s, max_turn_rate)
+    paths = path.tolist()  # (V, n, 2) as Python floats
     commands = []
     for slot, cfg in enumerate(configs):
         turn_rate = float(controls[slot, 0])
@@ -131,7 +132,7 @@ def plan_commands(vehicles: VehicleState, configs: Sequence[VehicleConfig], cont
             vehicle_id=cfg.id, seq=first_seq + slot, stamp_ns=stamp_ns,
             heading_rad=wrap_angle(float(vehicles.heading[slot] + turn_rate * step_s)), turn_rate_rad_s=turn_rate,
             airspeed_mps=cfg.speed_mps, altitude_m=cfg.altitude_m,
-            planned_path_enu_m=tuple((float(x), float(y)) for x, y in path[slot]), planner=planner))
+            planned_path_enu_m=tuple(map(tuple, paths[slot])), planner=planner))
     return commands
 
 

@@ -30,6 +30,7 @@ Three planners share that interface:
 
 from __future__ import annotations
 
+import gc
 import logging
 import multiprocessing
 import os
@@ -168,6 +169,10 @@ class Planner:
         """A job is waiting or being planned."""
         raise NotImplementedError
 
+    def finished(self) -> bool:
+        """An outcome is ready for :meth:`take` (cheap: the loop asks while it waits for input)."""
+        raise NotImplementedError
+
     def close(self) -> None:
         """Stop after the job being planned (idempotent); a waiting job is dropped."""
 
@@ -189,6 +194,9 @@ class InlinePlanner(Planner):
     @property
     def busy(self) -> bool:
         return False
+
+    def finished(self) -> bool:
+        return bool(self._done)
 
 
 class ThreadPlanner(Planner):
@@ -221,6 +229,9 @@ class ThreadPlanner(Planner):
     def busy(self) -> bool:
         with self._wakeup:
             return self._running or self._pending is not None
+
+    def finished(self) -> bool:
+        return bool(self._done)  # a list's truth is read atomically; take() holds the lock to swap it
 
     def close(self, timeout_s: float = 10.0) -> None:
         with self._wakeup:
@@ -259,6 +270,7 @@ def _serve(conn, scenario: Scenario, world: World, planner_name: str, seed: int)
         return
     configs: dict[tuple[int, ...], TrackerConfig] = {}
     rng = np.random.default_rng(seed)
+    gc.freeze()  # the imports and the world: never garbage, and slow to walk (see gcs.app.Daemon.run)
     conn.send(("ready", None))
     while True:
         try:
@@ -316,20 +328,20 @@ class ProcessPlanner(Planner):
         self._conn, self._process = conn, process
 
     def _check_ready(self) -> bool:
+        """Whether the child said it is ready (then the job waiting is sent); RuntimeError when it
+        died or could not build its tracker, or took longer than :data:`START_TIMEOUT_S`."""
         if self._ready:
             return True
-        if self._launcher.is_alive() or self._conn is None:
+        try:
+            answered = not self._launcher.is_alive() and self._conn is not None and self._conn.poll()
+            if answered:
+                kind, detail = self._conn.recv()
+        except (EOFError, ConnectionResetError):
+            raise RuntimeError("the planner process died while starting") from None
+        if not answered:
             if time.monotonic() - self._begin_s > START_TIMEOUT_S:
                 raise RuntimeError(f"the planner process did not start within {START_TIMEOUT_S:.0f} s")
             return False
-        try:
-            if not self._conn.poll():
-                if time.monotonic() - self._begin_s > START_TIMEOUT_S:
-                    raise RuntimeError(f"the planner process did not start within {START_TIMEOUT_S:.0f} s")
-                return False
-            kind, detail = self._conn.recv()
-        except (EOFError, ConnectionResetError):
-            raise RuntimeError("the planner process died while starting") from None
         if kind != "ready":
             raise RuntimeError(f"the planner process could not build its tracker: {detail}")
         self._ready = True
@@ -381,6 +393,14 @@ class ProcessPlanner(Planner):
     @property
     def busy(self) -> bool:
         return self._in_flight is not None or self._pending is not None
+
+    def finished(self) -> bool:
+        if self._closed or not self._check_ready():  # (once ready, the job waiting has been sent)
+            return False
+        try:
+            return self._in_flight is not None and self._conn.poll()
+        except (OSError, EOFError):  # a dead child: take() restarts it
+            return True
 
     def close(self, timeout_s: float = 10.0) -> None:
         if not self._closed:

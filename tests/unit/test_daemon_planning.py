@@ -70,6 +70,18 @@ def test_every_mode_plans_the_same_as_the_pure_planner(planner) -> None:
     assert 0.0 <= outcome.waited_s and 0.0 < outcome.planning_s and outcome.solve_s is not None
 
 
+def test_finished_says_when_an_outcome_waits_to_be_taken(planner) -> None:
+    # the loop's idle wait wakes on it, so that a finished plan is commanded at once
+    assert not planner.finished()
+    planner.submit(_job(1))
+    deadline = time.monotonic() + 60.0
+    while not planner.finished():
+        assert time.monotonic() < deadline, "no outcome within 60 s"
+        time.sleep(0.005)
+    (outcome,) = planner.take()
+    assert outcome.job.index == 1 and not planner.finished() and not planner.busy
+
+
 def test_a_subset_of_the_roster_is_planned_with_its_own_sensors(planner) -> None:
     planner.submit(_job(2, indices=(0, 2)))
     (outcome,) = _wait_for(planner, 1)

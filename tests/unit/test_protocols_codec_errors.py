@@ -23,7 +23,6 @@ from protocols import (
     encode,
     encoding_for,
 )
-from protocols.codec import _all_finite, _check_finite
 
 # ---------------------------------------------------------------- named-field errors
 REPORT = SensorReport(
@@ -106,29 +105,37 @@ def test_encode_rejects_non_finite_floats_naming_the_path(bad: float) -> None:
         encode(status)
 
 
-_floats = st.floats(allow_nan=True, allow_infinity=True) | st.floats(min_value=1e307, max_value=1.7e308)
-_nested = st.recursive(_floats | st.integers() | st.text(max_size=3),
-                       lambda inner: st.lists(inner, max_size=4) | st.lists(inner, max_size=4).map(tuple)
-                       | st.dictionaries(st.text(max_size=2), inner, max_size=3), max_leaves=20)
-
-
-def _has_non_finite(value: object) -> bool:
-    if isinstance(value, float):
-        return not math.isfinite(value)
-    items = value.values() if isinstance(value, dict) else value if isinstance(value, (list, tuple)) else ()
-    return any(_has_non_finite(item) for item in items)
+_any_float = st.floats(allow_nan=True, allow_infinity=True) | st.floats(min_value=1e307, max_value=1.7e308)
+_optional_float = st.none() | _any_float
 
 
 @settings(max_examples=300, deadline=None)
-@given(_nested)
-def test_the_quick_finite_check_never_passes_a_non_finite_float(value: object) -> None:
-    # the encoder trusts the quick check when it says "all finite" and asks the exact one otherwise
-    if _has_non_finite(value):
-        assert not _all_finite(value)
+@given(position=st.tuples(_any_float, _any_float, _any_float), std=_optional_float,
+       azimuth=st.floats(min_value=-3.0, max_value=3.0) | st.sampled_from([math.nan, math.inf, -math.inf]))
+def test_encode_never_passes_a_non_finite_float(position, std, azimuth) -> None:
+    # The encoder looks closely only at payloads holding ``null``: NaN, the infinities and None all
+    # encode to it. An optional field set to NaN would otherwise reach the wire as None.
+    changes = {"vehicle_position_enu_m": position, "vehicle_position_std_m": std, "azimuth_rad": azimuth}
+    msg = msgspec.structs.replace(REPORT, **changes)
+    values = [*position, std, azimuth]  # azimuth is required with a detection: never None
+    if any(v is not None and not math.isfinite(v) for v in values):
         with pytest.raises(ProtocolError, match="non-finite float"):
-            _check_finite(value, "$")
+            encode(msg)
     else:
-        _check_finite(value, "$")  # huge finite values may fail the quick check, never the exact one
+        try:
+            payload, _ = encode(msg)
+        except ProtocolError as error:  # finite, but outside a field's bounds
+            assert "non-finite" not in str(error)
+        else:
+            assert decode(payload, ENC) == msg
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_encode_catches_a_non_finite_float_beside_a_string_holding_null(bad: float) -> None:
+    msg = msgspec.structs.replace(REPORT, vehicle_id="null", vehicle_position_std_m=bad)
+    with pytest.raises(ProtocolError, match=r"\$\.vehicle_position_std_m"):
+        encode(msg)
+    assert decode(encode(msgspec.structs.replace(REPORT, vehicle_id="null"))[0], ENC).vehicle_id == "null"
 
 
 def test_encode_refuses_what_decode_would_reject() -> None:
