@@ -10,7 +10,10 @@ vehicle, and obeys commands from a pipe:
   of reports;
 * ``run(rate, seconds, burst)``: whole rounds at an aggregate rate. Round k
   carries one ``SensorReport`` per vehicle stamped ``T_0 + k * step``: one
-  decision step of data time per round, every (vehicle, stamp) unique. The
+  decision step of data time per round, every (vehicle, stamp) unique. With
+  ``Fleet.nav_per_round`` each vehicle's report is preceded by a ``NavReport``
+  of the same stamp with a 3D GPS fix where the vehicle is (the daemon's own
+  navigation then has what it waits for; not counted in the rate). The
   reply holds each round's stamp and the wall time (``time.time_ns``) its last
   report was put, and the process's CPU time;
 * ``stop``.
@@ -27,10 +30,13 @@ import signal
 import time
 from dataclasses import dataclass
 
+import numpy as np
+
 from gcs.adapters.zenoh_session import ZenohSettings, declare_publisher, open_session, publish
 from gcs.config import Scenario
+from gcs.core.geometry import LocalFrame
 from protocols.keys import alive_key, nav_key, report_key
-from protocols.messages import NavReport, SensorReport
+from protocols.messages import GpsFix, NavReport, SensorReport
 
 __all__ = ["FIRST_STAMP_NS", "Vehicle", "Fleet", "Load", "publisher_main"]
 
@@ -50,6 +56,7 @@ class Vehicle:
     range_m: float
     azimuth_rad: float
     elevation_rad: float
+    lat_lon_alt: tuple[float, float, float]  # where it is, geodetic (deg, deg, m): its GPS fix
 
 
 @dataclass(frozen=True)
@@ -60,21 +67,24 @@ class Fleet:
     std: tuple[float, float, float]
     step_ns: int
     prefix: str = "gcs"
+    nav_per_round: bool = False
 
     @classmethod
-    def of(cls, scenario: Scenario, prefix: str = "gcs") -> Fleet:
+    def of(cls, scenario: Scenario, prefix: str = "gcs", nav_per_round: bool = False) -> Fleet:
         """Every vehicle of the scenario where it starts, seeing the target where it starts (on the ground)."""
+        frame = LocalFrame(scenario.origin.lat_deg, scenario.origin.lon_deg, scenario.origin.height_m)
         tx, ty = scenario.target.start_enu_m
         vehicles = []
         for v in scenario.vehicles:
             (x, y), z = (float(c) for c in v.start_enu_m), float(v.altitude_m)  # plain floats for msgspec
             dx, dy, dz = tx - x, ty - y, -z
+            lat, lon, height = (float(c) for c in frame.to_geodetic(np.array([x, y, z])))
             vehicles.append(Vehicle(v.id, (x, y, z), float(v.start_heading_rad), float(v.speed_mps),
                                     math.sqrt(dx * dx + dy * dy + dz * dz), math.atan2(dy, dx),
-                                    math.atan2(dz, math.hypot(dx, dy))))
+                                    math.atan2(dz, math.hypot(dx, dy)), (lat, lon, height)))
         sensor = scenario.sensor_for(scenario.vehicles[0])
         std = (sensor.range_std_m, sensor.azimuth_std_rad, sensor.elevation_std_rad)
-        return cls(tuple(vehicles), std, round(scenario.time.step_s * NS_PER_S), prefix)
+        return cls(tuple(vehicles), std, round(scenario.time.step_s * NS_PER_S), prefix, nav_per_round)
 
 
 class Load:
@@ -108,17 +118,26 @@ class Load:
             detected=True, range_m=v.range_m, azimuth_rad=v.azimuth_rad, elevation_rad=v.elevation_rad,
             range_std_m=r_std, azimuth_std_rad=a_std, elevation_std_rad=e_std))
 
+    def _nav(self, slot: int, stamp_ns: int) -> None:
+        """Heading and velocity (the vehicle becomes plannable), with a GPS fix when ``nav_per_round``."""
+        v = self.fleet.vehicles[slot]
+        self.seq += 1
+        velocity = (v.speed_mps * math.cos(v.heading_rad), v.speed_mps * math.sin(v.heading_rad), 0.0)
+        gps = None
+        if self.fleet.nav_per_round:
+            lat, lon, alt = v.lat_lon_alt
+            gps = GpsFix(lat_deg=lat, lon_deg=lon, alt_m=alt, fix_type=3, h_acc_m=2.0, v_acc_m=3.0)
+        publish(self.navs[slot], NavReport(vehicle_id=v.id, seq=self.seq, stamp_ns=stamp_ns, gps=gps,
+                                           velocity_enu_mps=velocity, heading_rad=v.heading_rad))
+
     def warmup(self, timeout_s: float = 5.0) -> dict:
         """Once the daemon's subscribers match: a nav report and one round of reports per vehicle."""
         deadline = time.monotonic() + timeout_s
         while not all(p.matching_status.matching for p in self.reports + self.navs) and time.monotonic() < deadline:
             time.sleep(0.01)
         stamp = self._stamp()
-        for slot, v in enumerate(self.fleet.vehicles):
-            self.seq += 1
-            velocity = (v.speed_mps * math.cos(v.heading_rad), v.speed_mps * math.sin(v.heading_rad), 0.0)
-            publish(self.navs[slot], NavReport(vehicle_id=v.id, seq=self.seq, stamp_ns=stamp,
-                                               velocity_enu_mps=velocity, heading_rad=v.heading_rad))
+        for slot in range(len(self.fleet.vehicles)):
+            self._nav(slot, stamp)
         for slot in range(len(self.fleet.vehicles)):
             self._report(slot, stamp)
         return {"stamp_ns": stamp}
@@ -140,6 +159,8 @@ class Load:
                 ahead = start + (k * count + (0 if burst else slot)) * interval - time.perf_counter()
                 if ahead > 0:
                     time.sleep(ahead)
+                if self.fleet.nav_per_round:
+                    self._nav(slot, stamp)
                 self._report(slot, stamp)
             last_sent_ns.append(time.time_ns())
             stamps.append(stamp)

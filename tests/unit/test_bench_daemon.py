@@ -76,3 +76,16 @@ def test_every_simulated_report_points_at_the_target() -> None:
         assert y + ground * math.sin(v.azimuth_rad) == pytest.approx(ty)
         assert z + v.range_m * math.sin(v.elevation_rad) == pytest.approx(0.0, abs=1e-9)
         assert all(type(c) is float for c in v.position_enu_m)  # msgspec cannot encode numpy scalars
+
+
+def test_the_loads_gps_fix_is_where_the_vehicle_is() -> None:
+    # with nav_per_round the daemon's navigation fuses these fixes: they must put each vehicle where its reports do
+    from gcs.core.geometry import LocalFrame
+
+    scenario = with_vehicles(load_scenario("wang2012_urban"), 10)
+    fleet = Fleet.of(scenario, nav_per_round=True)
+    frame = LocalFrame(scenario.origin.lat_deg, scenario.origin.lon_deg, scenario.origin.height_m)
+    assert fleet.nav_per_round and len(fleet.vehicles) == 10
+    for vehicle in fleet.vehicles:
+        back = frame.to_enu(*vehicle.lat_lon_alt)
+        assert math.dist(back, vehicle.position_enu_m) < 1e-3
