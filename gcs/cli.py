@@ -9,6 +9,7 @@ works.
 from __future__ import annotations
 
 import argparse
+import importlib
 import logging
 import sys
 from collections.abc import Callable, Sequence
@@ -16,11 +17,6 @@ from collections.abc import Callable, Sequence
 import msgspec
 
 from gcs import __version__
-from gcs.bench.cli import add_bench
-from gcs.daemon.cli import add_run, add_status
-from gcs.demo import add_demo
-from gcs.replay import add_record, add_replay
-from gcs.router import add_router
 from gcs.config import ScenarioError
 from gcs.scenarios import DEFAULT_SCENARIO, list_scenarios, load_scenario
 
@@ -58,13 +54,21 @@ def _add_scenario(sub: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=_cmd_scenario)
 
 
-SUBCOMMANDS: tuple[Callable[[argparse._SubParsersAction], None], ...] = (add_demo, add_run, add_status, add_record, add_replay,
-                                                                      add_router, _add_scenario, add_bench)
-"""Registration functions, one per subcommand, in the order ``--help`` lists them."""
+SUBCOMMANDS: tuple[tuple[str, str], ...] = (
+    ("demo", "gcs.demo:add_demo"), ("run", "gcs.daemon.cli:add_run"), ("status", "gcs.daemon.status_cli:add_status"),
+    ("record", "gcs.replay:add_record"), ("replay", "gcs.replay:add_replay"), ("router", "gcs.router:add_router"),
+    ("scenario", "gcs.cli:_add_scenario"), ("bench", "gcs.bench.cli:add_bench"))
+"""Each subcommand and its registration function (``module:function``), in the order ``--help`` lists them.
+Registration modules are imported only when needed: ``gcs status`` (Docker's healthcheck) need not load SciPy."""
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser with every implemented subcommand."""
+def _register(sub: argparse._SubParsersAction, target: str) -> None:
+    module, _, function = target.partition(":")
+    getattr(importlib.import_module(module), function)(sub)
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The argument parser with every implemented subcommand, or with ``command``'s alone."""
     parser = argparse.ArgumentParser(
         prog="gcs",
         description="Ground station that steers fixed-wing UAVs to keep a ground target in sight.",
@@ -73,14 +77,30 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--log-level", default="INFO",
                         choices=["DEBUG", "INFO", "WARNING", "ERROR"], help="logging threshold (default INFO)")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for register in SUBCOMMANDS:
-        register(sub)
+    for name, target in SUBCOMMANDS:
+        if command is None or name == command:
+            _register(sub, target)
     return parser
+
+
+def requested_command(argv: Sequence[str]) -> str | None:
+    """The subcommand ``argv`` names, if it names a known one before any help flag (else None: all are needed)."""
+    names = {name for name, _ in SUBCOMMANDS}
+    tokens = iter(argv)
+    for token in tokens:
+        if token == "--log-level":
+            next(tokens, None)
+        elif not token.startswith("-"):
+            return token if token in names else None
+        elif not token.startswith("--log-level="):
+            return None  # --help, --version or a mistake: the full parser answers
+    return None
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``gcs`` console script; returns the process exit code."""
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(requested_command(argv))
     args = parser.parse_args(argv)
     logging.basicConfig(level=args.log_level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     try:

@@ -28,6 +28,37 @@ def test_gcs_help_lists_every_registered_subcommand(capsys: pytest.CaptureFixtur
         assert name in out
 
 
+@pytest.mark.parametrize(("argv", "expected"), [
+    (["status", "--timeout", "1"], "status"),
+    (["--log-level", "DEBUG", "run", "--help"], "run"),
+    (["--log-level=ERROR", "bench", "daemon"], "bench"),
+    (["--help"], None), (["--version"], None), ([], None), (["flyaway"], None), (["-x", "run"], None),
+])
+def test_only_the_named_subcommand_is_loaded(argv: list[str], expected: str | None) -> None:
+    assert gcs_cli.requested_command(argv) == expected
+    names = _subcommands(gcs_cli.build_parser(expected))
+    assert names == ({expected} if expected else {name for name, _ in gcs_cli.SUBCOMMANDS})
+
+
+def test_gcs_status_loads_neither_scipy_nor_the_daemon() -> None:
+    # it is Docker's healthcheck, run every few seconds: it should start in a fraction of a second
+    import subprocess
+    import sys
+
+    code = ("import sys; from gcs import cli; cli.build_parser(cli.requested_command(['status'])); "
+            "print(sorted(m for m in ('scipy', 'gcs.app', 'gcs.tracking', 'pymavlink') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=60)
+    assert out.stdout.strip() == "[]"
+
+
+def test_an_unknown_subcommand_gets_the_full_list(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as info:
+        gcs_cli.main(["flyaway"])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert "invalid choice: 'flyaway'" in err and "status" in err and "bench" in err
+
+
 def test_sim_vehicles_help_runs(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as info:
         sim_cli.main(["--help"])

@@ -1,0 +1,78 @@
+"""``gcs status``: ask a running daemon how it is (vehicles, links, last track, counters).
+
+Kept apart from ``gcs run`` so that the command imports only Zenoh and the
+message definitions: it is the Docker healthcheck, run every few seconds.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+
+import msgspec
+
+from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, query, settings_from_arguments
+from protocols.codec import decode
+from protocols.errors import ProtocolError
+from protocols.keys import status_key
+from protocols.messages import DaemonStatus
+
+__all__ = ["add_status", "query_status", "format_status"]
+
+log = logging.getLogger(__name__)
+
+
+def add_status(sub: argparse._SubParsersAction) -> None:
+    """Register ``gcs status``."""
+    parser = sub.add_parser("status", help="print a running daemon's status (vehicles, links, last track, counters)",
+                            description="Query gcs/daemon/status over Zenoh and print it.")
+    add_zenoh_arguments(parser, listen=(), connect=(DEFAULT_ENDPOINT,))
+    parser.add_argument("--timeout", type=float, default=3.0, help="seconds to wait for the daemon (default 3)")
+    parser.add_argument("--json", action="store_true", help="print the status as JSON")
+    parser.set_defaults(handler=_cmd_status)
+
+
+def query_status(settings, prefix: str, timeout_s: float) -> DaemonStatus | None:
+    """The daemon's status, or None when no daemon answered within ``timeout_s``."""
+    with open_session(settings) as session:
+        for sample in query(session, status_key(prefix), timeout_s):
+            return decode(sample.payload.to_bytes(), str(sample.encoding), DaemonStatus)
+    return None
+
+
+def format_status(status: DaemonStatus) -> list[str]:
+    """Human-readable lines."""
+    lines = [f"scenario {status.scenario}, up {status.uptime_s:.0f} s, last track stamp "
+             f"{status.last_track_stamp_ns if status.last_track_stamp_ns is not None else 'none'}"]
+    for vehicle in status.vehicles:
+        lines.append(f"  {vehicle.vehicle_id:<10} sysid {vehicle.sysid or '-':>3}  link {vehicle.link:<7} "
+                     f"reports {vehicle.reports:>6}  autopilot {vehicle.autopilot or '-'}")
+    for name, value in sorted(status.counters.items()):
+        lines.append(f"  {name:<40} {value:>10}")
+    return lines
+
+
+def _cmd_status(args: argparse.Namespace) -> int:
+    try:
+        settings = settings_from_arguments(args)
+    except ValueError as error:
+        log.error("%s", error)
+        return 2
+    if settings is None:
+        log.error("gcs status needs zenoh")
+        return 2
+    try:
+        status = query_status(settings, args.prefix, args.timeout)
+    except (RuntimeError, ProtocolError) as error:
+        log.error("%s", error)
+        return 1
+    if status is None:
+        log.error("no daemon answered on %s within %g s", status_key(args.prefix), args.timeout)
+        return 1
+    if args.json:
+        print(json.dumps(msgspec.to_builtins(status), indent=2))
+    else:
+        print("\n".join(format_status(status)))
+    return 0
+
