@@ -16,6 +16,7 @@ from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_session import (DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, query,
                                         settings_from_arguments)
 from gcs.config import ScenarioError
+from gcs.daemon.navigation import NAVIGATION_MODES
 from gcs.daemon.planning import PLANNER_MODES
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
 from gcs.tracking import PLANNERS
@@ -25,7 +26,8 @@ from protocols.errors import ProtocolError
 from protocols.keys import status_key, validate_prefix
 from protocols.messages import DaemonStatus
 
-__all__ = ["add_run", "add_status", "DEFAULT_GCS_MAVLINK", "build_daemon", "install_signal_handlers"]
+__all__ = ["add_run", "add_status", "DEFAULT_GCS_MAVLINK", "build_daemon", "install_signal_handlers",
+           "add_navigation_argument"]
 
 log = logging.getLogger(__name__)
 
@@ -50,6 +52,15 @@ def add_daemon_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--accept-unlisted", action="store_true",
                         help="also accept and fuse reports from vehicles outside the scenario's roster (default: "
                              "rejected and counted as rejected.unknown_vehicle); they are never commanded")
+    add_navigation_argument(parser)
+
+
+def add_navigation_argument(parser: argparse.ArgumentParser) -> None:
+    """``--navigation``, shared by ``gcs run``, ``gcs demo`` and ``gcs replay --process``."""
+    parser.add_argument("--navigation", choices=NAVIGATION_MODES, default="skf",
+                        help="vehicle positions for fusion: skf (default) runs feng2019's switching Kalman filter on "
+                             "each vehicle's NavReports (GPS + INS) and fuses with its covariance; reported takes "
+                             "each SensorReport's own position as exact")
 
 
 def add_run(sub: argparse._SubParsersAction) -> None:
@@ -77,7 +88,8 @@ def build_daemon(args: argparse.Namespace, **kwargs):
                             mavlink=connections_from_arguments(args, [v.id for v in scenario.vehicles]),
                             signing_key=signing_key_from_arguments(args), seed=args.seed, planner=args.planner,
                             record=args.record, planner_mode=args.planner_mode, http=args.http,
-                            foxglove=foxglove_options(args), accept_unlisted=args.accept_unlisted)
+                            foxglove=foxglove_options(args), accept_unlisted=args.accept_unlisted,
+                            navigation=args.navigation)
     base_dir = scenario_base_dir(args.scenario)
     return Daemon(scenario, build_world(scenario, base_dir), options, **kwargs)
 
