@@ -22,8 +22,11 @@ function of the reports' stamps alone, as live so in replay.
 A vehicle's filter starts at its first report with a GPS fix (``fix_type >= 2``), about the
 fix with ``h_acc_m`` per axis, heading from the report's ``heading_rad`` or else its
 velocity (``nav.waiting_for_fix`` counts the reports before it). A report the filter
-refuses (``nav_update`` raises, or its result is not finite) is counted as
-``rejected.nav_update`` and the estimate stays as it was.
+refuses (``nav_update`` raises, its result is not finite, or its position is further than
+ingest's :data:`~gcs.daemon.ingest.MAX_ABS_POSITION_M` from the origin) is counted as
+``rejected.nav_update`` and the estimate stays as it was. An estimate more than
+:data:`MAX_EXTRAPOLATION_S` older than the detection (the vehicle's nav stopped) is not
+used: the detection falls back to the report's own position (``nav.stale``).
 
 **GPS bias.** The filter takes every fix's error as white (eq. 4), so averaging 5 fixes
 a second brings its covariance far below a GPS's slowly wandering bias, which no
@@ -65,19 +68,23 @@ from numpy.typing import NDArray
 
 from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
+from gcs.daemon.ingest import MAX_ABS_POSITION_M
 from gcs.core.navigation.skf import (MIN_GPS_FIX, NavEstimate, NavParams, initial, nav_measurement, nav_update,
                                      position_at)
 from protocols.messages import NavReport
 
-__all__ = ["NAVIGATION_MODES", "FleetNavigator", "MAX_BUFFERED", "MIN_HEADING_SPEED_MPS"]
+__all__ = ["NAVIGATION_MODES", "FleetNavigator", "MAX_BUFFERED", "MIN_HEADING_SPEED_MPS", "MAX_EXTRAPOLATION_S"]
 
 log = logging.getLogger(__name__)
 
 NAVIGATION_MODES = ("skf", "reported")
 """``skf``: detections from this module's estimate; ``reported``: the ``SensorReport``'s own position, exact."""
+NS_PER_S = 1_000_000_000
 MAX_BUFFERED = 1024
 """Reports buffered per vehicle (about 200 s at 5 Hz); beyond, the oldest is applied at once (``nav.applied_early``)
 so that a vehicle that sends nav but no reports cannot grow the buffer without bound."""
+MAX_EXTRAPOLATION_S = 5.0
+"""Longest extrapolation of an estimate to a detection's stamp (nav at 5 Hz needs 0.2 s; 5 s: its nav stopped)."""
 MIN_HEADING_SPEED_MPS = 1.0
 """Slowest velocity whose direction is taken for the initial heading."""
 
@@ -167,6 +174,8 @@ class FleetNavigator:
                 new = nav_update(self.params, estimate, measurement)
             if not (np.all(np.isfinite(new.mean)) and np.all(np.isfinite(new.cov))):
                 raise ValueError("the navigation estimate is not finite")
+            if not np.all(np.abs(new.mean[:2]) <= MAX_ABS_POSITION_M):
+                raise ValueError(f"position {new.mean[:2]} m is beyond {MAX_ABS_POSITION_M:g} m of the origin")
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as error:
             self.counters["rejected.nav_update"] += 1
             log.debug("nav report %s/%d at %d ns refused: %s", vehicle_id, nav.seq, nav.stamp_ns, error)
@@ -199,6 +208,9 @@ class FleetNavigator:
         """
         estimate = self._estimates.get(vehicle_id)
         if estimate is None:
+            return None
+        if stamp_ns - estimate.stamp_ns > MAX_EXTRAPOLATION_S * NS_PER_S:
+            self.counters["nav.stale"] += 1
             return None
         xy, cov_xy = position_at(self.params, estimate, stamp_ns)
         cov = np.zeros((3, 3))
