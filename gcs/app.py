@@ -17,7 +17,9 @@ outputs, always on the loop thread):
    (:mod:`gcs.daemon.fusion`, the same code ``gcs replay --process`` runs) and
    publish the ``TrackEstimate`` with its k+1..k+n prediction; hand the newest
    step's planning, for the vehicles alive now (a lost vehicle is planned
-   without; it rejoins when it returns), to the planner
+   without; it rejoins when it returns), from their *reported* positions (an
+   autopilot flies its commands from its own navigation, so the plan is made in
+   that frame; the navigation filter serves the fusion), to the planner
    (:mod:`gcs.daemon.planning`), so that a plan never holds up the reports and
    tracks behind it;
 4. apply the plans the planner has finished: publish each
