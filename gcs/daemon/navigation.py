@@ -7,8 +7,9 @@ fused with does not depend on when the nav reports arrived:
 * :meth:`FleetNavigator.add` buffers every accepted nav report of a roster vehicle;
 * :meth:`FleetNavigator.advance_to` ``(T_k)``, called when decision step ``k`` is released
   and before it is fused, applies, per vehicle and in stamp order (ties by ``seq``), every
-  buffered report stamped ``<= T_k`` (:func:`gcs.core.navigation.skf.nav_update`: INS
-  increments, eq. 1, then the GPS fix, eq. 4-5, with the GNSS velocity and heading);
+  buffered report stamped ``<= T_k`` (feng2019's SKF without a route, which is one extended
+  Kalman filter: :func:`gcs.core.navigation.skf.gaussian_update`; INS increments, eq. 1,
+  then the GPS fix, eq. 4-5, with the GNSS velocity and heading);
 * :meth:`FleetNavigator.position_at` gives a vehicle's horizontal position at a stamp
   (extrapolated by eq. 6 from its last applied report) with its covariance.
 
@@ -22,7 +23,7 @@ function of the reports' stamps alone, as live so in replay.
 A vehicle's filter starts at its first report with a GPS fix (``fix_type >= 2``), about the
 fix with ``h_acc_m`` per axis, heading from the report's ``heading_rad`` or else its
 velocity (``nav.waiting_for_fix`` counts the reports before it). A report the filter
-refuses (``nav_update`` raises, its result is not finite, or its position is further than
+refuses (the update raises, its result is not finite, or its position is further than
 ingest's :data:`~gcs.daemon.ingest.MAX_ABS_POSITION_M` from the origin) is counted as
 ``rejected.nav_update`` and the estimate stays as it was. An estimate more than
 :data:`MAX_EXTRAPOLATION_S` older than the detection (the vehicle's nav stopped) is not
@@ -69,7 +70,7 @@ from numpy.typing import NDArray
 from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
 from gcs.daemon.ingest import MAX_ABS_POSITION_M
-from gcs.core.navigation.skf import (MIN_GPS_FIX, NavEstimate, NavParams, initial, nav_measurement, nav_update,
+from gcs.core.navigation.skf import (MIN_GPS_FIX, NavGaussian, NavParams, gaussian_update, initial, nav_measurement,
                                      position_at)
 from protocols.messages import NavReport
 
@@ -115,7 +116,7 @@ class FleetNavigator:
         self.advanced_ns: int | None = None
         self.senders: set[str] = set()
         self._pending: dict[str, list[tuple[int, int, int, NavReport]]] = {v: [] for v in self.roster}
-        self._estimates: dict[str, NavEstimate] = {}
+        self._estimates: dict[str, NavGaussian] = {}
         self._vertical_var: dict[str, float] = {}
         self._fix: dict[str, bool] = {}
         self._arrival = itertools.count()
@@ -171,7 +172,7 @@ class FleetNavigator:
                     return
                 new = self._initial(nav, measurement)
             else:
-                new = nav_update(self.params, estimate, measurement)
+                new = gaussian_update(self.params, estimate, measurement)
             if not (np.all(np.isfinite(new.mean)) and np.all(np.isfinite(new.cov))):
                 raise ValueError("the navigation estimate is not finite")
             if not np.all(np.abs(new.mean[:2]) <= MAX_ABS_POSITION_M):
@@ -186,7 +187,7 @@ class FleetNavigator:
         self._vertical_var[vehicle_id] = float(nav.gps.v_acc_m) ** 2 if fix else 0.0
         self.counters["nav.applied"] += 1
 
-    def _initial(self, nav: NavReport, measurement) -> NavEstimate:
+    def _initial(self, nav: NavReport, measurement) -> NavGaussian:
         """The first estimate: the fix, the reported heading or the velocity's direction (else unknown)."""
         params, heading = self.params, nav.heading_rad
         velocity = measurement.velocity_xy
@@ -194,7 +195,8 @@ class FleetNavigator:
             heading = math.atan2(velocity[1], velocity[0])
         if heading is None:  # no idea which way it points: a heading spread of pi
             params, heading = replace(params, initial_heading_std_rad=math.pi), 0.0
-        return initial(params, measurement.stamp_ns, measurement.gps_xy, measurement.gps_std_m, heading, velocity)
+        first = initial(params, measurement.stamp_ns, measurement.gps_xy, measurement.gps_std_m, heading, velocity)
+        return NavGaussian(first.stamp_ns, first.mean, first.cov)
 
     # ----------------------------------------------------------------- output
 
