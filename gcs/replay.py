@@ -54,12 +54,12 @@ from gcs.daemon.steps import StepAssembler
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
 from gcs.tracking import scenario_planner, subset_config, tracker_config
 from gcs.world_loader import build_world
-from protocols.codec import encode
+from protocols.codec import decode, encode
 from protocols.errors import ProtocolError
 from protocols.keys import DEFAULT_PREFIX, parse_key, plan_key, track_key, validate_prefix
-from protocols.messages import NavReport, PlanCommand, SensorReport, TrackEstimate
+from protocols.messages import NavReport, PlanCommand, SensorReport, TargetTruth, TrackEstimate
 
-__all__ = ["add_record", "add_replay", "process", "summarise", "write_outputs", "INPUT_KINDS"]
+__all__ = ["add_record", "add_replay", "process", "summarise", "write_outputs", "truth_error", "INPUT_KINDS"]
 
 log = logging.getLogger(__name__)
 
@@ -207,6 +207,30 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
     release(steps.ready(reporters, math.inf), now)
     counters = Counter(ingest.counters) + steps.counters + diverged
     return tracks, plans, counters + (navigator.counters if navigator is not None else Counter())
+
+
+def truth_error(path: Path, tracks: list[TrackEstimate], step_ns: int) -> tuple[float | None, int]:
+    """RMSE (m) of the tracks' positions against the simulator's truth recorded beside them, and how many
+    tracks were scored (a track is scored against the truth nearest its stamp, within a tenth of a step,
+    as the daemon scores its steps); (None, 0) for a recording without truth."""
+    truth: dict[int, tuple[float, float]] = {}
+    for record in read_recording(path):
+        if _kind(record.key)[0] == "truth":
+            try:
+                message = decode(record.payload, record.encoding, TargetTruth)
+            except ProtocolError:
+                continue  # counted by --process's ingest
+            truth[message.stamp_ns] = message.position_enu_m
+    if not truth:
+        return None, 0
+    stamps = np.array(sorted(truth))
+    squared = []
+    for track in tracks:
+        nearest = int(stamps[np.argmin(np.abs(stamps - track.stamp_ns))])
+        if abs(nearest - track.stamp_ns) <= step_ns // 10:
+            x, y = truth[nearest]
+            squared.append((track.state[0] - x) ** 2 + (track.state[1] - y) ** 2)
+    return (math.sqrt(sum(squared) / len(squared)) if squared else None), len(squared)
 
 
 def write_outputs(tracks: list[TrackEstimate], plans: list[PlanCommand], out: Path,
@@ -422,6 +446,10 @@ def _cmd_replay(args: argparse.Namespace) -> int:
             print(f"{len(tracks)} track estimates" + (f" and {len(plans)} plan commands" if args.plan else "")
                   + f" from {args.file}" + (f" -> {args.out}" if args.out else "") + "; "
                   + ", ".join(f"{k} {v}" for k, v in sorted(counters.items())))
+            rmse, scored = truth_error(args.file, tracks, round(scenario.time.step_s * NS_PER_S))
+            if rmse is not None:
+                print(f"RMSE against the recorded truth {rmse:.2f} m over {scored} tracks "
+                      f"(--navigation {args.navigation})")
             return 0
         validate_prefix(args.prefix)
         settings = settings_from_arguments(args)

@@ -231,3 +231,49 @@ def test_replay_processing_with_delayed_nav_gives_the_tracks_of_the_undelayed_fi
     assert again == tracks
     assert [t.state for t in reported] != [t.state for t in tracks]  # the navigation is really used
     assert counters["nav.applied"] == delayed_counters["nav.applied"]
+
+    # replay --process's score against the recorded truth: tracks moved 3 m east and 4 m north of it score 5 m
+    import msgspec
+
+    from gcs.replay import truth_error
+    from protocols.codec import decode
+    from protocols.messages import TargetTruth
+
+    truth = {m.stamp_ns: m.position_enu_m for m in (decode(r.payload, r.encoding, TargetTruth)
+                                                   for r in read_recording(inputs) if "/truth/" in r.key)}
+    off = [msgspec.structs.replace(t, state=(truth[t.stamp_ns][0] + 3.0, truth[t.stamp_ns][1] + 4.0, *t.state[2:]))
+           for t in tracks]
+    rmse, scored = truth_error(inputs, off, S)
+    assert scored == len(tracks) and rmse == pytest.approx(5.0, abs=1e-9)
+    assert truth_error(inputs, tracks, S)[0] > 0.0
+
+
+def test_against_the_simulators_truth_the_covariance_is_about_right_with_a_fix_and_not_far_off_without() -> None:
+    """The simulated vehicles' nav reports (GPS with its wandering bias, INS with scale error and drift), loitering
+    half in a GPS-denied half-plane: the mean normalised error squared (2 is consistent) with and without a fix."""
+    import msgspec
+
+    from gcs.config import GpsDeniedZone
+    from gcs.world_loader import build_world
+    from sim_vehicles.scene import Scene
+
+    scenario = msgspec.structs.replace(SCENARIO, gps_denied=[GpsDeniedZone(
+        name="west", polygon_enu_m=[(0.0, 0.0), (1200.0, 0.0), (1200.0, 3000.0), (0.0, 3000.0)])])
+    scene = Scene(scenario, build_world(scenario), seed=1, epoch_ns=EPOCH_NS)
+    navigator = FleetNavigator.from_scenario(scenario)
+    nees: dict[bool, list[float]] = {True: [], False: []}
+    dt = scenario.simulation.physics_step_s
+    for step in range(round(120.0 / dt)):
+        if step % round(NAV_DT_S / dt) == 0:
+            for vehicle in scene.vehicles:
+                navigator.add(scene.nav_report(vehicle))
+        if step % round(1.0 / dt) == 0 and step > 0:
+            navigator.advance_to(scene.stamp_ns)
+            for vehicle_id, vehicle in scene.vehicles.items():
+                xy, cov = navigator.position_at(vehicle_id, scene.stamp_ns)
+                error = xy - vehicle.state.position_enu_m[:2]
+                nees[bool(navigator.has_fix(vehicle_id))].append(float(error @ np.linalg.solve(cov[:2, :2], error)))
+        scene.advance(dt, {})
+    assert len(nees[False]) >= 30 and len(nees[True]) >= 200
+    assert 1.0 < np.mean(nees[True]) < 3.5  # without the GPS bias term about 8-11 (module docstring)
+    assert np.mean(nees[False]) < 8.0  # the INS biases, allowed for as white noise: somewhat overconfident
