@@ -28,13 +28,15 @@ never changes a result. Steps are released in index order, each once:
 **Navigation.** With the daemon's own navigation (``--navigation skf``,
 :mod:`gcs.daemon.navigation`) a step also waits, within the same window and
 timeout, for the nav reports it needs: complete means, besides the above, that
-every expected vehicle that has ever sent a nav report (:meth:`StepAssembler.add_nav`)
-has sent one stamped ``>= T_k``. A vehicle's messages arrive in the order it
-sent them (Zenoh keeps a publisher's order), so every one of its nav reports
-stamped ``<= T_k`` is in by then and the navigation filter can be advanced to
-``T_k`` before the step is fused. A vehicle that never sent nav is not waited
-for, nor one that has reported for step ``k + 1 + reorder_steps`` (its nav for
-``T_k`` is not coming). A nav report that comes after its step was released is
+every expected vehicle that sends nav (:meth:`StepAssembler.add_nav`) has sent
+one stamped ``>= T_k``. A vehicle's messages arrive in the order it sent them
+(Zenoh keeps a publisher's order), so every one of its nav reports stamped
+``<= T_k`` is in by then and the navigation filter can be advanced to ``T_k``
+before the step is fused. A vehicle *sends nav* for step ``k`` when its newest
+nav report is stamped after ``T_{k-1}`` (at least one a step); one that never
+sent nav, or whose nav stopped a step or more before (a GPS/INS feed lost, or a
+source that sent one nav report for its heading and no more), is not waited
+for, nor one that has reported for step ``k + 1 + reorder_steps``. A nav report that comes after its step was released is
 late (``rejected.late_nav``, counted by the navigator) and dropped.
 
 So a report is used when it arrives (a) within ``max_wait_s`` (0.5 s) of the
@@ -145,7 +147,8 @@ class StepAssembler:
             if self._latest_step.get(vehicle_id, -(2**62)) > index + self.reorder_steps:
                 return True  # two steps on: neither its report nor its nav for this step is waited for
             nav = self._latest_nav_ns.get(vehicle_id)
-            return vehicle_id in reported and (nav is None or nav >= stamp)
+            sends_nav = nav is not None and nav > stamp - self.step_ns
+            return vehicle_id in reported and (not sends_nav or nav >= stamp)
 
         return all(done(v) for v in expected)
 

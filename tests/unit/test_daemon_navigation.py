@@ -201,6 +201,11 @@ def test_a_step_waits_for_the_nav_of_every_vehicle_that_sends_nav_and_times_out_
     steps.add(_report("uav1", 3 * S), 3.0)
     steps.add(_report("uav1", 5 * S), 3.1)  # uav1 is two steps on: neither its report nor its nav is waited for
     assert [s.index for s in steps.ready(both, 3.1)] == [3]
+    steps.add(_report("uav1", 4 * S), 4.0)
+    steps.add(_report("uav2", 4 * S), 4.0)
+    steps.add_nav("uav2", 3 * S)  # uav2's nav stopped a step before T_4 (as uav1's): nobody is waited for
+    assert [s.index for s in steps.ready(both, 4.0)] == [4, 5]  # 4 complete; 5 (uav1's early report) timed out
+    assert steps.counters["steps_released_by_timeout"] == 3
 
 
 def test_replay_processing_with_delayed_nav_gives_the_tracks_of_the_undelayed_file(tmp_path) -> None:
