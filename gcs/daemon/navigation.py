@@ -14,8 +14,8 @@ fused with does not depend on when the nav reports arrived:
   (extrapolated by eq. 6 from its last applied report) with its covariance.
 
 The step assembler (:mod:`gcs.daemon.steps`) releases step ``k`` only once every expected
-vehicle that has sent nav has one stamped ``>= T_k`` (or the step times out), so every
-report stamped ``<= T_k`` is in the buffer by then. A report stamped at or before a step
+vehicle that sends nav (at least once a step) has sent one stamped ``>= T_k`` (or the step
+times out), so every report stamped ``<= T_k`` is in the buffer by then. A report stamped at or before a step
 already advanced to is **late**: counted as ``rejected.late_nav``, logged at DEBUG and
 dropped, never applied out of order. The filter state when step ``k`` is fused is then a
 function of the reports' stamps alone, as live so in replay.
@@ -47,9 +47,11 @@ vehicle's altitude is then the fix's), and 0 without one: a vehicle without GPS 
 altitude by barometer, whose accuracy a ``NavReport`` does not carry, and the target
 filter takes an unreported vertical as exact, as before this filter.
 
-**Route.** No map observations: the commanded path is not given as a route (the in-process
-benchmark found it makes the filter overconfident: ``nav_update``'s docstring), so the
-daemon's navigation is GPS + INS.
+**Route.** No map observations: the commanded path is not given as a route. It says how far
+a vehicle moved, not where it is, and makes the filter overconfident (``gcs bench urban
+--gps-denied``, ``nav_update``'s docstring); against ``sim-vehicles``, whose autopilot steers
+with its true position, it would even carry absolute information a real one in a
+GPS-denied zone would not have. The daemon's navigation is GPS + INS.
 
 Index conventions: covariances are ENU ``(x, y, z)``, m^2; stamps are integer ns.
 """
