@@ -7,14 +7,19 @@ outputs, always on the loop thread):
 
 1. drain the Zenoh inbox (callbacks only enqueued): validate and count
    (:class:`~gcs.daemon.ingest.Ingest`), file reports into decision steps
-   (:class:`~gcs.daemon.steps.StepAssembler`), update the vehicle registry from
-   reports, nav reports and liveliness tokens;
+   (:class:`~gcs.daemon.steps.StepAssembler`), buffer nav reports for each
+   vehicle's navigation filter (:class:`~gcs.daemon.navigation.FleetNavigator`),
+   update the vehicle registry from reports, nav reports and liveliness tokens;
 2. read MAVLink (heartbeats, telemetry) through the commander;
-3. for every decision step that is ready: fuse every roster vehicle's reports
+3. for every decision step that is ready: advance the vehicles' navigation to
+   its stamp, fuse every roster vehicle's reports, each from the position its
+   navigation gives with that position's covariance
    (:mod:`gcs.daemon.fusion`, the same code ``gcs replay --process`` runs) and
    publish the ``TrackEstimate`` with its k+1..k+n prediction; hand the newest
    step's planning, for the vehicles alive now (a lost vehicle is planned
-   without; it rejoins when it returns), to the planner
+   without; it rejoins when it returns), from their *reported* positions (an
+   autopilot flies its commands from its own navigation, so the plan is made in
+   that frame; the navigation filter serves the fusion), to the planner
    (:mod:`gcs.daemon.planning`), so that a plan never holds up the reports and
    tracks behind it;
 4. apply the plans the planner has finished: publish each
@@ -60,6 +65,7 @@ from gcs.core.world import World
 from gcs.daemon.ingest import Ingest
 from gcs.daemon.planning import Planner, PlanJob, PlanOutcome, start_planner
 from gcs.daemon.live import LiveMap
+from gcs.daemon.navigation import NAVIGATION_MODES, FleetNavigator
 from gcs.daemon.registry import Registry
 from gcs.daemon.steps import ReadyStep, StepAssembler
 from gcs.tracking import observer_sensor_model, scenario_planner, subset_config, tracker_config
@@ -116,6 +122,11 @@ class DaemonOptions:
         Accept reports from vehicles outside the scenario's roster (default: rejected as
         ``unknown_vehicle``); their detections are fused with the scenario's sensor model, and they
         are never planned for or commanded.
+    navigation : str
+        Where a detection's vehicle position comes from (:data:`gcs.daemon.navigation.NAVIGATION_MODES`):
+        ``skf`` (the default) runs feng2019's SKF on each roster vehicle's ``NavReport``s and fuses with its
+        estimate and covariance (steps then wait for the nav reports, :mod:`gcs.daemon.steps`);
+        ``reported`` takes the ``SensorReport``'s own position as exact.
     """
 
     zenoh: ZenohSettings
@@ -131,6 +142,7 @@ class DaemonOptions:
     http: tuple[str, int] | None = None
     foxglove: FoxgloveOptions | None = None
     accept_unlisted: bool = False
+    navigation: str = "skf"
 
 
 @dataclass(frozen=True)
@@ -139,7 +151,9 @@ class StepRecord:
 
     ``vehicles`` are those alive (planned for) when the step was fused, at
     ``fused_ns`` (``time.time_ns``); ``error_m`` is against the simulator's truth,
-    when there is one.
+    when there is one. ``nav_std_m`` and ``gps_fix``: each navigated vehicle's horizontal
+    1-sigma and whether its last nav report had a GPS fix, when the step was fused
+    (empty with ``--navigation reported``).
     """
 
     index: int
@@ -149,6 +163,8 @@ class StepRecord:
     error_m: float | None
     vehicles: tuple[str, ...]
     fused_ns: int
+    nav_std_m: dict[str, float] = field(default_factory=dict)
+    gps_fix: dict[str, bool] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -210,6 +226,9 @@ class Daemon:
         self.vehicle_config = {v.id: v for v in scenario.vehicles}
         self.ingest = Ingest(set(self.roster), options.prefix, accept_unlisted=options.accept_unlisted)
         self.steps = StepAssembler(round(scenario.time.step_s * NS_PER_S), options.max_wait_s)
+        if options.navigation not in NAVIGATION_MODES:
+            raise ValueError(f"unknown navigation {options.navigation!r}; expected one of {', '.join(NAVIGATION_MODES)}")
+        self.navigator = FleetNavigator.from_scenario(scenario) if options.navigation == "skf" else None
         self.planner_name = options.planner or scenario_planner(scenario)
         self.tracker: TrackerConfig = tracker_config(scenario, world, self.planner_name)
         self._observer_sensor = observer_sensor_model(scenario)
@@ -382,6 +401,9 @@ class Daemon:
         elif isinstance(message, NavReport):
             if message.vehicle_id in self.registry.entries:
                 self.registry.on_nav(message)
+                if self.navigator is not None:
+                    self.navigator.add(message)
+                    self.steps.add_nav(message.vehicle_id, message.stamp_ns)
         elif isinstance(message, TargetTruth):
             self.loop.truth[message.stamp_ns] = message.position_enu_m
             if len(self.loop.truth) > 4096:
@@ -400,7 +422,9 @@ class Daemon:
         """Fuse one step's reports (every roster vehicle's) and publish the track; hand the
         planning for the vehicles alive now to the planner, unless a newer step is already waiting."""
         roster, tracker = with_observers(self.tracker, self.roster, self.ingest.unlisted, self._observer_sensor)
-        estimate, detections = fuse_step(tracker, self.loop.estimate, ready, roster)
+        if self.navigator is not None:
+            self.navigator.advance_to(ready.stamp_ns)
+        estimate, detections = fuse_step(tracker, self.loop.estimate, ready, roster, self.navigator)
         self.loop.estimate = estimate
         predicted = None
         if estimate is not None:
@@ -508,7 +532,14 @@ class Daemon:
         for report in ready.reports:
             if report.vehicle_id in seen:
                 seen[report.vehicle_id] = seen[report.vehicle_id] or report.detected
-        record = StepRecord(ready.index, ready.stamp_ns, seen, estimate_xy, None, tuple(active), time.time_ns())
+        nav_std, fix = {}, {}
+        if self.navigator is not None:
+            for vehicle_id in self.roster:
+                std = self.navigator.horizontal_std_m(vehicle_id)
+                if std is not None:
+                    nav_std[vehicle_id], fix[vehicle_id] = std, bool(self.navigator.has_fix(vehicle_id))
+        record = StepRecord(ready.index, ready.stamp_ns, seen, estimate_xy, None, tuple(active), time.time_ns(),
+                            nav_std, fix)
         self._unscored.append((record, self.clock() + TRUTH_WAIT_S))
         self._score(flush=False)
 
@@ -561,6 +592,8 @@ class Daemon:
                                           last_report_stamp_ns=entry.last_report_stamp_ns, reports=entry.reports,
                                           autopilot=autopilot))
         counters = Counter(self.ingest.counters) + self.steps.counters + self.counters
+        if self.navigator is not None:
+            counters += self.navigator.counters
         if self.planner is not None:
             counters["plans_superseded"] = self.planner.superseded
             counters["planner_restarts"] = getattr(self.planner, "restarts", 0)

@@ -55,6 +55,7 @@ def summarise(records: list[StepRecord], plans: list[PlanRecord], vehicles: list
     """The demo's summary of the daemon's decision steps and of its plans (``decision_ms``: the planner's solve)."""
     errors = np.array([r.error_m for r in records if r.error_m is not None])
     decisions = np.array([p.solve_s for p in plans]) * 1e3
+    nav_std = np.array([s for r in records for s in r.nav_std_m.values()])
     return {
         "steps": len(records),
         "seen_any": sum(any(r.seen.values()) for r in records),
@@ -63,6 +64,9 @@ def summarise(records: list[StepRecord], plans: list[PlanRecord], vehicles: list
         "scored_steps": int(errors.size),
         "decision_ms_median": float(np.median(decisions)) if decisions.size else None,
         "decision_ms_p99": float(np.percentile(decisions, 99)) if decisions.size else None,
+        "nav_std_m_median": float(np.median(nav_std)) if nav_std.size else None,
+        "nav_std_m_max": float(nav_std.max()) if nav_std.size else None,
+        "nav_vehicle_steps_without_fix": sum(not fix for r in records for fix in r.gps_fix.values()),
     }
 
 
@@ -139,9 +143,11 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     stopped = _run_together(daemon, command, log_file)
     progress.end()
     summary = summarise(daemon.records, daemon.plans, daemon.roster)
+    counters = daemon.status(time.monotonic()).counters
     summary.update({"scenario": daemon.scenario.name, "planner": daemon.planner_name, "rate": args.rate,
-                    "duration_s": duration, "rejected": {k: v for k, v in daemon.status(time.monotonic()).counters
-                                                         .items() if k.startswith("rejected.")}})
+                    "duration_s": duration, "navigation": daemon.options.navigation,
+                    "steps_released_by_timeout": counters.get("steps_released_by_timeout", 0),
+                    "rejected": {k: v for k, v in counters.items() if k.startswith("rejected.")}})
     _print_summary(summary)
     if args.json is not None:
         args.json.write_text(json.dumps(summary, indent=2))
@@ -189,6 +195,10 @@ def _print_summary(summary: dict) -> None:
     median, p99 = (_ms(summary[key]) for key in ("decision_ms_median", "decision_ms_p99"))
     print(f"steps {summary['steps']}; seen by at least one UAV {summary['seen_any']}; per UAV {per_uav}")
     print(f"fused position RMSE {rmse}; decision time median {median}, p99 {p99}")
+    if summary.get("nav_std_m_median") is not None:
+        print(f"navigation {summary['navigation']}: vehicle position 1-sigma median {summary['nav_std_m_median']:.1f} m, "
+              f"max {summary['nav_std_m_max']:.1f} m; {summary['nav_vehicle_steps_without_fix']} vehicle-steps "
+              "without GPS")
     if summary["rejected"]:
         print("rejected: " + ", ".join(f"{k} {v}" for k, v in sorted(summary["rejected"].items())))
     print("compare: gcs bench urban (the same loop in one process, without the network and the airframe lag)")

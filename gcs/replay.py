@@ -11,9 +11,11 @@
   converts it to an MCAP file of Foxglove's map schemas.
 * ``gcs replay FILE --process [--plan] [--out TRACKS.mcap|.csv]`` runs the
   estimator (and the planner) on the file directly, without Zenoh: the same validation, step assembly and
-  fusion as the daemon (:mod:`gcs.daemon.fusion`), so a recording of a live run
-  gives back the daemon's tracks bit for bit, provided no report was late in the
-  live run (the daemon's ``rejected.late`` counter is zero).
+  fusion as the daemon (:mod:`gcs.daemon.fusion`), with the same vehicle
+  navigation (``--navigation``, default ``skf``: :mod:`gcs.daemon.navigation`),
+  so a recording of a live run gives back the daemon's tracks bit for bit,
+  provided no report or nav report was late in the live run (the daemon's
+  ``rejected.late`` and ``rejected.late_nav`` counters are zero).
 """
 
 from __future__ import annotations
@@ -41,21 +43,23 @@ from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_io import Received
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, settings_from_arguments
 from gcs.config import Scenario, ScenarioError
+from gcs.daemon.cli import add_navigation_argument
 from gcs.core.tracker import plan, prediction
 from gcs.core.world import World
 from gcs.daemon.fusion import FusionDiverged, PlanMemory, fuse_step, plan_commands, track_message
 from gcs.daemon.ingest import Ingest
+from gcs.daemon.navigation import NAVIGATION_MODES, FleetNavigator
 from gcs.daemon.registry import Registry
 from gcs.daemon.steps import StepAssembler
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
 from gcs.tracking import scenario_planner, subset_config, tracker_config
 from gcs.world_loader import build_world
-from protocols.codec import encode
+from protocols.codec import decode, encode
 from protocols.errors import ProtocolError
 from protocols.keys import DEFAULT_PREFIX, parse_key, plan_key, track_key, validate_prefix
-from protocols.messages import NavReport, PlanCommand, SensorReport, TrackEstimate
+from protocols.messages import NavReport, PlanCommand, SensorReport, TargetTruth, TrackEstimate
 
-__all__ = ["add_record", "add_replay", "process", "summarise", "write_outputs", "INPUT_KINDS"]
+__all__ = ["add_record", "add_replay", "process", "summarise", "write_outputs", "truth_error", "INPUT_KINDS"]
 
 log = logging.getLogger(__name__)
 
@@ -116,7 +120,7 @@ def summarise(path: Path) -> dict:
 # ---------------------------------------------------------------- --process
 
 def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world: World | None = None,
-            seed: int = 0) -> tuple[list[TrackEstimate], list[PlanCommand], Counter]:
+            seed: int = 0, navigation: str = "skf") -> tuple[list[TrackEstimate], list[PlanCommand], Counter]:
     """The daemon's estimation (and planning, with a ``world``) on a recording.
 
     Messages go through the same :class:`Ingest` and :class:`StepAssembler` as in
@@ -126,6 +130,9 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
     as live. With a ``world`` every step is also planned for the vehicles alive
     then, as the daemon plans, but to the end of every generation (no deadline),
     so the plans are reproducible; the daemon's own plans stop at its deadline.
+    ``navigation`` is the daemon's ``--navigation``: with ``skf`` the nav reports feed the
+    same :class:`FleetNavigator`, advanced to each step's stamp before it is fused, and
+    the steps wait for them as live.
 
     Returns the tracks, the plans (empty without a world) and the counters.
     """
@@ -134,6 +141,9 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
     roster = [v.id for v in scenario.vehicles]
     ingest = Ingest(set(roster), prefix)
     steps = StepAssembler(round(scenario.time.step_s * NS_PER_S))
+    if navigation not in NAVIGATION_MODES:
+        raise ValueError(f"unknown navigation {navigation!r}; expected one of {', '.join(NAVIGATION_MODES)}")
+    navigator = FleetNavigator.from_scenario(scenario) if navigation == "skf" else None
     registry = Registry(list(scenario.vehicles), heartbeat_age=lambda vehicle, now: None)
     rng = np.random.default_rng(seed)
     reporters: set[str] = set()
@@ -146,8 +156,10 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
     def release(ready_steps, now: float) -> None:
         nonlocal estimate
         for ready in ready_steps:
+            if navigator is not None:
+                navigator.advance_to(ready.stamp_ns)
             try:
-                estimate, detections = fuse_step(config, estimate, ready, roster)
+                estimate, detections = fuse_step(config, estimate, ready, roster, navigator)
             except FusionDiverged:  # as the daemon: counted, the previous estimate stands
                 diverged["rejected.diverged"] += 1
                 continue
@@ -180,14 +192,45 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
         message = ingest.accept(Received("sample", record.key, record.payload, record.encoding, record.log_time_ns))
         if isinstance(message, NavReport):
             registry.on_nav(message)
+            if navigator is None:
+                continue
+            navigator.add(message)
+            steps.add_nav(message.vehicle_id, message.stamp_ns)
         elif isinstance(message, SensorReport):
             registry.on_report(message)
             reporters.add(message.vehicle_id)
             steps.add(message, now)
-            alive = {v for v, entry in registry.entries.items() if entry.token}
-            release(steps.ready((alive | reporters) - ingest.off_clock, now), now)
+        else:
+            continue
+        alive = {v for v, entry in registry.entries.items() if entry.token}
+        release(steps.ready((alive | reporters) - ingest.off_clock, now), now)
     release(steps.ready(reporters, math.inf), now)
-    return tracks, plans, Counter(ingest.counters) + steps.counters + diverged
+    counters = Counter(ingest.counters) + steps.counters + diverged
+    return tracks, plans, counters + (navigator.counters if navigator is not None else Counter())
+
+
+def truth_error(path: Path, tracks: list[TrackEstimate], step_ns: int) -> tuple[float | None, int]:
+    """RMSE (m) of the tracks' positions against the simulator's truth recorded beside them, and how many
+    tracks were scored (a track is scored against the truth nearest its stamp, within a tenth of a step,
+    as the daemon scores its steps); (None, 0) for a recording without truth."""
+    truth: dict[int, tuple[float, float]] = {}
+    for record in read_recording(path):
+        if _kind(record.key)[0] == "truth":
+            try:
+                message = decode(record.payload, record.encoding, TargetTruth)
+            except ProtocolError:
+                continue  # counted by --process's ingest
+            truth[message.stamp_ns] = message.position_enu_m
+    if not truth:
+        return None, 0
+    stamps = np.array(sorted(truth))
+    squared = []
+    for track in tracks:
+        nearest = int(stamps[np.argmin(np.abs(stamps - track.stamp_ns))])
+        if abs(nearest - track.stamp_ns) <= step_ns // 10:
+            x, y = truth[nearest]
+            squared.append((track.state[0] - x) ** 2 + (track.state[1] - y) ** 2)
+    return (math.sqrt(sum(squared) / len(squared)) if squared else None), len(squared)
 
 
 def write_outputs(tracks: list[TrackEstimate], plans: list[PlanCommand], out: Path,
@@ -367,6 +410,7 @@ def add_replay(sub: argparse._SubParsersAction) -> None:
                         help="--process: also plan every step (every GA generation, no deadline); plans go to an "
                              ".mcap --out")
     parser.add_argument("--seed", type=int, default=0, help="--process --plan: the planner's seed (default 0)")
+    add_navigation_argument(parser)
     parser.add_argument("--json", action="store_true", help="--info: print JSON")
     parser.add_argument("--view", action="store_true",
                         help="show the recording on the live map (play/pause, speed; --rate is the starting speed, "
@@ -396,12 +440,16 @@ def _cmd_replay(args: argparse.Namespace) -> int:
         if args.process:
             scenario = load_scenario(args.scenario)
             world = build_world(scenario, scenario_base_dir(args.scenario)) if args.plan else None
-            tracks, plans, counters = process(args.file, scenario, args.prefix, world, args.seed)
+            tracks, plans, counters = process(args.file, scenario, args.prefix, world, args.seed, args.navigation)
             if args.out is not None:
                 write_outputs(tracks, plans, args.out, args.prefix)
             print(f"{len(tracks)} track estimates" + (f" and {len(plans)} plan commands" if args.plan else "")
                   + f" from {args.file}" + (f" -> {args.out}" if args.out else "") + "; "
                   + ", ".join(f"{k} {v}" for k, v in sorted(counters.items())))
+            rmse, scored = truth_error(args.file, tracks, round(scenario.time.step_s * NS_PER_S))
+            if rmse is not None:
+                print(f"RMSE against the recorded truth {rmse:.2f} m over {scored} tracks "
+                      f"(--navigation {args.navigation})")
             return 0
         validate_prefix(args.prefix)
         settings = settings_from_arguments(args)

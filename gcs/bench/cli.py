@@ -135,7 +135,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
 
     scenario = load_scenario(args.scenario)
     report = replay.run_benchmark(scenario, build_world(scenario), duration_s=args.duration, repeats=args.repeats,
-                                  seed=args.seed, progress=_progress)
+                                  seed=args.seed, progress=_progress, navigation=args.navigation)
     print(replay.format_report(report))
     if args.json:
         args.json.write_text(json.dumps(report, indent=2))
@@ -334,6 +334,9 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     rpl.add_argument("--duration", type=_positive_float, default=300.0, help="simulated seconds (default 300)")
     rpl.add_argument("--repeats", type=_positive_int, default=5, help="timed runs; the median is reported (default 5)")
     rpl.add_argument("--seed", type=int, default=0, help="seed of the simulated scene (default 0)")
+    rpl.add_argument("--navigation", choices=("skf", "reported"), default="skf",
+                     help="replay --process's --navigation: skf (default, each vehicle's SKF on its nav reports) or "
+                          "reported")
     rpl.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     rpl.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
     rpl.set_defaults(handler=_outputs_checked(_cmd_replay))

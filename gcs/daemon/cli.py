@@ -13,6 +13,7 @@ from gcs.adapters.mavlink_cli import add_mavlink_arguments, connections_from_arg
 from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, settings_from_arguments
 from gcs.config import ScenarioError
+from gcs.daemon.navigation import NAVIGATION_MODES
 from gcs.daemon.status_cli import add_status, format_status, query_status
 from gcs.daemon.planning import PLANNER_MODES
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
@@ -22,7 +23,7 @@ from protocols.errors import ProtocolError
 from protocols.keys import validate_prefix
 
 __all__ = ["add_run", "add_status", "query_status", "format_status", "DEFAULT_GCS_MAVLINK", "build_daemon",
-           "install_signal_handlers"]
+           "install_signal_handlers", "add_navigation_argument"]
 
 log = logging.getLogger(__name__)
 
@@ -47,6 +48,15 @@ def add_daemon_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--accept-unlisted", action="store_true",
                         help="also accept and fuse reports from vehicles outside the scenario's roster (default: "
                              "rejected and counted as rejected.unknown_vehicle); they are never commanded")
+    add_navigation_argument(parser)
+
+
+def add_navigation_argument(parser: argparse.ArgumentParser) -> None:
+    """``--navigation``, shared by ``gcs run``, ``gcs demo`` and ``gcs replay --process``."""
+    parser.add_argument("--navigation", choices=NAVIGATION_MODES, default="skf",
+                        help="vehicle positions for fusion: skf (default) runs feng2019's switching Kalman filter on "
+                             "each vehicle's NavReports (GPS + INS) and fuses with its covariance; reported takes "
+                             "each SensorReport's own position as exact")
 
 
 def add_run(sub: argparse._SubParsersAction) -> None:
@@ -74,7 +84,8 @@ def build_daemon(args: argparse.Namespace, **kwargs):
                             mavlink=connections_from_arguments(args, [v.id for v in scenario.vehicles]),
                             signing_key=signing_key_from_arguments(args), seed=args.seed, planner=args.planner,
                             record=args.record, planner_mode=args.planner_mode, http=args.http,
-                            foxglove=foxglove_options(args), accept_unlisted=args.accept_unlisted)
+                            foxglove=foxglove_options(args), accept_unlisted=args.accept_unlisted,
+                            navigation=args.navigation)
     base_dir = scenario_base_dir(args.scenario)
     return Daemon(scenario, build_world(scenario, base_dir), options, **kwargs)
 

@@ -3,7 +3,11 @@
 Both call :func:`fuse_step` on the same steps and get the same ``TrackEstimate``
 bit for bit: detections are taken in roster order (not arrival order) from
 every roster vehicle that reported in the step, whether or not it is being
-planned for, and the prediction is the tracker's own (eq. 16-17).
+planned for, and the prediction is the tracker's own (eq. 16-17). With a
+:class:`~gcs.daemon.navigation.FleetNavigator` (advanced to the step's stamp by
+the caller) a detection's vehicle position and its covariance are the
+navigator's; without one, or for a vehicle it has no estimate of, the report's
+own ``vehicle_position_enu_m``, taken as exact.
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ from gcs.core.geometry import wrap_angle
 from gcs.core.kinematics import VehicleState, rollout
 from gcs.core.models.sensor import SensorModel
 from gcs.core.tracker import Detection, TrackerConfig, TrackerState, fuse, prediction
+from gcs.daemon.navigation import FleetNavigator
 from gcs.daemon.steps import ReadyStep
 from gcs.config import VehicleConfig
 from protocols.messages import PlanCommand, PredictedPoint, SensorReport, TrackEstimate
@@ -33,8 +38,14 @@ def _measurement(report: SensorReport, components: tuple[str, ...]) -> np.ndarra
     return None if any(v is None for v in values) else np.array(values, dtype=np.float64)
 
 
-def step_detections(ready: ReadyStep, roster: Sequence[str], config: TrackerConfig) -> tuple[Detection, ...]:
-    """The step's detections in roster order (a vehicle's first report of the step counts)."""
+def step_detections(ready: ReadyStep, roster: Sequence[str], config: TrackerConfig,
+                    navigator: FleetNavigator | None = None) -> tuple[Detection, ...]:
+    """The step's detections in roster order (a vehicle's first report of the step counts).
+
+    With a ``navigator`` the vehicle's position is its estimate at the report's stamp, horizontal
+    from the SKF and vertical from the report, with the (3, 3) covariance of
+    :meth:`FleetNavigator.position_at` as ``Detection.vehicle_cov``.
+    """
     first: dict[str, SensorReport] = {}
     for report in ready.reports:
         first.setdefault(report.vehicle_id, report)
@@ -44,8 +55,15 @@ def step_detections(ready: ReadyStep, roster: Sequence[str], config: TrackerConf
         if report is None or not report.detected:
             continue
         values = _measurement(report, config.sensors[index].components)
-        if values is not None:
-            detections.append(Detection(index, np.asarray(report.vehicle_position_enu_m, dtype=np.float64), values))
+        if values is None:
+            continue
+        xyz = np.asarray(report.vehicle_position_enu_m, dtype=np.float64)
+        navigated = None if navigator is None else navigator.position_at(vehicle_id, report.stamp_ns)
+        if navigated is None:
+            detections.append(Detection(index, xyz, values))
+        else:
+            xy, cov = navigated
+            detections.append(Detection(index, np.array([xy[0], xy[1], xyz[2]]), values, vehicle_cov=cov))
     return tuple(detections)
 
 
@@ -102,14 +120,14 @@ def check_estimate(estimate: GaussianEstimate | None) -> None:
         raise FusionDiverged("the fused covariance is not positive definite") from error
 
 
-def fuse_step(config: TrackerConfig, estimate: GaussianEstimate | None, ready: ReadyStep, roster: Sequence[str]
-              ) -> tuple[GaussianEstimate | None, tuple[Detection, ...]]:
-    """The estimate after one step, and the detections that went into it.
+def fuse_step(config: TrackerConfig, estimate: GaussianEstimate | None, ready: ReadyStep, roster: Sequence[str],
+              navigator: FleetNavigator | None = None) -> tuple[GaussianEstimate | None, tuple[Detection, ...]]:
+    """The estimate after one step, and the detections that went into it (``navigator``: :func:`step_detections`).
 
     Raises :class:`FusionDiverged` when the detections (valid on the wire, but absurd together or with
     the prior) give no usable estimate, so that one bad step cannot poison the track that follows.
     """
-    detections = step_detections(ready, roster, config)
+    detections = step_detections(ready, roster, config, navigator)
     try:
         fused = fuse(config, estimate, ready.stamp_ns, detections)
     except (NotPositiveDefinite, np.linalg.LinAlgError, ArithmeticError) as error:

@@ -25,6 +25,20 @@ never changes a result. Steps are released in index order, each once:
   for), and the step follows the last released one directly (after a step
   that nobody reported for, the next step waits for its timeout).
 
+**Navigation.** With the daemon's own navigation (``--navigation skf``,
+:mod:`gcs.daemon.navigation`) a step also waits, within the same window and
+timeout, for the nav reports it needs: complete means, besides the above, that
+every expected vehicle that sends nav (:meth:`StepAssembler.add_nav`) has sent
+one stamped ``>= T_k``. A vehicle's messages arrive in the order it sent them
+(Zenoh keeps a publisher's order), so every one of its nav reports stamped
+``<= T_k`` is in by then and the navigation filter can be advanced to ``T_k``
+before the step is fused. A vehicle *sends nav* for step ``k`` when its newest
+nav report is stamped after ``T_{k-1}`` (at least one a step); one that never
+sent nav, or whose nav stopped a step or more before (a GPS/INS feed lost, or a
+source that sent one nav report for its heading and no more), is not waited
+for, nor one that has reported for step ``k + 1 + reorder_steps``. A nav report that comes after its step was released is
+late (``rejected.late_nav``, counted by the navigator) and dropped.
+
 So a report is used when it arrives (a) within ``max_wait_s`` (0.5 s) of the
 time half the vehicles had reported for its step (within 5 s of the step's
 first report), and (b) before its own vehicle's report for
@@ -80,6 +94,7 @@ class StepAssembler:
     _open: dict[int, list[SensorReport]] = field(default_factory=dict)
     _arrived_s: dict[int, dict[str, float]] = field(default_factory=dict)
     _latest_step: dict[str, int] = field(default_factory=dict)
+    _latest_nav_ns: dict[str, int] = field(default_factory=dict)
     _next: int | None = None
 
     def index_of(self, stamp_ns: int) -> int:
@@ -111,6 +126,10 @@ class StepAssembler:
         self._latest_step[report.vehicle_id] = max(index, self._latest_step.get(report.vehicle_id, index))
         return True
 
+    def add_nav(self, vehicle_id: str, stamp_ns: int) -> None:
+        """Note an accepted nav report: from now on the vehicle's steps wait for its nav (module docstring)."""
+        self._latest_nav_ns[vehicle_id] = max(stamp_ns, self._latest_nav_ns.get(vehicle_id, stamp_ns))
+
     def _reanchor(self, origin_ns: int) -> None:
         """Before the first release: move the origin to an earlier stamp and file the open reports again."""
         reports = [(r, self._arrived_s[i][r.vehicle_id]) for i, rs in self._open.items() for r in rs]
@@ -122,9 +141,16 @@ class StepAssembler:
     def _complete(self, index: int, expected: set[str]) -> bool:
         if index != self._next:  # the first step, or a gap before it: wait for the timeout
             return False
-        reported = self._arrived_s[index]
-        return all(v in reported or self._latest_step.get(v, -(2**62)) > index + self.reorder_steps
-                   for v in expected)
+        reported, stamp = self._arrived_s[index], self.stamp_of(index)
+
+        def done(vehicle_id: str) -> bool:
+            if self._latest_step.get(vehicle_id, -(2**62)) > index + self.reorder_steps:
+                return True  # two steps on: neither its report nor its nav for this step is waited for
+            nav = self._latest_nav_ns.get(vehicle_id)
+            sends_nav = nav is not None and nav > stamp - self.step_ns
+            return vehicle_id in reported and (not sends_nav or nav >= stamp)
+
+        return all(done(v) for v in expected)
 
     def deadline_s(self, index: int, expected: set[str]) -> float:
         """When step ``index`` times out: ``max_wait_s`` after half the expected vehicles (at least one)

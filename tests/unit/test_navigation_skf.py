@@ -244,3 +244,27 @@ def test_out_of_order_measurements_are_refused() -> None:
     estimate = initial(params, 5 * NS, [0.0, 0.0], 3.0, 0.0)
     with pytest.raises(ValueError, match="older"):
         nav_update(params, estimate, NavMeasurement(4 * NS, ins=(1.0, 0.0, 1.0)))
+
+
+def test_the_one_gaussian_update_is_the_routeless_skf() -> None:
+    """Without a route GPB2 has one mode: gaussian_update must give nav_update's estimate (to rounding)."""
+    from gcs.core.navigation.skf import NavGaussian, gaussian_update
+
+    rng = np.random.default_rng(11)
+    params = NavParams()
+    xy, heading = _circle(0.0)
+    mixture = initial(params, 0, xy, 2.0, heading, 25.0 * np.array([math.cos(heading), math.sin(heading)]))
+    single = NavGaussian(mixture.stamp_ns, mixture.mean, mixture.cov)
+    for k in range(1, 60):
+        t = 0.2 * k
+        xy, heading = _circle(t)
+        fix = k < 20 or k > 40  # a GPS outage in the middle: INS alone
+        measurement = NavMeasurement(round(t * 1e9), ins=(5.0 + rng.normal(0, 0.1), 0.01 + rng.normal(0, 1e-3), 0.2),
+                                     gps_xy=xy + rng.normal(0, 2.0, 2) if fix else None, gps_std_m=2.0 if fix else None,
+                                     heading_rad=heading if fix else None)
+        mixture = nav_update(params, mixture, measurement)
+        single = gaussian_update(params, single, measurement)
+        assert single.stamp_ns == mixture.stamp_ns
+        assert np.allclose(single.mean, mixture.mean, rtol=0, atol=1e-9)
+        assert np.allclose(single.cov, mixture.cov, rtol=1e-9, atol=1e-12)
+    assert single.cov[0, 0] > 0.0
