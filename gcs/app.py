@@ -63,7 +63,7 @@ from gcs.daemon.fusion import (FusionDiverged, PlanMemory, fuse_step, plan_comma
                                with_observers)
 from gcs.core.world import World
 from gcs.daemon.ingest import Ingest
-from gcs.daemon.planning import Planner, PlanJob, PlanOutcome, start_planner
+from gcs.daemon.planning import PLANNER_NICENESS, Planner, PlanJob, PlanOutcome, start_planner
 from gcs.daemon.live import LiveMap
 from gcs.daemon.navigation import NAVIGATION_MODES, FleetNavigator
 from gcs.daemon.registry import Registry
@@ -113,6 +113,8 @@ class DaemonOptions:
         default: a child process, so that planning never takes the interpreter
         from the loop), ``thread``, or ``inline`` (in the loop, each plan applied
         before the next step is fused).
+    planner_niceness : int
+        How much lower the planner process's priority is (0-19; :data:`gcs.daemon.planning.PLANNER_NICENESS`).
     http : (host, port) or None
         Serve the live map there (:mod:`gcs.daemon.live`; port 0 picks a free
         one); None: no page.
@@ -139,6 +141,7 @@ class DaemonOptions:
     plan_fraction: float = 0.6
     record: Path | None = None
     planner_mode: str = "process"
+    planner_niceness: int = PLANNER_NICENESS
     http: tuple[str, int] | None = None
     foxglove: FoxgloveOptions | None = None
     accept_unlisted: bool = False
@@ -275,7 +278,7 @@ class Daemon:
             return
         self._opened = True
         self.planner = start_planner(self.options.planner_mode, self.scenario, self.world, self.planner_name,
-                                     self.options.seed, self._subset)
+                                     self.options.seed, self._subset, self.options.planner_niceness)
         if self.options.http is not None or self.options.foxglove is not None:
             try:
                 self.live = LiveMap.open(self.options.http, self.scenario, self.world,

@@ -14,6 +14,10 @@ from pathlib import Path
 from gcs.bench import PLANNERS
 from gcs.bench.urban_nav import NAVIGATION_MODES
 
+DAEMON_NAVIGATION = ("skf", "reported")
+"""The daemon's ``--navigation`` choices (:data:`gcs.daemon.navigation.NAVIGATION_MODES`, not imported: the
+parser stays light)."""
+
 PLOTS_HELP = "write PNG plots and a markdown table (<benchmark>.md) into DIR"
 
 
@@ -109,10 +113,11 @@ def _cmd_daemon(args: argparse.Namespace) -> int:
 
     scenario = load_scenario(args.scenario)
     command = (f"gcs bench daemon --scenario {args.scenario} --vehicles {' '.join(map(str, args.vehicles))} "
-               f"--seconds {args.seconds:g} --solve-steps {args.solve_steps}")
+               f"--seconds {args.seconds:g} --solve-steps {args.solve_steps} --navigation {args.navigation}")
     profiler = cProfile.Profile() if args.profile else None
     report = daemon.run_benchmark(scenario, build_world(scenario), vehicle_counts=args.vehicles, seconds=args.seconds,
-                                  solve_steps=args.solve_steps, command=command, progress=_progress, profiler=profiler)
+                                  solve_steps=args.solve_steps, command=command, progress=_progress, profiler=profiler,
+                                  navigation=args.navigation)
     print(daemon.format_report(report))
     if args.json:
         daemon.write_json(report, args.json)
@@ -320,6 +325,10 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     dmn.add_argument("--seconds", type=_positive_float, default=3.0, help="seconds per rate trial (default 3)")
     dmn.add_argument("--solve-steps", type=_non_negative_int, default=5,
                      help="real-time decision steps to time the GA's solve over, 0 to skip (default 5)")
+    dmn.add_argument("--navigation", choices=DAEMON_NAVIGATION, default="skf",
+                     help="the daemon's --navigation: skf (default, as gcs run) with one NavReport per vehicle per "
+                          "round beside its sensor report (GPS fix, INS; not counted in the rate), or reported "
+                          "(sensor reports alone)")
     dmn.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     dmn.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
     dmn.add_argument("--profile", type=Path, metavar="FILE",

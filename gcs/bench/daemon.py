@@ -168,12 +168,13 @@ class _Run:
     """
 
     def __init__(self, scenario: Scenario, world: World, planner: str, endpoint: str, conn,
-                 profiler: cProfile.Profile | None = None) -> None:
+                 profiler: cProfile.Profile | None = None, navigation: str = "skf") -> None:
         self.conn, self.profiler = conn, profiler
         self.roster = [v.id for v in scenario.vehicles]
         self.log: list[StepTiming] = []
         self.plans: list[PlanTiming] = []
-        options = DaemonOptions(zenoh=ZenohSettings(mode="peer", listen=(), connect=(endpoint,)), planner=planner)
+        options = DaemonOptions(zenoh=ZenohSettings(mode="peer", listen=(), connect=(endpoint,)), planner=planner,
+                                navigation=navigation)
         self.daemon = Daemon(scenario, world, options, on_step=self._on_step, on_plan=self._on_plan)
 
     def _on_step(self, record: StepRecord) -> None:
@@ -327,12 +328,13 @@ def _fmt(value: float | None, digits: int = 2) -> str:
 
 
 def _measure(scenario: Scenario, world: World, seconds: float, solve_steps: int, ga_planner: str,
-             say: Callable[[str], None], profiler: cProfile.Profile | None) -> dict:
+             say: Callable[[str], None], profiler: cProfile.Profile | None, navigation: str = "skf") -> dict:
     """The rate search (orbit) and the GA's solve time for one scenario, against one load process."""
     endpoint = f"tcp/{LOCALHOST}:{free_tcp_port()}"
     context = multiprocessing.get_context("spawn")
     ours, theirs = context.Pipe()
-    load = context.Process(target=publisher_main, args=(theirs, endpoint, Fleet.of(scenario)), daemon=True)
+    fleet = Fleet.of(scenario, nav_per_round=navigation == "skf")
+    load = context.Process(target=publisher_main, args=(theirs, endpoint, fleet), daemon=True)
     load.start()
     theirs.close()  # so that a dead load process reads as EOF here
     try:
@@ -343,11 +345,11 @@ def _measure(scenario: Scenario, world: World, seconds: float, solve_steps: int,
         except EOFError:
             raise RuntimeError("the load process died while starting") from None
         count = len(scenario.vehicles)
-        search = _Run(scenario, world, LATENCY_PLANNER, endpoint, ours, profiler)
+        search = _Run(scenario, world, LATENCY_PLANNER, endpoint, ours, profiler, navigation)
         trials = search.run(_search(search, seconds, count / scenario.time.step_s, say))
         ga = None
         if solve_steps > 0:
-            realtime = _Run(scenario, world, ga_planner, endpoint, ours)
+            realtime = _Run(scenario, world, ga_planner, endpoint, ours, navigation=navigation)
             ga = realtime.run(_realtime(realtime, solve_steps, scenario.time.step_s))
             say(f"{count} vehicles, {ga_planner} in real time: solve median {_fmt(ga.solve_ms_median, 1)} ms, "
                 f"p99 {_fmt(ga.solve_ms_p99, 1)} ms over {ga.planned_steps} steps; latency p50/p99 "
@@ -407,7 +409,8 @@ def _load_average() -> str:
 
 def run_benchmark(scenario: Scenario, world: World, vehicle_counts: Sequence[int] = (10, 50, 100),
                   seconds: float = 3.0, solve_steps: int = 5, command: str = "",
-                  progress: Callable[[str], None] | None = None, profiler: cProfile.Profile | None = None) -> dict:
+                  progress: Callable[[str], None] | None = None, profiler: cProfile.Profile | None = None,
+                  navigation: str = "skf") -> dict:
     """Measure every vehicle count; returns the report (see :func:`write_json`).
 
     ``profiler`` (optional) profiles the daemon's loop during the rate searches.
@@ -418,7 +421,7 @@ def run_benchmark(scenario: Scenario, world: World, vehicle_counts: Sequence[int
     note, load_start = machine_note(), _load_average()
     started = time.monotonic()
     per_count = {str(count): _measure(with_vehicles(scenario, count), world, seconds, solve_steps, ga_planner, say,
-                                      profiler) for count in vehicle_counts}
+                                      profiler, navigation) for count in vehicle_counts}
     largest = str(max(vehicle_counts))
     rates = [row["max_reports_per_s_no_loss"] for row in per_count.values()]
     at_goal = [row["latency_at_reports_per_s"] == GOAL_REPORTS_PER_S for row in per_count.values()]
@@ -426,7 +429,7 @@ def run_benchmark(scenario: Scenario, world: World, vehicle_counts: Sequence[int
     return {
         "scenario": scenario.name, "command": command, "machine": note,
         "load_average": {"start": load_start, "end": _load_average()},
-        "latency_planner": LATENCY_PLANNER, "solve_planner": ga_planner,
+        "latency_planner": LATENCY_PLANNER, "solve_planner": ga_planner, "navigation": navigation,
         "seconds_per_trial": seconds, "grace_s": GRACE_S, "wall_s": time.monotonic() - started,
         "vehicles": per_count,
         "max_reports_per_s_no_loss": min(rates),
@@ -445,7 +448,9 @@ def format_report(report: dict) -> str:
         f"daemon benchmark: {report['command'] or 'gcs bench daemon'}",
         f"machine: {report['machine']}; load average {report['load_average']['start']} at start, "
         f"{report['load_average']['end']} at the end (1/5/15 min)",
-        f"scenario {report['scenario']}; load in a separate process over Zenoh TCP on 127.0.0.1; "
+        f"scenario {report['scenario']}; daemon --navigation {report.get('navigation', 'reported')}"
+        f"{' (and a NavReport per vehicle per round)' if report.get('navigation') == 'skf' else ''}; "
+        "load in a separate process over Zenoh TCP on 127.0.0.1; "
         f"{report['seconds_per_trial']:g} s per trial; no loss = every report accepted and the daemon within "
         f"{report['grace_s']:g} s of the last one; latency = last report of a step sent -> its commands put, "
         f"less the planner thread's share ({report['latency_planner']} planner; at 5,000 reports/s, else at the "

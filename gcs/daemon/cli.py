@@ -15,7 +15,7 @@ from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, se
 from gcs.config import ScenarioError
 from gcs.daemon.navigation import NAVIGATION_MODES
 from gcs.daemon.status_cli import add_status, format_status, query_status
-from gcs.daemon.planning import PLANNER_MODES
+from gcs.daemon.planning import PLANNER_MODES, PLANNER_NICENESS
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
 from gcs.tracking import PLANNERS
 from gcs.world_loader import build_world
@@ -43,6 +43,10 @@ def add_daemon_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--plan-in", choices=PLANNER_MODES, default="process", dest="planner_mode",
                         help="where plans are made: a child process (default), a thread of the daemon, or inline "
                              "in its loop (each plan before the next step is fused)")
+    parser.add_argument("--planner-nice", type=_niceness, default=PLANNER_NICENESS, dest="planner_niceness",
+                        metavar="N", help=f"how much lower the planner process's priority is, 0-19 (default "
+                                          f"{PLANNER_NICENESS}: it gets what the loop leaves; lower it on a machine "
+                                          "busy with other programs)")
     add_http_argument(parser, "the live map (vehicles, track, plans, status)")
     add_foxglove_arguments(parser)
     parser.add_argument("--accept-unlisted", action="store_true",
@@ -57,6 +61,13 @@ def add_navigation_argument(parser: argparse.ArgumentParser) -> None:
                         help="vehicle positions for fusion: skf (default) runs feng2019's switching Kalman filter on "
                              "each vehicle's NavReports (GPS + INS) and fuses with its covariance; reported takes "
                              "each SensorReport's own position as exact")
+
+
+def _niceness(text: str) -> int:
+    value = int(text)
+    if not 0 <= value <= 19:
+        raise argparse.ArgumentTypeError(f"must be 0-19, got {value}")
+    return value
 
 
 def add_run(sub: argparse._SubParsersAction) -> None:
@@ -83,7 +94,8 @@ def build_daemon(args: argparse.Namespace, **kwargs):
     options = DaemonOptions(zenoh=zenoh, prefix=args.prefix,
                             mavlink=connections_from_arguments(args, [v.id for v in scenario.vehicles]),
                             signing_key=signing_key_from_arguments(args), seed=args.seed, planner=args.planner,
-                            record=args.record, planner_mode=args.planner_mode, http=args.http,
+                            record=args.record, planner_mode=args.planner_mode,
+                            planner_niceness=args.planner_niceness, http=args.http,
                             foxglove=foxglove_options(args), accept_unlisted=args.accept_unlisted,
                             navigation=args.navigation)
     base_dir = scenario_base_dir(args.scenario)

@@ -138,3 +138,22 @@ def test_a_planner_process_that_dies_is_started_again() -> None:
     finally:
         planner.close()
     assert not planner._process.is_alive()
+
+
+@pytest.mark.parametrize("niceness", [0, 7])
+def test_the_planner_process_runs_that_much_below_the_daemon(niceness: int) -> None:
+    import os
+
+    planner = ProcessPlanner(SCENARIO, WORLD, PLANNER, seed=3, niceness=niceness)
+    try:
+        planner.submit(_job(1))
+        _wait_for(planner, 1)  # the child has reniced itself before it said it was ready
+        ours = os.getpriority(os.PRIO_PROCESS, 0)
+        assert os.getpriority(os.PRIO_PROCESS, planner._process.pid) == min(ours + niceness, 19)
+    finally:
+        planner.close()
+
+
+def test_a_niceness_outside_0_19_is_refused() -> None:
+    with pytest.raises(ValueError, match="0-19"):
+        ProcessPlanner(SCENARIO, WORLD, PLANNER, seed=3, niceness=20)
