@@ -183,6 +183,17 @@ class LocalFrame:
         delta = geodetic_to_ecef(lat_deg, lon_deg, height_m) - self._origin_ecef
         return delta @ self._rotation.T
 
+    def to_enu_each(self, lat_deg: ArrayLike, lon_deg: ArrayLike, height_m: ArrayLike) -> NDArray[np.float64]:
+        """:meth:`to_enu` with each point computed by itself, shape (..., 3).
+
+        The rotation is applied with elementwise products and sums instead of a matrix
+        product, whose rounding depends on how many points share the call; here a point's
+        result is the same bit for bit whatever else is converted with it.
+        """
+        d = geodetic_to_ecef(lat_deg, lon_deg, height_m) - self._origin_ecef
+        r = self._rotation
+        return np.stack([r[k, 0] * d[..., 0] + r[k, 1] * d[..., 1] + r[k, 2] * d[..., 2] for k in range(3)], axis=-1)
+
     def to_geodetic(
         self, enu: ArrayLike
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:

@@ -72,7 +72,8 @@ from numpy.typing import NDArray
 from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
 from gcs.daemon.ingest import MAX_ABS_POSITION_M
-from gcs.core.navigation.skf import (MIN_GPS_FIX, NavGaussian, NavParams, gaussian_update, initial, nav_measurement,
+from gcs.core.navigation.fleet_ekf import gaussian_updates
+from gcs.core.navigation.skf import (MIN_GPS_FIX, NavGaussian, NavParams, initial, nav_measurements,
                                      position_at)
 from protocols.messages import NavReport
 
@@ -148,46 +149,69 @@ class FleetNavigator:
         heapq.heappush(pending, (nav.stamp_ns, nav.seq, next(self._arrival), nav))
         if len(pending) > MAX_BUFFERED:
             self.counters["nav.applied_early"] += 1
-            self._apply(heapq.heappop(pending)[3])
+            self._apply([heapq.heappop(pending)[3]])
         return True
 
     def advance_to(self, stamp_ns: int) -> None:
         """Apply, vehicle by vehicle in stamp order, every buffered report stamped ``<= stamp_ns``.
 
-        Later calls with an earlier stamp apply nothing; the navigator never goes back.
+        The reports go in rounds, the r-th due report of every vehicle in round r,
+        each round's vehicles updated together (:func:`gcs.core.navigation.fleet_ekf.gaussian_updates`:
+        a vehicle's result does not depend on the others'). Later calls with an earlier
+        stamp apply nothing; the navigator never goes back.
         """
+        due: list[list[NavReport]] = []
         for vehicle_id in self.roster:
             pending = self._pending[vehicle_id]
+            reports = []
             while pending and pending[0][0] <= stamp_ns:
-                self._apply(heapq.heappop(pending)[3])
+                reports.append(heapq.heappop(pending)[3])
+            if reports:
+                due.append(reports)
+        for rank in range(max((len(reports) for reports in due), default=0)):
+            self._apply([reports[rank] for reports in due if len(reports) > rank])
         self.advanced_ns = stamp_ns if self.advanced_ns is None else max(self.advanced_ns, stamp_ns)
 
-    def _apply(self, nav: NavReport) -> None:
-        """One report into its vehicle's filter; whatever it holds, nothing raises."""
-        vehicle_id = nav.vehicle_id
+    def _apply(self, navs: list[NavReport]) -> None:
+        """One report of each of several vehicles into their filters; whatever they hold, nothing raises."""
         try:
-            measurement = nav_measurement(nav, self.frame)
-            estimate = self._estimates.get(vehicle_id)
-            if estimate is None:
-                if measurement.gps_xy is None:
-                    self.counters["nav.waiting_for_fix"] += 1
-                    return
-                new = self._initial(nav, measurement)
-            else:
-                new = gaussian_update(self.params, estimate, measurement)
-            if not (np.all(np.isfinite(new.mean)) and np.all(np.isfinite(new.cov))):
-                raise ValueError("the navigation estimate is not finite")
-            if not np.all(np.abs(new.mean[:2]) <= MAX_ABS_POSITION_M):
-                raise ValueError(f"position {new.mean[:2]} m is beyond {MAX_ABS_POSITION_M:g} m of the origin")
-        except (ValueError, ArithmeticError, np.linalg.LinAlgError) as error:
-            self.counters["rejected.nav_update"] += 1
-            log.debug("nav report %s/%d at %d ns refused: %s", vehicle_id, nav.seq, nav.stamp_ns, error)
+            measurements = nav_measurements(navs, self.frame)
+        except (ValueError, ArithmeticError) as error:  # ingest checked them: one at a time to find the bad one
+            if len(navs) == 1:
+                self._refused(navs[0], error)
+                return
+            for nav in navs:
+                self._apply([nav])
             return
-        self._estimates[vehicle_id] = new
-        fix = nav.gps is not None and nav.gps.fix_type >= MIN_GPS_FIX
-        self._fix[vehicle_id] = fix
-        self._vertical_var[vehicle_id] = float(nav.gps.v_acc_m) ** 2 if fix else 0.0
-        self.counters["nav.applied"] += 1
+        updating = [i for i, nav in enumerate(navs) if nav.vehicle_id in self._estimates]
+        updated = dict(zip(updating, gaussian_updates(self.params, [self._estimates[navs[i].vehicle_id] for i in updating],
+                                                      [measurements[i] for i in updating])))
+        for i, (nav, measurement) in enumerate(zip(navs, measurements)):
+            new = updated.get(i)
+            try:
+                if new is None:
+                    if measurement.gps_xy is None:
+                        self.counters["nav.waiting_for_fix"] += 1
+                        continue
+                    new = self._initial(nav, measurement)
+                if isinstance(new, Exception):
+                    raise new
+                if not (np.all(np.isfinite(new.mean)) and np.all(np.isfinite(new.cov))):
+                    raise ValueError("the navigation estimate is not finite")
+                if not np.all(np.abs(new.mean[:2]) <= MAX_ABS_POSITION_M):
+                    raise ValueError(f"position {new.mean[:2]} m is beyond {MAX_ABS_POSITION_M:g} m of the origin")
+            except (ValueError, ArithmeticError, np.linalg.LinAlgError) as error:
+                self._refused(nav, error)
+                continue
+            self._estimates[nav.vehicle_id] = new
+            fix = nav.gps is not None and nav.gps.fix_type >= MIN_GPS_FIX
+            self._fix[nav.vehicle_id] = fix
+            self._vertical_var[nav.vehicle_id] = float(nav.gps.v_acc_m) ** 2 if fix else 0.0
+            self.counters["nav.applied"] += 1
+
+    def _refused(self, nav: NavReport, error: Exception) -> None:
+        self.counters["rejected.nav_update"] += 1
+        log.debug("nav report %s/%d at %d ns refused: %s", nav.vehicle_id, nav.seq, nav.stamp_ns, error)
 
     def _initial(self, nav: NavReport, measurement) -> NavGaussian:
         """The first estimate: the fix, the reported heading or the velocity's direction (else unknown)."""

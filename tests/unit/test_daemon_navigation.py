@@ -93,6 +93,29 @@ def test_a_shuffled_arrival_within_the_window_gives_the_same_estimates(seed) -> 
     assert navigator.counters["nav.applied"] == len([r for r in navs if r.stamp_ns <= EPOCH_NS + 29 * S])
 
 
+def test_a_vehicles_estimate_does_not_depend_on_the_other_vehicles_updated_with_it() -> None:
+    # each round of due reports is one batched update (gcs.core.navigation.fleet_ekf): a vehicle whose
+    # companions' nav is missing (or late) must get the same numbers, bit for bit, as in a full round
+    rng = np.random.default_rng(5)
+    own = _navs("uav1", 20, rng, denied=(6.0, 12.0))
+    others = _navs("uav2", 20, rng) + _navs("uav3", 20, rng, denied=(2.0, 6.0))
+    alone, together = _navigator(), _navigator()
+    for k in range(20):
+        stamp = EPOCH_NS + k * S
+        for report in own:
+            if stamp - S < report.stamp_ns <= stamp or (k == 0 and report.stamp_ns <= stamp):
+                alone.add(report)
+                together.add(report)
+        for report in others:
+            if stamp - S < report.stamp_ns <= stamp or (k == 0 and report.stamp_ns <= stamp):
+                together.add(report)
+        alone.advance_to(stamp)
+        together.advance_to(stamp)
+        a, b = alone.position_at("uav1", stamp), together.position_at("uav1", stamp)
+        assert a is not None and np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
+    assert together.counters["nav.applied"] > alone.counters["nav.applied"] > 90
+
+
 def test_the_covariance_grows_without_gps_and_shrinks_when_the_fix_returns_and_tracks_the_truth() -> None:
     rng = np.random.default_rng(4)
     navigator = _navigator()

@@ -46,7 +46,8 @@ from gcs.core.navigation.route import (OFF_ROUTE, RouteSegment, TransitionModel,
 from protocols.messages import NavReport
 
 __all__ = ["NavParams", "NavMeasurement", "NavEstimate", "NavGaussian", "nav_measurement", "initial", "from_gaussian",
-           "predict_modes", "predict_gaussian", "nav_update", "gaussian_update", "position", "position_at"]
+           "predict_modes", "predict_gaussian", "nav_update", "gaussian_update", "nav_measurements", "position",
+           "position_at"]
 
 NS_PER_S = 1_000_000_000
 MIN_GPS_FIX = 2
@@ -149,16 +150,32 @@ def nav_measurement(report: NavReport, frame: LocalFrame) -> NavMeasurement:
     reported heading is its own dead reckoning from the same INS increments, and
     using it would count them twice.
     """
-    gps_xy = gps_std = heading = None
-    if report.gps is not None and report.gps.fix_type >= MIN_GPS_FIX:
-        enu = frame.to_enu(report.gps.lat_deg, report.gps.lon_deg, report.gps.alt_m)
-        gps_xy, gps_std = np.asarray(enu, dtype=np.float64)[:2].copy(), float(report.gps.h_acc_m)
-        heading = report.heading_rad
-    ins = None
-    if report.ins is not None:
-        ins = (float(report.ins.distance_m), float(report.ins.heading_change_rad), float(report.ins.dt_s))
-    velocity = None if report.velocity_enu_mps is None else np.asarray(report.velocity_enu_mps[:2], dtype=np.float64)
-    return NavMeasurement(report.stamp_ns, ins, gps_xy, gps_std, velocity, heading)
+    return nav_measurements([report], frame)[0]
+
+
+def nav_measurements(reports: Sequence[NavReport], frame: LocalFrame) -> list[NavMeasurement]:
+    """:func:`nav_measurement` of each report, the fixes converted to ENU in one call
+    (:meth:`LocalFrame.to_enu_each`: a report's result does not depend on the others)."""
+    fixed = [i for i, r in enumerate(reports) if r.gps is not None and r.gps.fix_type >= MIN_GPS_FIX]
+    enu = None
+    if fixed:
+        enu = frame.to_enu_each(np.array([reports[i].gps.lat_deg for i in fixed]),
+                                np.array([reports[i].gps.lon_deg for i in fixed]),
+                                np.array([reports[i].gps.alt_m for i in fixed]))
+    positions = dict(zip(fixed, range(len(fixed))))
+    out = []
+    for i, report in enumerate(reports):
+        gps_xy = gps_std = heading = None
+        if i in positions:
+            gps_xy, gps_std = enu[positions[i], :2].copy(), float(report.gps.h_acc_m)
+            heading = report.heading_rad
+        ins = None
+        if report.ins is not None:
+            ins = (float(report.ins.distance_m), float(report.ins.heading_change_rad), float(report.ins.dt_s))
+        velocity = None if report.velocity_enu_mps is None else np.asarray(report.velocity_enu_mps[:2],
+                                                                             dtype=np.float64)
+        out.append(NavMeasurement(report.stamp_ns, ins, gps_xy, gps_std, velocity, heading))
+    return out
 
 
 @dataclass(frozen=True)
