@@ -65,7 +65,7 @@ from gcs.core.world import World
 from gcs.daemon.ingest import Ingest
 from gcs.daemon.planning import PLANNER_NICENESS, Planner, PlanJob, PlanOutcome, start_planner
 from gcs.daemon.live import LiveMap
-from gcs.daemon.navigation import NAVIGATION_MODES, FleetNavigator
+from gcs.daemon.navigation import navigator_for
 from gcs.daemon.registry import Registry
 from gcs.daemon.steps import ReadyStep, StepAssembler
 from gcs.tracking import observer_sensor_model, scenario_planner, subset_config, tracker_config
@@ -126,9 +126,11 @@ class DaemonOptions:
         are never planned for or commanded.
     navigation : str
         Where a detection's vehicle position comes from (:data:`gcs.daemon.navigation.NAVIGATION_MODES`):
-        ``skf`` (the default) runs feng2019's SKF on each roster vehicle's ``NavReport``s and fuses with its
+        ``skf`` runs feng2019's SKF on each roster vehicle's ``NavReport``s and fuses with its
         estimate and covariance (steps then wait for the nav reports, :mod:`gcs.daemon.steps`);
-        ``reported`` takes the ``SensorReport``'s own position as exact.
+        ``reported`` takes the ``SensorReport``'s own position as exact; ``auto`` (the default) is
+        ``skf`` for a scenario with GPS-denied zones, else ``reported``
+        (:func:`gcs.daemon.navigation.navigator_for`).
     """
 
     zenoh: ZenohSettings
@@ -145,7 +147,7 @@ class DaemonOptions:
     http: tuple[str, int] | None = None
     foxglove: FoxgloveOptions | None = None
     accept_unlisted: bool = False
-    navigation: str = "skf"
+    navigation: str = "auto"
 
 
 @dataclass(frozen=True)
@@ -229,9 +231,7 @@ class Daemon:
         self.vehicle_config = {v.id: v for v in scenario.vehicles}
         self.ingest = Ingest(set(self.roster), options.prefix, accept_unlisted=options.accept_unlisted)
         self.steps = StepAssembler(round(scenario.time.step_s * NS_PER_S), options.max_wait_s)
-        if options.navigation not in NAVIGATION_MODES:
-            raise ValueError(f"unknown navigation {options.navigation!r}; expected one of {', '.join(NAVIGATION_MODES)}")
-        self.navigator = FleetNavigator.from_scenario(scenario) if options.navigation == "skf" else None
+        self.navigator = navigator_for(options.navigation, scenario)
         self.planner_name = options.planner or scenario_planner(scenario)
         self.tracker: TrackerConfig = tracker_config(scenario, world, self.planner_name)
         self._observer_sensor = observer_sensor_model(scenario)

@@ -145,7 +145,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     summary = summarise(daemon.records, daemon.plans, daemon.roster)
     counters = daemon.status(time.monotonic()).counters
     summary.update({"scenario": daemon.scenario.name, "planner": daemon.planner_name, "rate": args.rate,
-                    "duration_s": duration, "navigation": daemon.options.navigation,
+                    "duration_s": duration, "navigation": "reported" if daemon.navigator is None else "skf",
                     "steps_released_by_timeout": counters.get("steps_released_by_timeout", 0),
                     "rejected": {k: v for k, v in counters.items() if k.startswith("rejected.")}})
     _print_summary(summary)

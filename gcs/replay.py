@@ -12,7 +12,7 @@
 * ``gcs replay FILE --process [--plan] [--out TRACKS.mcap|.csv]`` runs the
   estimator (and the planner) on the file directly, without Zenoh: the same validation, step assembly and
   fusion as the daemon (:mod:`gcs.daemon.fusion`), with the same vehicle
-  navigation (``--navigation``, default ``skf``: :mod:`gcs.daemon.navigation`),
+  navigation (``--navigation``, default ``auto``: :mod:`gcs.daemon.navigation`),
   so a recording of a live run gives back the daemon's tracks bit for bit,
   provided no report or nav report was late in the live run (the daemon's
   ``rejected.late`` and ``rejected.late_nav`` counters are zero).
@@ -48,7 +48,7 @@ from gcs.core.tracker import plan, prediction
 from gcs.core.world import World
 from gcs.daemon.fusion import FusionDiverged, PlanMemory, fuse_step, plan_commands, track_message
 from gcs.daemon.ingest import Ingest
-from gcs.daemon.navigation import NAVIGATION_MODES, FleetNavigator
+from gcs.daemon.navigation import navigator_for
 from gcs.daemon.registry import Registry
 from gcs.daemon.steps import StepAssembler
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
@@ -120,7 +120,7 @@ def summarise(path: Path) -> dict:
 # ---------------------------------------------------------------- --process
 
 def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world: World | None = None,
-            seed: int = 0, navigation: str = "skf") -> tuple[list[TrackEstimate], list[PlanCommand], Counter]:
+            seed: int = 0, navigation: str = "auto") -> tuple[list[TrackEstimate], list[PlanCommand], Counter]:
     """The daemon's estimation (and planning, with a ``world``) on a recording.
 
     Messages go through the same :class:`Ingest` and :class:`StepAssembler` as in
@@ -130,7 +130,8 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
     as live. With a ``world`` every step is also planned for the vehicles alive
     then, as the daemon plans, but to the end of every generation (no deadline),
     so the plans are reproducible; the daemon's own plans stop at its deadline.
-    ``navigation`` is the daemon's ``--navigation``: with ``skf`` the nav reports feed the
+    ``navigation`` is the daemon's ``--navigation``: with ``skf`` (or ``auto`` on a scenario with GPS-denied
+    zones) the nav reports feed the
     same :class:`FleetNavigator`, advanced to each step's stamp before it is fused, and
     the steps wait for them as live.
 
@@ -141,9 +142,7 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
     roster = [v.id for v in scenario.vehicles]
     ingest = Ingest(set(roster), prefix)
     steps = StepAssembler(round(scenario.time.step_s * NS_PER_S))
-    if navigation not in NAVIGATION_MODES:
-        raise ValueError(f"unknown navigation {navigation!r}; expected one of {', '.join(NAVIGATION_MODES)}")
-    navigator = FleetNavigator.from_scenario(scenario) if navigation == "skf" else None
+    navigator = navigator_for(navigation, scenario)
     registry = Registry(list(scenario.vehicles), heartbeat_age=lambda vehicle, now: None)
     rng = np.random.default_rng(seed)
     reporters: set[str] = set()

@@ -14,7 +14,7 @@ from pathlib import Path
 from gcs.bench import PLANNERS
 from gcs.bench.urban_nav import NAVIGATION_MODES
 
-DAEMON_NAVIGATION = ("skf", "reported")
+DAEMON_NAVIGATION = ("auto", "skf", "reported")
 """The daemon's ``--navigation`` choices (:data:`gcs.daemon.navigation.NAVIGATION_MODES`, not imported: the
 parser stays light)."""
 
@@ -325,10 +325,10 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     dmn.add_argument("--seconds", type=_positive_float, default=3.0, help="seconds per rate trial (default 3)")
     dmn.add_argument("--solve-steps", type=_non_negative_int, default=5,
                      help="real-time decision steps to time the GA's solve over, 0 to skip (default 5)")
-    dmn.add_argument("--navigation", choices=DAEMON_NAVIGATION, default="skf",
-                     help="the daemon's --navigation: skf (default, as gcs run) with one NavReport per vehicle per "
-                          "round beside its sensor report (GPS fix, INS; not counted in the rate), or reported "
-                          "(sensor reports alone)")
+    dmn.add_argument("--navigation", choices=DAEMON_NAVIGATION, default="auto",
+                     help="the daemon's --navigation (default auto, as gcs run); when it runs the SKF the load "
+                          "sends a NavReport per vehicle per round beside its sensor report (GPS fix; not counted "
+                          "in the rate)")
     dmn.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     dmn.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
     dmn.add_argument("--profile", type=Path, metavar="FILE",
@@ -343,9 +343,9 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     rpl.add_argument("--duration", type=_positive_float, default=300.0, help="simulated seconds (default 300)")
     rpl.add_argument("--repeats", type=_positive_int, default=5, help="timed runs; the median is reported (default 5)")
     rpl.add_argument("--seed", type=int, default=0, help="seed of the simulated scene (default 0)")
-    rpl.add_argument("--navigation", choices=("skf", "reported"), default="skf",
-                     help="replay --process's --navigation: skf (default, each vehicle's SKF on its nav reports) or "
-                          "reported")
+    rpl.add_argument("--navigation", choices=DAEMON_NAVIGATION, default="auto",
+                     help="replay --process's --navigation: auto (default: skf if the scenario declares GPS-denied "
+                          "zones, else reported), skf (each vehicle's SKF on its nav reports) or reported")
     rpl.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     rpl.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
     rpl.set_defaults(handler=_outputs_checked(_cmd_replay))

@@ -51,6 +51,7 @@ import numpy as np
 from gcs.adapters.ports import LOCALHOST, free_tcp_port
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.app import Daemon, DaemonOptions, PlanRecord, StepRecord
+from gcs.daemon.navigation import navigator_for
 from gcs.daemon.planning import START_TIMEOUT_S
 from gcs.bench.daemon_load import Fleet, publisher_main
 from gcs.bench.urban import with_vehicles
@@ -168,7 +169,7 @@ class _Run:
     """
 
     def __init__(self, scenario: Scenario, world: World, planner: str, endpoint: str, conn,
-                 profiler: cProfile.Profile | None = None, navigation: str = "skf") -> None:
+                 profiler: cProfile.Profile | None = None, navigation: str = "auto") -> None:
         self.conn, self.profiler = conn, profiler
         self.roster = [v.id for v in scenario.vehicles]
         self.log: list[StepTiming] = []
@@ -328,12 +329,12 @@ def _fmt(value: float | None, digits: int = 2) -> str:
 
 
 def _measure(scenario: Scenario, world: World, seconds: float, solve_steps: int, ga_planner: str,
-             say: Callable[[str], None], profiler: cProfile.Profile | None, navigation: str = "skf") -> dict:
+             say: Callable[[str], None], profiler: cProfile.Profile | None, navigation: str = "auto") -> dict:
     """The rate search (orbit) and the GA's solve time for one scenario, against one load process."""
     endpoint = f"tcp/{LOCALHOST}:{free_tcp_port()}"
     context = multiprocessing.get_context("spawn")
     ours, theirs = context.Pipe()
-    fleet = Fleet.of(scenario, nav_per_round=navigation == "skf")
+    fleet = Fleet.of(scenario, nav_per_round=navigator_for(navigation, scenario) is not None)
     load = context.Process(target=publisher_main, args=(theirs, endpoint, fleet), daemon=True)
     load.start()
     theirs.close()  # so that a dead load process reads as EOF here
@@ -410,7 +411,7 @@ def _load_average() -> str:
 def run_benchmark(scenario: Scenario, world: World, vehicle_counts: Sequence[int] = (10, 50, 100),
                   seconds: float = 3.0, solve_steps: int = 5, command: str = "",
                   progress: Callable[[str], None] | None = None, profiler: cProfile.Profile | None = None,
-                  navigation: str = "skf") -> dict:
+                  navigation: str = "auto") -> dict:
     """Measure every vehicle count; returns the report (see :func:`write_json`).
 
     ``profiler`` (optional) profiles the daemon's loop during the rate searches.
@@ -430,6 +431,7 @@ def run_benchmark(scenario: Scenario, world: World, vehicle_counts: Sequence[int
         "scenario": scenario.name, "command": command, "machine": note,
         "load_average": {"start": load_start, "end": _load_average()},
         "latency_planner": LATENCY_PLANNER, "solve_planner": ga_planner, "navigation": navigation,
+        "nav_per_round": navigator_for(navigation, scenario) is not None,
         "seconds_per_trial": seconds, "grace_s": GRACE_S, "wall_s": time.monotonic() - started,
         "vehicles": per_count,
         "max_reports_per_s_no_loss": min(rates),
@@ -449,7 +451,7 @@ def format_report(report: dict) -> str:
         f"machine: {report['machine']}; load average {report['load_average']['start']} at start, "
         f"{report['load_average']['end']} at the end (1/5/15 min)",
         f"scenario {report['scenario']}; daemon --navigation {report.get('navigation', 'reported')}"
-        f"{' (and a NavReport per vehicle per round)' if report.get('navigation') == 'skf' else ''}; "
+        f"{' (SKF: a NavReport per vehicle per round too)' if report.get('nav_per_round') else ''}; "
         "load in a separate process over Zenoh TCP on 127.0.0.1; "
         f"{report['seconds_per_trial']:g} s per trial; no loss = every report accepted and the daemon within "
         f"{report['grace_s']:g} s of the last one; latency = last report of a step sent -> its commands put, "

@@ -57,10 +57,11 @@ def add_daemon_arguments(parser: argparse.ArgumentParser) -> None:
 
 def add_navigation_argument(parser: argparse.ArgumentParser) -> None:
     """``--navigation``, shared by ``gcs run``, ``gcs demo`` and ``gcs replay --process``."""
-    parser.add_argument("--navigation", choices=NAVIGATION_MODES, default="skf",
-                        help="vehicle positions for fusion: skf (default) runs feng2019's switching Kalman filter on "
-                             "each vehicle's NavReports (GPS + INS) and fuses with its covariance; reported takes "
-                             "each SensorReport's own position as exact")
+    parser.add_argument("--navigation", choices=NAVIGATION_MODES, default="auto",
+                        help="vehicle positions for fusion: skf runs feng2019's switching Kalman filter on each "
+                             "vehicle's NavReports (GPS + INS) and fuses with its covariance; reported takes each "
+                             "SensorReport's own position as exact; auto (default): skf when the scenario declares "
+                             "GPS-denied zones, else reported")
 
 
 def _niceness(text: str) -> int:

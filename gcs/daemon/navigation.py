@@ -77,12 +77,15 @@ from gcs.core.navigation.skf import (MIN_GPS_FIX, NavGaussian, NavParams, initia
                                      position_at)
 from protocols.messages import NavReport
 
-__all__ = ["NAVIGATION_MODES", "FleetNavigator", "MAX_BUFFERED", "MIN_HEADING_SPEED_MPS", "MAX_EXTRAPOLATION_S"]
+__all__ = ["NAVIGATION_MODES", "FleetNavigator", "navigator_for", "MAX_BUFFERED", "MIN_HEADING_SPEED_MPS",
+           "MAX_EXTRAPOLATION_S"]
 
 log = logging.getLogger(__name__)
 
-NAVIGATION_MODES = ("skf", "reported")
-"""``skf``: detections from this module's estimate; ``reported``: the ``SensorReport``'s own position, exact."""
+NAVIGATION_MODES = ("auto", "skf", "reported")
+"""``skf``: detections from this module's estimate; ``reported``: the ``SensorReport``'s own position, exact;
+``auto`` (the default): ``skf`` for a scenario that declares GPS-denied zones, else ``reported``
+(:func:`navigator_for`)."""
 NS_PER_S = 1_000_000_000
 MAX_BUFFERED = 1024
 """Reports buffered per vehicle (about 200 s at 5 Hz); beyond, the oldest is applied at once (``nav.applied_early``)
@@ -262,3 +265,19 @@ class FleetNavigator:
     def buffered(self, vehicle_id: str) -> int:
         """Reports waiting for their step."""
         return len(self._pending[vehicle_id])
+
+
+def navigator_for(mode: str, scenario: Scenario) -> FleetNavigator | None:
+    """The navigator a ``--navigation`` mode asks for on a scenario (None: the reported positions).
+
+    ``auto`` runs the SKF where its estimate and covariance count: in a scenario that
+    declares GPS-denied zones, where a vehicle's own position degrades while it flies
+    on its INS. Elsewhere the vehicles' reported positions (their autopilots' own
+    navigation) gave the target filter the same accuracy at a fraction of the cost
+    (``docs/benchmarks.md``: target RMSE within 1 m either way; 0.15 ms per nav report).
+    """
+    if mode not in NAVIGATION_MODES:
+        raise ValueError(f"unknown navigation {mode!r}; expected one of {', '.join(NAVIGATION_MODES)}")
+    if mode == "skf" or (mode == "auto" and scenario.gps_denied):
+        return FleetNavigator.from_scenario(scenario)
+    return None

@@ -48,7 +48,7 @@ def test_the_daemon_navigates_through_a_gps_denied_strip_and_replay_reproduces_i
     daemon = Daemon(SCENARIO, WORLD, DaemonOptions(
         zenoh=ZenohSettings(listen=(endpoint,), connect=()), record=recording,
         mavlink={v.id: f"udpin:127.0.0.1:{port}" for v in SCENARIO.vehicles}))
-    assert daemon.options.navigation == "skf"  # the default
+    assert daemon.options.navigation == "auto" and daemon.navigator is not None  # the default, on GPS-denied zones
     thread = threading.Thread(target=daemon.run, name="daemon", daemon=True)
     thread.start()
     runner = Runner(SCENARIO, WORLD, RunOptions(

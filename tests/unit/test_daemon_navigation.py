@@ -305,3 +305,14 @@ def test_against_the_simulators_truth_the_covariance_is_about_right_with_a_fix_a
     assert len(nees[False]) >= 30 and len(nees[True]) >= 200
     assert 1.0 < np.mean(nees[True]) < 3.5  # without the GPS bias term about 8-11 (module docstring)
     assert np.mean(nees[False]) < 8.0  # the INS biases, allowed for as white noise: somewhat overconfident
+
+
+def test_auto_navigation_runs_the_skf_only_where_the_scenario_declares_gps_denied_zones() -> None:
+    from gcs.daemon.navigation import navigator_for
+
+    denied = load_scenario("wang2012_gps_denied")
+    assert denied.gps_denied and not SCENARIO.gps_denied
+    assert navigator_for("auto", denied) is not None and navigator_for("auto", SCENARIO) is None
+    assert navigator_for("skf", SCENARIO) is not None and navigator_for("reported", denied) is None
+    with pytest.raises(ValueError, match="unknown navigation"):
+        navigator_for("gnss", SCENARIO)
