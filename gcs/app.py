@@ -41,9 +41,9 @@ import gc
 import logging
 import math
 import time
-from collections import Counter, deque
+from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -66,6 +66,7 @@ from gcs.daemon.ingest import Ingest
 from gcs.daemon.planning import PLANNER_NICENESS, Planner, PlanJob, PlanOutcome, start_planner
 from gcs.daemon.live import LiveMap
 from gcs.daemon.navigation import navigator_for
+from gcs.daemon.records import PlanRecord, StepRecord, StepScorer, keep_newest
 from gcs.daemon.registry import Registry
 from gcs.daemon.steps import ReadyStep, StepAssembler
 from gcs.tracking import observer_sensor_model, scenario_planner, subset_config, tracker_config
@@ -78,10 +79,6 @@ log = logging.getLogger(__name__)
 
 NS_PER_S = 1_000_000_000
 AUTOPILOT_NAMES = {3: "ArduPilot", 12: "PX4"}
-MAX_RECORDS = 100_000
-"""Step records kept in memory (about a day of 1 s steps)."""
-TRUTH_WAIT_S = 0.5
-"""Wall time a step record waits for the simulator's truth at its stamp before it is emitted unscored."""
 STEER_RATE_HZ = 4.0
 """How often the headings toward the planned paths are recomputed (the carrot rate)."""
 
@@ -151,47 +148,6 @@ class DaemonOptions:
 
 
 @dataclass(frozen=True)
-class StepRecord:
-    """What fusing one decision step did, for the demo's summary and for tests.
-
-    ``vehicles`` are those alive (planned for) when the step was fused, at
-    ``fused_ns`` (``time.time_ns``); ``error_m`` is against the simulator's truth,
-    when there is one. ``nav_std_m`` and ``gps_fix``: each navigated vehicle's horizontal
-    1-sigma and whether its last nav report had a GPS fix, when the step was fused
-    (empty with ``--navigation reported``).
-    """
-
-    index: int
-    stamp_ns: int
-    seen: dict[str, bool]
-    estimate_xy: tuple[float, float] | None
-    error_m: float | None
-    vehicles: tuple[str, ...]
-    fused_ns: int
-    nav_std_m: dict[str, float] = field(default_factory=dict)
-    gps_fix: dict[str, bool] = field(default_factory=dict)
-
-
-@dataclass(frozen=True)
-class PlanRecord:
-    """One plan the daemon applied (its commands were just put), in wall seconds.
-
-    ``waited_s``: from the step's fusion to the planner starting on it (the planner
-    was busy with the previous plan); ``planning_s``: visibility regions and
-    solve; ``solve_s``: the planner's solve alone; ``finished_ns``: ``time.time_ns``
-    when the planner finished (the commands were put after it, when the loop took the plan).
-    """
-
-    index: int
-    stamp_ns: int
-    vehicles: tuple[str, ...]
-    waited_s: float
-    planning_s: float
-    solve_s: float
-    finished_ns: int
-
-
-@dataclass(frozen=True)
 class _Aim:
     """Where a vehicle's plan takes it: the end of the planned path, and the plan's first heading."""
 
@@ -211,7 +167,6 @@ class _Loop:
     track_seq: int = 0
     plan_seq: int = 0
     last_track_stamp_ns: int | None = None
-    truth: dict[int, tuple[float, float]] = field(default_factory=dict)
     step_times: list[tuple[float, int]] = field(default_factory=list)
     aims: dict[str, _Aim] = field(default_factory=dict)
     data_rate: float = 1.0
@@ -225,7 +180,7 @@ class Daemon:
                  on_plan: Callable[[PlanRecord], None] | None = None) -> None:
         self.scenario, self.world, self.options = scenario, world, options
         self.clock = clock
-        self.on_step, self.on_plan = on_step, on_plan
+        self.on_plan = on_plan
         self.frame = LocalFrame(scenario.origin.lat_deg, scenario.origin.lon_deg, scenario.origin.height_m)
         self.roster = [v.id for v in scenario.vehicles]
         self.vehicle_config = {v.id: v for v in scenario.vehicles}
@@ -240,8 +195,8 @@ class Daemon:
         self.commander: MavlinkCommander | None = None
         self.registry = Registry(list(scenario.vehicles), self._heartbeat_age)
         self.loop = _Loop()
-        self.records: list[StepRecord] = []
-        self._unscored: deque[tuple[StepRecord, float]] = deque()
+        self.scorer = StepScorer(self.steps.step_ns, clock, on_step)
+        self.records: list[StepRecord] = self.scorer.records  # emitted in order, scored when the truth is in
         self.plans: list[PlanRecord] = []
         self.planner: Planner | None = None
         self.counters: Counter = Counter()
@@ -303,7 +258,7 @@ class Daemon:
         The commander's last view stays readable."""
         if self.planner is not None:
             self.planner.close()
-        self._score(flush=True)
+        self.scorer.score(flush=True)
         if self.commander is not None and not self._closed:
             self.commander.close()
         self._closed = True
@@ -366,7 +321,7 @@ class Daemon:
                 self.counters["errors.decision"] += 1
                 log.exception("decision step %d failed; continuing", step_.index)
             planned += self._apply_finished_plans()
-        self._score(flush=False)
+        self.scorer.score(flush=False)
         planned += self._apply_finished_plans()
         if self.commander is not None:
             if now >= self._next_steer_s:
@@ -408,9 +363,7 @@ class Daemon:
                     self.navigator.add(message)
                     self.steps.add_nav(message.vehicle_id, message.stamp_ns)
         elif isinstance(message, TargetTruth):
-            self.loop.truth[message.stamp_ns] = message.position_enu_m
-            if len(self.loop.truth) > 4096:
-                del self.loop.truth[min(self.loop.truth)]
+            self.scorer.add_truth(message.stamp_ns, message.position_enu_m)
 
     # --------------------------------------------------------------- decision
 
@@ -473,8 +426,7 @@ class Daemon:
         record = PlanRecord(job.index, job.stamp_ns, job.active, outcome.waited_s, outcome.planning_s,
                             outcome.solve_s, outcome.finished_ns)
         self.plans.append(record)
-        if len(self.plans) > MAX_RECORDS:
-            del self.plans[: MAX_RECORDS // 2]
+        keep_newest(self.plans)
         if self.on_plan is not None:
             self.on_plan(record)
 
@@ -529,7 +481,7 @@ class Daemon:
             self.commander.command(vehicle_id, HeadingCommand(heading, aim.altitude_m, aim.airspeed_mps))
 
     def _record(self, ready: ReadyStep, active: list[str], estimate) -> None:
-        """Note what the step did; it is scored against the simulator's truth once that is in (:meth:`_score`)."""
+        """Note what the step did; it is scored against the simulator's truth once that is in (:class:`StepScorer`)."""
         estimate_xy = None if estimate is None else (float(estimate.mean[0]), float(estimate.mean[1]))
         seen = {v: False for v in self.roster}
         for report in ready.reports:
@@ -543,43 +495,7 @@ class Daemon:
                     nav_std[vehicle_id], fix[vehicle_id] = std, bool(self.navigator.has_fix(vehicle_id))
         record = StepRecord(ready.index, ready.stamp_ns, seen, estimate_xy, None, tuple(active), time.time_ns(),
                             nav_std, fix)
-        self._unscored.append((record, self.clock() + TRUTH_WAIT_S))
-        self._score(flush=False)
-
-    def _score(self, flush: bool) -> None:
-        """Emit the step records, in order, each scored against the truth at its stamp.
-
-        The simulator publishes its truth beside the reports, and it may arrive
-        after the step was fused: a record waits for it until truth of a later stamp
-        has come in, or :data:`TRUTH_WAIT_S` has passed (then it is left unscored).
-        Without a truth source (real vehicles) nothing waits.
-        """
-        latest = max(self.loop.truth, default=None)
-        while self._unscored:
-            record, deadline = self._unscored[0]
-            truth = None if record.estimate_xy is None else self._truth_near(record.stamp_ns)
-            waiting = (record.estimate_xy is not None and truth is None and latest is not None
-                       and latest < record.stamp_ns + self.steps.step_ns and self.clock() < deadline)
-            if waiting and not flush:
-                return
-            self._unscored.popleft()
-            if truth is not None:
-                error = math.hypot(record.estimate_xy[0] - truth[0], record.estimate_xy[1] - truth[1])
-                record = replace(record, error_m=error)
-            self.records.append(record)
-            if len(self.records) > MAX_RECORDS:  # a daemon runs for days: keep the newest
-                del self.records[: MAX_RECORDS // 2]
-            if self.on_step is not None:
-                self.on_step(record)
-
-    def _truth_near(self, stamp_ns: int) -> tuple[float, float] | None:
-        """The simulator's truth at a stamp (within a tenth of a step), if it published one."""
-        truth = self.loop.truth.get(stamp_ns)
-        if truth is None and self.loop.truth:
-            nearest = min(self.loop.truth, key=lambda s: abs(s - stamp_ns))
-            if abs(nearest - stamp_ns) <= self.steps.step_ns // 10:
-                truth = self.loop.truth[nearest]
-        return truth
+        self.scorer.add(record)
 
     # ----------------------------------------------------------------- status
 

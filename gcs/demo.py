@@ -26,7 +26,8 @@ import numpy as np
 
 from gcs.adapters.foxglove_out import FoxgloveMissing
 from gcs.adapters.ports import free_tcp_port, free_udp_port
-from gcs.app import Daemon, PlanRecord, StepRecord
+from gcs.app import Daemon
+from gcs.daemon.records import PlanRecord, StepRecord
 from gcs.config import ScenarioError
 from gcs.daemon.cli import add_daemon_arguments, build_daemon
 from protocols.errors import ProtocolError

@@ -50,7 +50,8 @@ import numpy as np
 
 from gcs.adapters.ports import LOCALHOST, free_tcp_port
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions, PlanRecord, StepRecord
+from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.records import PlanRecord, StepRecord
 from gcs.daemon.navigation import navigator_for
 from gcs.daemon.planning import START_TIMEOUT_S
 from gcs.bench.daemon_load import Fleet, publisher_main
