@@ -62,8 +62,9 @@ The loop (reports, tracks, commands) must not wait for a CPU while plans are
 made: a plan that comes later is only older, a report or command that waits is
 late for everyone. With the planner 5 lower, ``gcs bench daemon`` (2 cores, the
 planner busy all the time) measured a report-to-command p99 of 35-38 ms at 5,000
-reports/s; 19 lower, 7-19 ms, and the plans themselves came no later (the planner
-gets what the loop leaves, a whole core on a 2-core machine). The price: against
+reports/s for 10, 50 and 100 vehicles; 19 lower, 7-19 ms for 50 and 100 and 17-38 ms
+for 10, and the plans themselves came no later (the planner gets what the loop
+leaves, a whole core on a 2-core machine). The price: against
 other busy programs at the default priority the planner gets little CPU; on such
 a machine ``gcs run --planner-nice 5`` gives it about a quarter of theirs."""
 START_TIMEOUT_S = 60.0
