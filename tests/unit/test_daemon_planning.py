@@ -10,7 +10,8 @@ import pytest
 from gcs.core.filters.uif import GaussianEstimate
 from gcs.core.kinematics import VehicleState
 from gcs.core.tracker import TrackerState, prediction
-from gcs.daemon.planning import PLANNER_MODES, PlanJob, ProcessPlanner, start_planner
+from gcs.daemon.planner_process import ProcessPlanner
+from gcs.daemon.planning import PLANNER_MODES, PlanJob, start_planner
 from gcs.scenarios import load_scenario
 from gcs.tracking import subset_config, tracker_config
 from gcs.world_loader import build_world
