@@ -45,8 +45,8 @@ def add_daemon_arguments(parser: argparse.ArgumentParser) -> None:
                              "in its loop (each plan before the next step is fused)")
     parser.add_argument("--planner-nice", type=_niceness, default=PLANNER_NICENESS, dest="planner_niceness",
                         metavar="N", help=f"how much lower the planner process's priority is, 0-19 (default "
-                                          f"{PLANNER_NICENESS}: it gets what the loop leaves; lower it on a machine "
-                                          "busy with other programs)")
+                                          f"{PLANNER_NICENESS}; 19: the loop first when reports flood in, at the "
+                                          "price of plans cut short on a busy machine)")
     add_http_argument(parser, "the live map (vehicles, track, plans, status)")
     add_foxglove_arguments(parser)
     parser.add_argument("--accept-unlisted", action="store_true",
