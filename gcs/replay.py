@@ -41,7 +41,7 @@ from gcs.adapters.foxglove_out import FoxgloveMissing, add_foxglove_arguments
 from gcs.adapters.recording import LIVELINESS_ENCODING, Recorded, Recorder, RecordingError, read_recording
 from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_io import Received
-from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, settings_from_arguments
+from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, required_settings
 from gcs.config import Scenario, ScenarioError
 from gcs.daemon.cli import add_navigation_argument
 from gcs.core.tracker import plan, prediction
@@ -338,12 +338,9 @@ def add_record(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_record(args: argparse.Namespace) -> int:
     try:
-        settings = settings_from_arguments(args)
+        settings = required_settings(args, "gcs record")
     except ValueError as error:
         log.error("%s", error)
-        return 2
-    if settings is None:
-        log.error("gcs record needs zenoh")
         return 2
     validate_prefix(args.prefix)
     stop = threading.Event()
@@ -451,10 +448,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
                       f"(--navigation {args.navigation})")
             return 0
         validate_prefix(args.prefix)
-        settings = settings_from_arguments(args)
-        if settings is None:
-            log.error("republishing needs zenoh")
-            return 2
+        settings = required_settings(args, "republishing")
         if not args.fast and not args.rate > 0:
             raise ValueError(f"--rate must be > 0, got {args.rate}")
         stop = threading.Event()

@@ -15,7 +15,7 @@ import signal
 import threading
 from dataclasses import replace
 
-from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, settings_from_arguments
+from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, required_settings
 
 __all__ = ["add_router"]
 
@@ -33,10 +33,7 @@ def add_router(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_router(args: argparse.Namespace) -> int:
     try:
-        settings = settings_from_arguments(args)
-        if settings is None:
-            raise ValueError("a router needs zenoh")
-        settings = replace(settings, mode="router")
+        settings = replace(required_settings(args, "a router"), mode="router")
     except ValueError as error:
         log.error("%s", error)
         return 2

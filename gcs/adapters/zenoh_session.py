@@ -35,7 +35,7 @@ from protocols.codec import encode, encoding_for
 from protocols.messages import Message
 
 __all__ = ["DEFAULT_ENDPOINT", "ZenohSettings", "open_session", "declare_publisher", "publish", "add_zenoh_arguments",
-           "settings_from_arguments", "query", "load_config_file"]
+           "settings_from_arguments", "required_settings", "query", "load_config_file"]
 
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 """Where the daemon listens and the vehicles connect unless told otherwise."""
@@ -156,6 +156,15 @@ def settings_from_arguments(args) -> ZenohSettings | None:
         else:
             endpoints[side] = tuple(default)
     return ZenohSettings(mode=mode, listen=endpoints["listen"], connect=endpoints["connect"], config_file=path)
+
+
+def required_settings(args, who: str) -> ZenohSettings:
+    """:func:`settings_from_arguments` for a command that cannot work without Zenoh: ValueError
+    ("<who> needs zenoh") for ``--zenoh-mode none``, as for an unreadable configuration file."""
+    settings = settings_from_arguments(args)
+    if settings is None:
+        raise ValueError(f"{who} needs zenoh (--zenoh-mode peer, client or router)")
+    return settings
 
 
 def query(session: zenoh.Session, selector: str, timeout_s: float) -> list[zenoh.Sample]:

@@ -11,7 +11,7 @@ from pathlib import Path
 from gcs.adapters.foxglove_out import FoxgloveMissing, add_foxglove_arguments, foxglove_options
 from gcs.adapters.mavlink_cli import add_mavlink_arguments, connections_from_arguments, signing_key_from_arguments
 from gcs.adapters.web import add_http_argument
-from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, settings_from_arguments
+from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, required_settings
 from gcs.config import ScenarioError
 from gcs.daemon.navigation import NAVIGATION_MODES
 from gcs.daemon.status_cli import add_status, format_status, query_status
@@ -89,9 +89,7 @@ def build_daemon(args: argparse.Namespace, **kwargs):
 
     scenario = load_scenario(args.scenario)
     validate_prefix(args.prefix)
-    zenoh = settings_from_arguments(args)
-    if zenoh is None:
-        raise ValueError("the daemon needs zenoh (--zenoh-mode peer or client)")
+    zenoh = required_settings(args, "the daemon")
     options = DaemonOptions(zenoh=zenoh, prefix=args.prefix,
                             mavlink=connections_from_arguments(args, [v.id for v in scenario.vehicles]),
                             signing_key=signing_key_from_arguments(args), seed=args.seed, planner=args.planner,

@@ -12,7 +12,7 @@ import logging
 
 import msgspec
 
-from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, query, settings_from_arguments
+from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, query, required_settings
 from protocols.codec import decode
 from protocols.errors import ProtocolError
 from protocols.keys import status_key
@@ -55,12 +55,9 @@ def format_status(status: DaemonStatus) -> list[str]:
 
 def _cmd_status(args: argparse.Namespace) -> int:
     try:
-        settings = settings_from_arguments(args)
+        settings = required_settings(args, "gcs status")
     except ValueError as error:
         log.error("%s", error)
-        return 2
-    if settings is None:
-        log.error("gcs status needs zenoh")
         return 2
     try:
         status = query_status(settings, args.prefix, args.timeout)

@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, settings_from_arguments
+from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, required_settings, settings_from_arguments
 
 FILE = """{
   // zenoh's JSON5: comments and trailing commas allowed
@@ -60,6 +60,12 @@ def test_without_a_file_nothing_changes() -> None:
     assert (settings.mode, list(settings.connect), list(settings.listen), settings.config_file) == (
         "peer", ["tcp/127.0.0.1:7447"], [], None)
     assert settings_from_arguments(_parse("--zenoh-mode", "none")) is None
+
+
+def test_a_command_that_needs_zenoh_refuses_zenoh_mode_none_by_name() -> None:
+    with pytest.raises(ValueError, match="gcs record needs zenoh"):
+        required_settings(_parse("--zenoh-mode", "none"), "gcs record")
+    assert required_settings(_parse(connect=("tcp/127.0.0.1:7447",), listen=()), "gcs record").mode == "peer"
 
 
 @pytest.mark.parametrize("text", ["{ mode: ", "{ mode: \"sideways\" }"])
