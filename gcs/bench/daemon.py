@@ -52,7 +52,7 @@ from gcs.adapters.ports import LOCALHOST, free_tcp_port
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.app import Daemon, DaemonOptions
 from gcs.daemon.records import PlanRecord, StepRecord
-from gcs.daemon.navigation import navigator_for
+from gcs.daemon.navigation import runs_skf
 from gcs.daemon.planning import START_TIMEOUT_S
 from gcs.bench.daemon_load import Fleet, publisher_main
 from gcs.bench.urban import with_vehicles
@@ -335,7 +335,7 @@ def _measure(scenario: Scenario, world: World, seconds: float, solve_steps: int,
     endpoint = f"tcp/{LOCALHOST}:{free_tcp_port()}"
     context = multiprocessing.get_context("spawn")
     ours, theirs = context.Pipe()
-    fleet = Fleet.of(scenario, nav_per_round=navigator_for(navigation, scenario) is not None)
+    fleet = Fleet.of(scenario, nav_per_round=runs_skf(navigation, scenario))
     load = context.Process(target=publisher_main, args=(theirs, endpoint, fleet), daemon=True)
     load.start()
     theirs.close()  # so that a dead load process reads as EOF here
@@ -432,7 +432,7 @@ def run_benchmark(scenario: Scenario, world: World, vehicle_counts: Sequence[int
         "scenario": scenario.name, "command": command, "machine": note,
         "load_average": {"start": load_start, "end": _load_average()},
         "latency_planner": LATENCY_PLANNER, "solve_planner": ga_planner, "navigation": navigation,
-        "nav_per_round": navigator_for(navigation, scenario) is not None,
+        "nav_per_round": runs_skf(navigation, scenario),
         "seconds_per_trial": seconds, "grace_s": GRACE_S, "wall_s": time.monotonic() - started,
         "vehicles": per_count,
         "max_reports_per_s_no_loss": min(rates),

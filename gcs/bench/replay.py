@@ -26,7 +26,7 @@ from gcs.adapters.recording import Recorder
 from gcs.bench.plots import pyplot, save, write_markdown
 from gcs.config import Scenario
 from gcs.core.world import World
-from gcs.daemon.navigation import navigator_for
+from gcs.daemon.navigation import runs_skf
 from gcs.replay import process
 from protocols.codec import encode
 from protocols.keys import nav_key, report_key, truth_key
@@ -82,7 +82,7 @@ def run_benchmark(scenario: Scenario, world: World, duration_s: float = 300.0, r
             tracks = len(result)
             say(f"run {repeat + 1}/{repeats}: {times[-1] * 1e3:.0f} ms, {duration_s / times[-1]:.0f}x real time")
     median = statistics.median(times)
-    used = "reported" if navigator_for(navigation, scenario) is None else "skf"
+    used = "skf" if runs_skf(navigation, scenario) else "reported"
     return {"scenario": scenario.name, "navigation": navigation if navigation == used else f"{navigation} ({used})", "duration_s": duration_s, "messages": counts, "file_bytes": size,
             "tracks": tracks, "repeats": repeats, "seconds_median": median, "seconds_min": min(times),
             "seconds": times,

@@ -77,7 +77,7 @@ from gcs.core.navigation.skf import (MIN_GPS_FIX, NavGaussian, NavParams, initia
                                      position_at)
 from protocols.messages import NavReport
 
-__all__ = ["NAVIGATION_MODES", "FleetNavigator", "navigator_for", "MAX_BUFFERED", "MIN_HEADING_SPEED_MPS",
+__all__ = ["NAVIGATION_MODES", "FleetNavigator", "navigator_for", "runs_skf", "MAX_BUFFERED", "MIN_HEADING_SPEED_MPS",
            "MAX_EXTRAPOLATION_S"]
 
 log = logging.getLogger(__name__)
@@ -276,8 +276,12 @@ def navigator_for(mode: str, scenario: Scenario) -> FleetNavigator | None:
     navigation) gave the target filter the same accuracy at a fraction of the cost
     (``docs/benchmarks.md``: target RMSE within 1 m either way; 0.15 ms per nav report).
     """
+    return FleetNavigator.from_scenario(scenario) if runs_skf(mode, scenario) else None
+
+
+def runs_skf(mode: str, scenario: Scenario) -> bool:
+    """Whether ``--navigation mode`` runs the SKF on ``scenario`` (:func:`navigator_for`); ValueError
+    for an unknown mode."""
     if mode not in NAVIGATION_MODES:
         raise ValueError(f"unknown navigation {mode!r}; expected one of {', '.join(NAVIGATION_MODES)}")
-    if mode == "skf" or (mode == "auto" and scenario.gps_denied):
-        return FleetNavigator.from_scenario(scenario)
-    return None
+    return mode == "skf" or (mode == "auto" and bool(scenario.gps_denied))

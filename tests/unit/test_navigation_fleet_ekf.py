@@ -86,3 +86,30 @@ def test_a_non_positive_ins_interval_is_refused() -> None:
     means, covs = _states(np.random.default_rng(0), 2)
     with pytest.raises(ValueError, match="positive"):
         ins_predict_many(means, covs, np.ones(2), np.zeros(2), np.array([0.2, 0.0]), NOISE)
+
+
+def test_gaussian_updates_equal_gaussian_update_for_every_kind_of_report() -> None:
+    # the batched path reads what common_observations observes by itself (fleet_ekf._observed): it must agree
+    from gcs.core.navigation.fleet_ekf import gaussian_updates
+    from gcs.core.navigation.skf import NavGaussian, NavMeasurement, NavParams, gaussian_update
+
+    params, rng = NavParams(), np.random.default_rng(11)
+    means, covs = _states(rng, 6)
+    stamp = 10**12
+    estimates = [NavGaussian(stamp, means[v], covs[v]) for v in range(6)]
+    ins = (5.0, 0.02, 0.2)
+    measurements = [
+        NavMeasurement(stamp + 2 * 10**8, ins, means[0, :2] + 3.0, 0.2, means[0, 3:5] + 0.5, 0.3),  # std below min
+        NavMeasurement(stamp + 2 * 10**8, ins, means[1, :2] - 2.0, 2.0, None, None),
+        NavMeasurement(stamp + 2 * 10**8, ins, None, None, None, None),  # INS only: prediction alone
+        NavMeasurement(stamp + 2 * 10**8, ins, means[3, :2], 1.5, means[3, 3:5], -3.1),
+        NavMeasurement(stamp + 5 * 10**8, ins, means[4, :2], 1.5, None, None),  # a gap: the one-at-a-time path
+        NavMeasurement(stamp - 1, ins, None, None, None, None),  # older than the estimate: its own error
+    ]
+    results = gaussian_updates(params, estimates, measurements)
+    for estimate, measurement, result in zip(estimates[:5], measurements[:5], results[:5]):
+        expected = gaussian_update(params, estimate, measurement)
+        assert result.stamp_ns == expected.stamp_ns
+        _close(result.mean, expected.mean)
+        _close(result.cov, expected.cov)
+    assert isinstance(results[5], ValueError)
