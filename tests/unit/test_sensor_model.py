@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from gcs.core.models.sensor import SensorModel
@@ -72,3 +72,46 @@ def test_distance_dependent_noise_follows_zuo2021_eq2() -> None:
     assert near[0] == pytest.approx(math.radians(1.0) ** 2)
     assert far[0] == pytest.approx(math.radians(1.0) ** 2 * (6000.0 / 1500.0) ** 2)
     np.testing.assert_allclose(RBE.noise_information(), 1.0 / np.array([100.0, 0.0025, 0.0025]))
+
+
+def _numeric_hessians(sensor: SensorModel, target: np.ndarray, vehicle: np.ndarray, step: float) -> np.ndarray:
+    """Second derivatives of every component with respect to the target's (x, y), central differences: (m, 2, 2)."""
+    def h(dx: float, dy: float) -> np.ndarray:
+        z = sensor.measure(target + np.array([dx, dy]), vehicle)
+        z[sensor.azimuth_index] = z[sensor.azimuth_index] - centre[sensor.azimuth_index]
+        z[sensor.azimuth_index] = (z[sensor.azimuth_index] + math.pi) % (2 * math.pi) - math.pi
+        return z
+
+    centre = sensor.measure(target, vehicle)
+    hess = np.empty((sensor.dim, 2, 2))
+    hess[:, 0, 0] = (h(step, 0) - 2 * h(0, 0) + h(-step, 0)) / step**2
+    hess[:, 1, 1] = (h(0, step) - 2 * h(0, 0) + h(0, -step)) / step**2
+    hess[:, 0, 1] = hess[:, 1, 0] = (h(step, step) - h(step, -step) - h(-step, step) + h(-step, -step)) / (4 * step**2)
+    return hess
+
+
+@given(coords, coords, st.floats(-1500.0, 1500.0), st.floats(-1500.0, 1500.0), st.floats(50.0, 500.0),
+       st.floats(1.0, 60.0), st.floats(1.0, 60.0), st.floats(-0.9, 0.9))
+def test_linearisation_variance_is_half_the_trace_of_the_squared_hessian_times_p(
+        tx: float, ty: float, ox: float, oy: float, vz: float, sx: float, sy: float, corr: float) -> None:
+    """Oracle: ``1/2 tr((d^2 H_k P)^2)`` with the Hessian by central differences of ``measure``."""
+    assume(math.hypot(ox, oy) > 20.0)
+    target, vehicle = np.array([tx, ty]), np.array([tx - ox, ty - oy, vz])
+    cov = np.array([[sx * sx, corr * sx * sy], [corr * sx * sy, sy * sy]])
+    hess = _numeric_hessians(RBE, target, vehicle, step=1e-2 * math.hypot(ox, oy))
+    expected = [0.5 * np.trace(hk @ cov @ hk @ cov) for hk in hess]
+    np.testing.assert_allclose(RBE.linearisation_variance(target, vehicle, cov), expected, rtol=2e-3, atol=1e-14)
+
+
+def test_linearisation_variance_matters_under_the_vehicle_only() -> None:
+    """Against the azimuth's own noise (0.05 rad): negligible 300 m out, dominant 10 m out, for a 10 m prior."""
+    cov = np.diag([100.0, 100.0])
+    vehicle = np.array([0.0, 0.0, 200.0])
+    far = RBE.linearisation_variance(np.array([300.0, 0.0]), vehicle, cov)
+    near = RBE.linearisation_variance(np.array([10.0, 0.0]), vehicle, cov)
+    noise = np.square(RBE.std)
+    assert np.all(far < 0.01 * noise)
+    assert near[RBE.azimuth_index] > 100 * noise[RBE.azimuth_index]
+    assert near[RBE.azimuth_index] == pytest.approx(100.0**2 / 10.0**4)  # |P|^2 / rho_h^4 for an isotropic P
+    right_above = RBE.linearisation_variance(np.array([0.0, 0.0]), vehicle, cov)
+    assert np.all(np.isfinite(right_above)) and right_above[RBE.azimuth_index] > 1e6

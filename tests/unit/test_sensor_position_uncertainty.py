@@ -57,7 +57,7 @@ def test_inflation_equals_the_augmented_state_update() -> None:
     big_h[:, :2], big_h[:, 4:] = h, j
     big_p = np.zeros((7, 7))
     big_p[:4, :4], big_p[4:, 4:] = prior.cov, p_s
-    s = big_h @ big_p @ big_h.T + np.diag(SENSOR.noise_variance())
+    s = big_h @ big_p @ big_h.T + np.diag(UIF.noise_variance(prior, SENSOR, z_pred, vehicle, p_s))  # R, second order included
     gain = big_p @ big_h.T @ np.linalg.inv(s)
     nu = SENSOR.residual(z, z_pred)
     np.testing.assert_allclose(posterior.mean, prior.mean + (gain @ nu)[:4], rtol=1e-9)

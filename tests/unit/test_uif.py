@@ -176,3 +176,21 @@ def test_six_state_model_runs_and_keeps_acceleration_uncertain_but_bounded() -> 
 def test_predicting_backwards_is_an_error() -> None:
     with pytest.raises(ValueError, match="backwards"):
         UIF.predict(GaussianEstimate(np.zeros(4), np.eye(4), 10), 5)
+
+
+@pytest.mark.parametrize("truth", [(-3.0, 2.0), (-6.0, -4.0), (2.0, 8.0)])
+def test_a_detection_from_right_above_the_target_leaves_the_estimate_consistent(truth: tuple[float, float]) -> None:
+    """Under the vehicle the azimuth's sigma points straddle it; eq. (13) as printed then claims
+    far more than the measurement holds, and the second-order term (the default) does not."""
+    vehicle = np.array([0.0, 0.0, 200.0])
+    truth_xy = np.array(truth)
+    z = SENSOR.measure(truth_xy, vehicle)  # noise-free: any error is the filter's
+    prior = GaussianEstimate(np.array([8.0, -5.0, 0.0, 0.0]), np.diag([100.0, 100.0, 4.0, 4.0]), 0)
+
+    def nees(uif: UnscentedInformationFilter) -> float:
+        posterior = uif.update(prior, [uif.contribution(prior, SENSOR, z, vehicle)])
+        error = posterior.mean[:2] - truth_xy
+        return float(error @ np.linalg.solve(posterior.cov[:2, :2], error))
+
+    assert nees(UIF) < 9.21  # chi-square, 2 degrees of freedom, 99%
+    assert nees(UnscentedInformationFilter(UIF.motion, second_order=False)) > 100.0

@@ -164,8 +164,8 @@ class ImmTargetFilter:
         h_rows, nu, r_blocks = [], [], []
         for sensor, z, xyz, covs in groups:
             z_pred, h_pos = pseudo_measurement(prior, sensor, xyz, self.sigma)
-            r = sensor.noise_variance(z_pred, prior.mean, xyz)
-            r = np.broadcast_to(r, z_pred.shape)[..., None] * np.eye(sensor.dim)
+            r = uif.noise_variance(prior, sensor, z_pred, xyz, covs)  # the R of the mode's update
+            r = r[..., None] * np.eye(sensor.dim)
             if covs is not None:
                 jac = sensor.vehicle_jacobian(prior.mean[:2], xyz)
                 r = r + jac @ covs @ jac.swapaxes(-1, -2)

@@ -233,6 +233,9 @@ class UnscentedInformationFilter:
 
     motion: LinearMotionModel
     sigma: SigmaPointParameters = SigmaPointParameters()
+    second_order: bool = True
+    """Add the linearisation's second-order variance to ``R`` (see :meth:`noise_variance`);
+    False gives eq. (12)-(13) as printed."""
 
     def predict(self, estimate: GaussianEstimate, stamp_ns: int) -> GaussianEstimate:
         """Predict to ``stamp_ns`` (eq. 9, 11, 16); the same stamp returns the estimate itself."""
@@ -266,17 +269,32 @@ class UnscentedInformationFilter:
         z_pred, h_pos = pseudo_measurement(prior, sensor, vehicle_xyz, self.sigma)
         if vehicle_cov is not None:
             return self._contribution_uncertain_vehicle(prior, sensor, z, vehicle_xyz, vehicle_cov, z_pred, h_pos)
-        r_inv = sensor.noise_information(z_pred, prior.mean, vehicle_xyz)  # diagonal of R^-1
+        r_inv = 1.0 / self.noise_variance(prior, sensor, z_pred, vehicle_xyz)  # diagonal of R^-1
         ht_rinv = h_pos.swapaxes(-1, -2) * r_inv[..., None, :]  # (..., 2, m)
         nu = sensor.residual(z, z_pred)
         nu += h_pos @ prior.mean[:2]  # nu + H^p x^-  (eq. 12-13)
         return InformationContribution((ht_rinv @ nu[..., None])[..., 0], ht_rinv @ h_pos)
 
-    @staticmethod
-    def _contribution_uncertain_vehicle(prior, sensor, z, vehicle_xyz, vehicle_cov, z_pred, h_pos) -> InformationContribution:
+    def noise_variance(self, prior: GaussianEstimate, sensor: SensorModel, z_pred: NDArray[np.float64],
+                       vehicle_xyz: NDArray[np.float64], vehicle_cov: NDArray[np.float64] | None = None
+                       ) -> NDArray[np.float64]:
+        """Diagonal of the ``R`` used in eq. (13), shape (..., m): the sensor's noise, plus,
+        with ``second_order``, what linearising eq. (4) about the prior leaves out
+        (:meth:`SensorModel.linearisation_variance`, for the relative position's
+        covariance ``P_pp + P_s``)."""
+        r = sensor.noise_variance(z_pred, prior.mean, vehicle_xyz)
+        if not self.second_order:
+            return np.broadcast_to(r, z_pred.shape)
+        relative_cov = prior.cov[..., :2, :2]
+        if vehicle_cov is not None:
+            relative_cov = relative_cov + np.asarray(vehicle_cov, dtype=np.float64)[..., :2, :2]
+        return r + sensor.linearisation_variance(prior.mean, vehicle_xyz, relative_cov)
+
+    def _contribution_uncertain_vehicle(self, prior, sensor, z, vehicle_xyz, vehicle_cov, z_pred, h_pos
+                                        ) -> InformationContribution:
         """Eq. (13) with ``R + J_s P_s J_s^T`` in place of ``R`` (see :meth:`contribution`)."""
         jac = sensor.vehicle_jacobian(prior.mean[:2], vehicle_xyz)  # (..., m, 3)
-        r = sensor.noise_variance(z_pred, prior.mean, vehicle_xyz)
+        r = self.noise_variance(prior, sensor, z_pred, vehicle_xyz, vehicle_cov)
         r_full = jac @ np.asarray(vehicle_cov, dtype=np.float64) @ jac.swapaxes(-1, -2)
         r_full = r_full + np.broadcast_to(r, r_full.shape[:-1])[..., None] * np.eye(sensor.dim)
         ht_rinv = np.linalg.solve(r_full, h_pos).swapaxes(-1, -2)  # (H^p)^T R^-1, R symmetric: (..., 2, m)

@@ -32,6 +32,8 @@ __all__ = ["RANGE", "AZIMUTH", "ELEVATION", "SensorModel"]
 
 RANGE, AZIMUTH, ELEVATION = "range", "azimuth", "elevation"
 _KNOWN = (RANGE, AZIMUTH, ELEVATION)
+_MIN_HORIZONTAL_M2 = 1e-6
+"""Floor of ``rho_h^2`` in :meth:`SensorModel.linearisation_variance` (a vehicle right above the target)."""
 
 
 @dataclass(frozen=True)
@@ -184,6 +186,70 @@ class SensorModel:
                 jac[..., row, col] = -g
         return jac
 
+    def linearisation_variance(
+        self, target_xy: NDArray[np.float64], vehicle_xyz: NDArray[np.float64], position_cov: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        """Variance the linearisation of eq. (4) leaves out, per component: shape (..., m).
+
+        A filter that linearises ``H`` about the predicted position ``p`` (the
+        EKF's Jacobian or the UIF's statistical ``H^p``) drops the second-order
+        term ``1/2 e^T (d^2 H_k) e`` of the position error ``e ~ N(0, P)``,
+        whose variance is (Bar-Shalom, Li & Kirubarajan 2001, sec. 10.3, the
+        second-order filter)
+
+        .. math::
+            \\Omega_k = \\tfrac12 \\operatorname{tr}\\big((\\nabla^2 H_k \\, P)^2\\big).
+
+        With ``u`` the unit horizontal line of sight and ``v`` its left normal,
+        the Hessians with respect to the target's (x, y) are
+
+        .. math::
+            \\nabla^2 \\rho = \\frac{1}{\\rho}\\Big(\\frac{dz^2}{\\rho^2} u u^T + v v^T\\Big), \\quad
+            \\nabla^2 \\varphi = -\\frac{u v^T + v u^T}{\\rho_h^2}, \\quad
+            \\nabla^2 \\theta = \\frac{2\\, dz\\, \\rho_h}{\\rho^4} u u^T - \\frac{dz}{\\rho^2 \\rho_h} v v^T.
+
+        Far from the target these are negligible against ``R``; under the
+        vehicle they are not: the azimuth's term grows as ``|P|^2 / rho_h^4``
+        and, once the uncertainty reaches ``rho_h``, the azimuth stops being
+        informative at all (its sigma points straddle the vehicle), which the
+        term says by dwarfing ``sigma_phi^2``.
+
+        Parameters
+        ----------
+        target_xy : ndarray, shape (..., >=2)
+            Predicted target positions (first two entries used).
+        vehicle_xyz : ndarray, shape (..., 3)
+        position_cov : ndarray, shape (..., 2, 2)
+            Covariance of the relative horizontal position (the target's, plus
+            the vehicle's own when it is uncertain).
+        """
+        dx, dy, dz = self._relative(target_xy, vehicle_xyz)
+        h2 = dx * dx + dy * dy
+        straight_below = h2 < _MIN_HORIZONTAL_M2
+        if np.any(straight_below):  # no line of sight to speak of: any horizontal direction will do
+            dx = np.where(straight_below, 1e-3, dx)
+            h2 = np.maximum(h2, _MIN_HORIZONTAL_M2)
+        h = np.sqrt(h2)
+        r2 = h2 + dz * dz
+        ux, uy = dx / h, dy / h
+        # P in the (u, v) frame: [[p_uu, p_uv], [p_uv, p_vv]].
+        pxx, pxy, pyy = position_cov[..., 0, 0], position_cov[..., 0, 1], position_cov[..., 1, 1]
+        p_uu = ux * ux * pxx + 2.0 * ux * uy * pxy + uy * uy * pyy
+        p_vv = uy * uy * pxx - 2.0 * ux * uy * pxy + ux * ux * pyy
+        p_uv = (ux * ux - uy * uy) * pxy + ux * uy * (pyy - pxx)
+        shape = np.broadcast(h2, pxx).shape
+        out = np.empty(shape + (self.dim,))
+        for k, component in enumerate(self.components):
+            if component == RANGE:
+                r = np.sqrt(r2)
+                a, b, c = dz * dz / (r2 * r), 1.0 / r, 0.0
+            elif component == AZIMUTH:
+                a, b, c = 0.0, 0.0, -1.0 / h2
+            else:
+                a, b, c = 2.0 * dz * h / (r2 * r2), -dz / (r2 * h), 0.0
+            out[..., k] = 0.5 * _trace_of_square(a, b, c, p_uu, p_vv, p_uv)
+        return out
+
     def fisher_information_xy(
         self, target_xy: NDArray[np.float64], vehicle_xyz: NDArray[np.float64]
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
@@ -263,3 +329,10 @@ class SensorModel:
         diff = np.asarray(z - z_pred, dtype=np.float64)
         diff[..., self.azimuth_index] = wrap_angle(diff[..., self.azimuth_index])
         return diff
+
+
+def _trace_of_square(a, b, c, p_uu, p_vv, p_uv):
+    """``tr((A P)^2)`` for symmetric ``A = [[a, c], [c, b]]`` and ``P = [[p_uu, p_uv], [p_uv, p_vv]]``."""
+    m00, m01 = a * p_uu + c * p_uv, a * p_uv + c * p_vv
+    m10, m11 = c * p_uu + b * p_uv, c * p_uv + b * p_vv
+    return m00 * m00 + 2.0 * m01 * m10 + m11 * m11
