@@ -38,13 +38,22 @@ def _measurement(report: SensorReport, components: tuple[str, ...]) -> np.ndarra
     return None if any(v is None for v in values) else np.array(values, dtype=np.float64)
 
 
+def _reported_cov(report: SensorReport) -> np.ndarray | None:
+    """``std^2 I_3`` from the report's ``vehicle_position_std_m``; None when it says nothing (or 0)."""
+    std = report.vehicle_position_std_m
+    return None if not std else np.eye(3) * (std * std)
+
+
 def step_detections(ready: ReadyStep, roster: Sequence[str], config: TrackerConfig,
                     navigator: FleetNavigator | None = None) -> tuple[Detection, ...]:
     """The step's detections in roster order (a vehicle's first report of the step counts).
 
     With a ``navigator`` the vehicle's position is its estimate at the report's stamp, horizontal
     from the SKF and vertical from the report, with the (3, 3) covariance of
-    :meth:`FleetNavigator.position_at` as ``Detection.vehicle_cov``.
+    :meth:`FleetNavigator.position_at` as ``Detection.vehicle_cov``. Without one it is the
+    report's own position, uncertain by the report's ``vehicle_position_std_m`` on every axis
+    when given: a few metres of GPS error are nothing 300 m from the target, but from
+    right above it they turn the azimuth around, and the filter must know.
     """
     first: dict[str, SensorReport] = {}
     for report in ready.reports:
@@ -60,7 +69,7 @@ def step_detections(ready: ReadyStep, roster: Sequence[str], config: TrackerConf
         xyz = np.asarray(report.vehicle_position_enu_m, dtype=np.float64)
         navigated = None if navigator is None else navigator.position_at(vehicle_id, report.stamp_ns)
         if navigated is None:
-            detections.append(Detection(index, xyz, values))
+            detections.append(Detection(index, xyz, values, vehicle_cov=_reported_cov(report)))
         else:
             xy, cov = navigated
             detections.append(Detection(index, np.array([xy[0], xy[1], xyz[2]]), values, vehicle_cov=cov))

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 
+import msgspec
 import numpy as np
 import pytest
 
@@ -194,6 +195,15 @@ def test_detections_use_the_navigated_position_and_covariance_and_fall_back_to_t
     assert np.array_equal(two.vehicle_xyz, [7.0, 8.0, 210.0]) and two.vehicle_cov is None  # uav2 sent no nav
     plain = step_detections(ready, ["uav1", "uav2", "uav3"], config)  # --navigation reported
     assert np.array_equal(plain[0].vehicle_xyz, [5.0, 6.0, 201.5]) and plain[0].vehicle_cov is None
+
+
+def test_without_navigation_a_detection_carries_the_reported_position_std_on_every_axis() -> None:
+    config: TrackerConfig = tracker_config(SCENARIO, None, "ga_k5")
+    stated = msgspec.structs.replace(_seen("uav1", S, (5.0, 6.0, 201.5)), vehicle_position_std_m=2.5)
+    silent = _seen("uav2", S, (7.0, 8.0, 210.0))
+    one, two = step_detections(ReadyStep(1, S, (stated, silent)), ["uav1", "uav2", "uav3"], config)
+    assert np.array_equal(one.vehicle_cov, 6.25 * np.eye(3))
+    assert two.vehicle_cov is None  # no std given: taken as exact
 
 
 def _report(vehicle: str, stamp_ns: int) -> SensorReport:
