@@ -18,6 +18,7 @@ of the inputs differs (design.md section 2).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -54,10 +55,11 @@ class Detection:
 
     def __post_init__(self) -> None:
         if self.vehicle_cov is not None:
+            # Every detection of a step with uncertain positions passes here: kept to a few NumPy calls.
             cov = np.asarray(self.vehicle_cov, dtype=np.float64)
             if cov.shape == (2, 2):
                 cov = np.pad(cov, ((0, 1), (0, 1)))
-            if cov.shape != (3, 3) or not np.all(np.isfinite(cov)) or np.any(np.diag(cov) < 0.0):
+            if cov.shape != (3, 3) or not math.isfinite(cov.sum()) or min(cov[0, 0], cov[1, 1], cov[2, 2]) < 0.0:
                 raise ValueError(f"vehicle_cov must be a finite (2, 2) or (3, 3) covariance, got {self.vehicle_cov!r}")
             object.__setattr__(self, "vehicle_cov", 0.5 * (cov + cov.T))
 

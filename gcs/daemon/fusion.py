@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from functools import lru_cache
 
 import numpy as np
 
@@ -41,7 +42,15 @@ def _measurement(report: SensorReport, components: tuple[str, ...]) -> np.ndarra
 def _reported_cov(report: SensorReport) -> np.ndarray | None:
     """``std^2 I_3`` from the report's ``vehicle_position_std_m``; None when it says nothing (or 0)."""
     std = report.vehicle_position_std_m
-    return None if not std else np.eye(3) * (std * std)
+    return None if not std else _isotropic_cov(std)
+
+
+@lru_cache(maxsize=256)
+def _isotropic_cov(std: float) -> np.ndarray:
+    """``std^2 I_3``, one array per value (read only: a vehicle reports the same std step after step)."""
+    cov = np.eye(3) * (std * std)
+    cov.flags.writeable = False
+    return cov
 
 
 def step_detections(ready: ReadyStep, roster: Sequence[str], config: TrackerConfig,

@@ -103,3 +103,20 @@ def test_detection_rejects_a_bad_covariance() -> None:
         Detection(0, np.zeros(3), np.zeros(3), np.array([[np.nan, 0.0], [0.0, 1.0]]))
     d = Detection(0, np.zeros(3), np.zeros(3), np.array([[4.0, 1.0], [1.0, 9.0]]))
     np.testing.assert_array_equal(d.position_cov, [[4.0, 1.0, 0.0], [1.0, 9.0, 0.0], [0.0, 0.0, 0.0]])
+
+
+def test_an_isotropic_vehicle_covariance_takes_the_diagonal_path_with_the_same_result() -> None:
+    """``s^2 I``: J_s J_s^T is diagonal (orthogonal gradients), so the cheap path must equal the full one."""
+    prior = _prior()
+    vehicles = np.array([[1200.0, 1300.0, 200.0], [1495.0, 1503.0, 210.0]])  # the second nearly overhead
+    z = exact_measurements(np.array([1510.0, 1490.0, 0.0]), vehicles)
+    isotropic = np.stack([6.25 * np.eye(3)] * 2)
+    cheap = UIF.contribution(prior, SENSOR, z, vehicles, isotropic)
+    z_pred, h_pos = pseudo_measurement(prior, SENSOR, vehicles, UIF.sigma)
+    jac = SENSOR.vehicle_jacobian(prior.mean[:2], vehicles)
+    r = UIF.noise_variance(prior, SENSOR, z_pred, vehicles, isotropic)
+    full = UIF._contribution_full_noise(prior, SENSOR, z, z_pred, h_pos, r, jac, isotropic)
+    np.testing.assert_allclose(cheap.matrix, full.matrix, rtol=1e-9)
+    np.testing.assert_allclose(cheap.vector, full.vector, rtol=1e-9)
+    nudged = UIF.contribution(prior, SENSOR, z, vehicles, isotropic + np.diag([1e-9, 0.0, 0.0]))  # full path
+    np.testing.assert_allclose(nudged.matrix, cheap.matrix, rtol=1e-6)

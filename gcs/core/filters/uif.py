@@ -264,13 +264,23 @@ class UnscentedInformationFilter:
         in eq. (13). This treats each report's navigation error as independent of the
         others', which it is between vehicles but not over time for one vehicle (a
         slowly drifting error); the result is exact without it (None).
+
+        When every ``P_s`` is isotropic (``s^2 I``: a report's per-axis std) the sum stays
+        diagonal: the gradients of range, azimuth and elevation with respect to the
+        vehicle are mutually orthogonal, so ``J_s J_s^T`` is diagonal and ``R`` gains
+        ``s^2 |J_s row|^2`` per component (``s^2``, ``s^2 / rho_h^2``, ``s^2 / rho^2``).
         """
         vehicle_xyz = np.asarray(vehicle_xyz, dtype=np.float64)
         z_pred, h_pos = pseudo_measurement(prior, sensor, vehicle_xyz, self.sigma)
+        r = self.noise_variance(prior, sensor, z_pred, vehicle_xyz, vehicle_cov)
         if vehicle_cov is not None:
-            return self._contribution_uncertain_vehicle(prior, sensor, z, vehicle_xyz, vehicle_cov, z_pred, h_pos)
-        r_inv = 1.0 / self.noise_variance(prior, sensor, z_pred, vehicle_xyz)  # diagonal of R^-1
-        ht_rinv = h_pos.swapaxes(-1, -2) * r_inv[..., None, :]  # (..., 2, m)
+            vehicle_cov = np.asarray(vehicle_cov, dtype=np.float64)
+            jac = sensor.vehicle_jacobian(prior.mean[:2], vehicle_xyz)  # (..., m, 3)
+            per_axis = vehicle_cov[..., 0, 0]
+            if not np.array_equal(vehicle_cov, per_axis[..., None, None] * np.eye(3)):
+                return self._contribution_full_noise(prior, sensor, z, z_pred, h_pos, r, jac, vehicle_cov)
+            r = r + per_axis[..., None] * np.square(jac).sum(axis=-1)
+        ht_rinv = h_pos.swapaxes(-1, -2) / r[..., None, :]  # (H^p)^T R^-1, (..., 2, m)
         nu = sensor.residual(z, z_pred)
         nu += h_pos @ prior.mean[:2]  # nu + H^p x^-  (eq. 12-13)
         return InformationContribution((ht_rinv @ nu[..., None])[..., 0], ht_rinv @ h_pos)
@@ -290,12 +300,10 @@ class UnscentedInformationFilter:
             relative_cov = relative_cov + np.asarray(vehicle_cov, dtype=np.float64)[..., :2, :2]
         return r + sensor.linearisation_variance(prior.mean, vehicle_xyz, relative_cov)
 
-    def _contribution_uncertain_vehicle(self, prior, sensor, z, vehicle_xyz, vehicle_cov, z_pred, h_pos
-                                        ) -> InformationContribution:
-        """Eq. (13) with ``R + J_s P_s J_s^T`` in place of ``R`` (see :meth:`contribution`)."""
-        jac = sensor.vehicle_jacobian(prior.mean[:2], vehicle_xyz)  # (..., m, 3)
-        r = self.noise_variance(prior, sensor, z_pred, vehicle_xyz, vehicle_cov)
-        r_full = jac @ np.asarray(vehicle_cov, dtype=np.float64) @ jac.swapaxes(-1, -2)
+    @staticmethod
+    def _contribution_full_noise(prior, sensor, z, z_pred, h_pos, r, jac, vehicle_cov) -> InformationContribution:
+        """Eq. (13) with the full ``R + J_s P_s J_s^T`` in place of ``R`` (see :meth:`contribution`)."""
+        r_full = jac @ vehicle_cov @ jac.swapaxes(-1, -2)
         r_full = r_full + np.broadcast_to(r, r_full.shape[:-1])[..., None] * np.eye(sensor.dim)
         ht_rinv = np.linalg.solve(r_full, h_pos).swapaxes(-1, -2)  # (H^p)^T R^-1, R symmetric: (..., 2, m)
         nu = sensor.residual(z, z_pred) + h_pos @ prior.mean[:2]
