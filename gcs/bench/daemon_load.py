@@ -20,7 +20,9 @@ vehicle, and obeys commands from a pipe:
 
 Every report is a range/azimuth/elevation detection, without noise, of a target
 standing where the scenario's target starts, by a vehicle where the scenario
-(:func:`gcs.bench.urban.with_vehicles` for more of them) starts it.
+(:func:`gcs.bench.urban.with_vehicles` for more of them) starts it. Like the
+simulated vehicles' (and a real one's), each report states its position's 1-sigma,
+:data:`REPORTED_POSITION_STD_M`, which the daemon fuses as the vehicle's uncertainty.
 """
 
 from __future__ import annotations
@@ -42,6 +44,8 @@ __all__ = ["FIRST_STAMP_NS", "Vehicle", "Fleet", "Load", "publisher_main"]
 
 NS_PER_S = 1_000_000_000
 FIRST_STAMP_NS = 1_000 * NS_PER_S
+REPORTED_POSITION_STD_M = 2.0
+"""The 1-sigma each report states for its vehicle's position (m per axis; the GPS fix's ``h_acc_m``)."""
 """Stamp of the first round (any positive time: stamps are data time)."""
 
 
@@ -115,7 +119,8 @@ class Load:
         self.seq += 1
         publish(self.reports[slot], SensorReport(
             vehicle_id=v.id, seq=self.seq, stamp_ns=stamp_ns, vehicle_position_enu_m=v.position_enu_m,
-            detected=True, range_m=v.range_m, azimuth_rad=v.azimuth_rad, elevation_rad=v.elevation_rad,
+            vehicle_position_std_m=REPORTED_POSITION_STD_M, detected=True, range_m=v.range_m,
+            azimuth_rad=v.azimuth_rad, elevation_rad=v.elevation_rad,
             range_std_m=r_std, azimuth_std_rad=a_std, elevation_std_rad=e_std))
 
     def _nav(self, slot: int, stamp_ns: int) -> None:
@@ -126,7 +131,8 @@ class Load:
         gps = None
         if self.fleet.nav_per_round:
             lat, lon, alt = v.lat_lon_alt
-            gps = GpsFix(lat_deg=lat, lon_deg=lon, alt_m=alt, fix_type=3, h_acc_m=2.0, v_acc_m=3.0)
+            gps = GpsFix(lat_deg=lat, lon_deg=lon, alt_m=alt, fix_type=3, h_acc_m=REPORTED_POSITION_STD_M,
+                         v_acc_m=3.0)
         publish(self.navs[slot], NavReport(vehicle_id=v.id, seq=self.seq, stamp_ns=stamp_ns, gps=gps,
                                            velocity_enu_mps=velocity, heading_rad=v.heading_rad))
 

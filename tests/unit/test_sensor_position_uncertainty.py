@@ -120,3 +120,17 @@ def test_an_isotropic_vehicle_covariance_takes_the_diagonal_path_with_the_same_r
     np.testing.assert_allclose(cheap.vector, full.vector, rtol=1e-9)
     nudged = UIF.contribution(prior, SENSOR, z, vehicles, isotropic + np.diag([1e-9, 0.0, 0.0]))  # full path
     np.testing.assert_allclose(nudged.matrix, cheap.matrix, rtol=1e-6)
+
+
+def test_the_isotropic_vehicle_term_is_the_diagonal_of_j_s_p_s_j_s_and_that_is_all_of_it() -> None:
+    """Oracle: ``J_s (s^2 I) J_s^T`` from the vehicle Jacobian; its off-diagonal vanishes (orthogonal gradients)."""
+    rng = np.random.default_rng(5)
+    targets = rng.uniform(0.0, 3000.0, (20, 2))
+    vehicles = np.column_stack([rng.uniform(0.0, 3000.0, (20, 2)), rng.uniform(100.0, 300.0, 20)])
+    var = rng.uniform(0.5, 30.0, 20)
+    jac = SENSOR.vehicle_jacobian(targets, vehicles)
+    full = var[:, None, None] * (jac @ jac.swapaxes(-1, -2))
+    np.testing.assert_allclose(SENSOR.isotropic_vehicle_variance(targets, vehicles, var),
+                               np.diagonal(full, axis1=-2, axis2=-1), rtol=1e-12)
+    off_diagonal = full - np.einsum("kii->ki", full)[..., None] * np.eye(3)
+    assert np.abs(off_diagonal).max() < 1e-12 * np.abs(full).max()

@@ -66,6 +66,7 @@ from gcs.core.models.sensor import SensorModel
 __all__ = ["GaussianEstimate", "InformationContribution", "UnscentedInformationFilter", "pseudo_measurement"]
 
 NS_PER_S = 1_000_000_000
+_EYE3 = np.eye(3)
 _SIGMA_DIRECTIONS = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
 """Sigma-point directions in the position plane: centre, +e1, +e2, -e1, -e2."""
 
@@ -268,18 +269,18 @@ class UnscentedInformationFilter:
         When every ``P_s`` is isotropic (``s^2 I``: a report's per-axis std) the sum stays
         diagonal: the gradients of range, azimuth and elevation with respect to the
         vehicle are mutually orthogonal, so ``J_s J_s^T`` is diagonal and ``R`` gains
-        ``s^2 |J_s row|^2`` per component (``s^2``, ``s^2 / rho_h^2``, ``s^2 / rho^2``).
+        ``s^2``, ``s^2 / rho_h^2`` and ``s^2 / rho^2`` (:meth:`SensorModel.isotropic_vehicle_variance`).
         """
         vehicle_xyz = np.asarray(vehicle_xyz, dtype=np.float64)
         z_pred, h_pos = pseudo_measurement(prior, sensor, vehicle_xyz, self.sigma)
         r = self.noise_variance(prior, sensor, z_pred, vehicle_xyz, vehicle_cov)
         if vehicle_cov is not None:
             vehicle_cov = np.asarray(vehicle_cov, dtype=np.float64)
-            jac = sensor.vehicle_jacobian(prior.mean[:2], vehicle_xyz)  # (..., m, 3)
             per_axis = vehicle_cov[..., 0, 0]
-            if not np.array_equal(vehicle_cov, per_axis[..., None, None] * np.eye(3)):
+            if not np.array_equal(vehicle_cov, per_axis[..., None, None] * _EYE3):
+                jac = sensor.vehicle_jacobian(prior.mean[:2], vehicle_xyz)  # (..., m, 3)
                 return self._contribution_full_noise(prior, sensor, z, z_pred, h_pos, r, jac, vehicle_cov)
-            r = r + per_axis[..., None] * np.square(jac).sum(axis=-1)
+            r = r + sensor.isotropic_vehicle_variance(prior.mean, vehicle_xyz, per_axis)
         ht_rinv = h_pos.swapaxes(-1, -2) / r[..., None, :]  # (H^p)^T R^-1, (..., 2, m)
         nu = sensor.residual(z, z_pred)
         nu += h_pos @ prior.mean[:2]  # nu + H^p x^-  (eq. 12-13)

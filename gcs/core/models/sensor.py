@@ -186,6 +186,28 @@ class SensorModel:
                 jac[..., row, col] = -g
         return jac
 
+    def isotropic_vehicle_variance(self, target_xy: NDArray[np.float64], vehicle_xyz: NDArray[np.float64],
+                                   per_axis_var: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``diag(J_s P_s J_s^T)`` for ``P_s = s^2 I_3`` (a vehicle position uncertain by ``s`` on every axis), (..., m).
+
+        The gradients of range, azimuth and elevation with respect to the vehicle
+        (:meth:`vehicle_jacobian`) are mutually orthogonal, of lengths ``1``,
+        ``1 / rho_h`` and ``1 / rho``; so ``J_s J_s^T`` is diagonal and the terms are
+        ``s^2``, ``s^2 / rho_h^2`` and ``s^2 / rho^2``.
+        """
+        dx, dy, dz = self._relative(target_xy, vehicle_xyz)
+        h2 = np.maximum(dx * dx + dy * dy, _MIN_HORIZONTAL_M2)
+        var = np.asarray(per_axis_var, dtype=np.float64)
+        out = np.empty(np.broadcast(h2, var).shape + (self.dim,))
+        for k, component in enumerate(self.components):
+            if component == RANGE:
+                out[..., k] = var
+            elif component == AZIMUTH:
+                out[..., k] = var / h2
+            else:
+                out[..., k] = var / (h2 + dz * dz)
+        return out
+
     def linearisation_variance(
         self, target_xy: NDArray[np.float64], vehicle_xyz: NDArray[np.float64], position_cov: NDArray[np.float64]
     ) -> NDArray[np.float64]:
@@ -230,24 +252,28 @@ class SensorModel:
             dx = np.where(straight_below, 1e-3, dx)
             h2 = np.maximum(h2, _MIN_HORIZONTAL_M2)
         h = np.sqrt(h2)
-        r2 = h2 + dz * dz
         ux, uy = dx / h, dy / h
-        # P in the (u, v) frame: [[p_uu, p_uv], [p_uv, p_vv]].
+        # P in the (u, v) frame, v = (-uy, ux): p_uu = u^T P u, p_uv = u^T P v, p_vv = tr P - p_uu.
         pxx, pxy, pyy = position_cov[..., 0, 0], position_cov[..., 0, 1], position_cov[..., 1, 1]
-        p_uu = ux * ux * pxx + 2.0 * ux * uy * pxy + uy * uy * pyy
-        p_vv = uy * uy * pxx - 2.0 * ux * uy * pxy + ux * ux * pyy
-        p_uv = (ux * ux - uy * uy) * pxy + ux * uy * (pyy - pxx)
-        shape = np.broadcast(h2, pxx).shape
-        out = np.empty(shape + (self.dim,))
+        qx, qy = pxx * ux + pxy * uy, pxy * ux + pyy * uy  # P u
+        p_uu = qx * ux + qy * uy
+        p_uv = qy * ux - qx * uy
+        p_vv = pxx + pyy - p_uu
+        p_uv2 = p_uv * p_uv
+        out = np.empty(np.broadcast(h2, pxx).shape + (self.dim,))
         for k, component in enumerate(self.components):
+            if component == AZIMUTH:  # [[0, c], [c, 0]]: 1/2 tr((A P)^2) = c^2 (p_uv^2 + p_uu p_vv)
+                out[..., k] = (p_uv2 + p_uu * p_vv) / (h2 * h2)
+                continue
+            r2 = h2 + dz * dz
             if component == RANGE:
                 r = np.sqrt(r2)
-                a, b, c = dz * dz / (r2 * r), 1.0 / r, 0.0
-            elif component == AZIMUTH:
-                a, b, c = 0.0, 0.0, -1.0 / h2
+                a, b = dz * dz / (r2 * r), 1.0 / r
             else:
-                a, b, c = 2.0 * dz * h / (r2 * r2), -dz / (r2 * h), 0.0
-            out[..., k] = 0.5 * _trace_of_square(a, b, c, p_uu, p_vv, p_uv)
+                a, b = 2.0 * dz * h / (r2 * r2), -dz / (r2 * h)
+            # [[a, 0], [0, b]]: 1/2 tr((A P)^2) = 1/2 (a^2 p_uu^2 + 2 a b p_uv^2 + b^2 p_vv^2)
+            a_uu, b_vv = a * p_uu, b * p_vv
+            out[..., k] = 0.5 * (a_uu * a_uu + b_vv * b_vv) + a * b * p_uv2
         return out
 
     def fisher_information_xy(
@@ -330,9 +356,3 @@ class SensorModel:
         diff[..., self.azimuth_index] = wrap_angle(diff[..., self.azimuth_index])
         return diff
 
-
-def _trace_of_square(a, b, c, p_uu, p_vv, p_uv):
-    """``tr((A P)^2)`` for symmetric ``A = [[a, c], [c, b]]`` and ``P = [[p_uu, p_uv], [p_uv, p_vv]]``."""
-    m00, m01 = a * p_uu + c * p_uv, a * p_uv + c * p_vv
-    m10, m11 = c * p_uu + b * p_uv, c * p_uv + b * p_vv
-    return m00 * m00 + 2.0 * m01 * m10 + m11 * m11
