@@ -44,18 +44,23 @@ class Detection:
 
     ``vehicle_cov`` is the covariance of that position as the vehicle's navigation
     knows it, ENU m^2: (2, 2) horizontal (the vertical then counts as exact) or
-    (3, 3); None for an exactly known position. The DUIF then inflates the
-    measurement noise by ``J_s P_s J_s^T`` (:meth:`UnscentedInformationFilter.contribution`).
+    (3, 3); or a float, the variance ``s^2`` of an error of ``s`` on every axis (a
+    report's ``vehicle_position_std_m``); None for an exactly known position. The
+    DUIF then inflates the measurement noise by ``J_s P_s J_s^T``
+    (:meth:`UnscentedInformationFilter.contribution`).
     """
 
     vehicle: int
     vehicle_xyz: NDArray[np.float64]
     values: NDArray[np.float64]
-    vehicle_cov: NDArray[np.float64] | None = None
+    vehicle_cov: NDArray[np.float64] | float | None = None
 
     def __post_init__(self) -> None:
-        if self.vehicle_cov is not None:
-            # Every detection of a step with uncertain positions passes here: kept to a few NumPy calls.
+        if isinstance(self.vehicle_cov, (float, int)):
+            if not (math.isfinite(self.vehicle_cov) and self.vehicle_cov >= 0.0):
+                raise ValueError(f"a per-axis vehicle variance must be finite and >= 0, got {self.vehicle_cov!r}")
+            object.__setattr__(self, "vehicle_cov", float(self.vehicle_cov))
+        elif self.vehicle_cov is not None:
             cov = np.asarray(self.vehicle_cov, dtype=np.float64)
             if cov.shape == (2, 2):
                 cov = np.pad(cov, ((0, 1), (0, 1)))
@@ -66,7 +71,11 @@ class Detection:
     @property
     def position_cov(self) -> NDArray[np.float64]:
         """``vehicle_cov`` as (3, 3), zeros when the position is exact."""
-        return np.zeros((3, 3)) if self.vehicle_cov is None else self.vehicle_cov
+        if self.vehicle_cov is None:
+            return np.zeros((3, 3))
+        if isinstance(self.vehicle_cov, float):
+            return self.vehicle_cov * np.eye(3)
+        return self.vehicle_cov
 
 
 @dataclass(frozen=True)
@@ -185,9 +194,13 @@ def fuse(config: TrackerConfig, estimate: GaussianEstimate | None, stamp_ns: int
 
 
 def _vehicle_covs(group: Sequence[Detection]) -> NDArray[np.float64] | None:
-    """The group's vehicle position covariances (k, 3, 3), or None when every position is exact."""
-    if all(d.vehicle_cov is None for d in group):
+    """The group's vehicle position uncertainty: None when every position is exact, per-axis
+    variances (k,) when none has a matrix (exact ones count 0), else covariances (k, 3, 3)."""
+    covs = [d.vehicle_cov for d in group]
+    if all(c is None for c in covs):
         return None
+    if all(c is None or isinstance(c, float) for c in covs):
+        return np.array([0.0 if c is None else c for c in covs])
     return np.stack([d.position_cov for d in group])
 
 

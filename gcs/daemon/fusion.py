@@ -14,7 +14,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from functools import lru_cache
 
 import numpy as np
 
@@ -39,18 +38,10 @@ def _measurement(report: SensorReport, components: tuple[str, ...]) -> np.ndarra
     return None if any(v is None for v in values) else np.array(values, dtype=np.float64)
 
 
-def _reported_cov(report: SensorReport) -> np.ndarray | None:
-    """``std^2 I_3`` from the report's ``vehicle_position_std_m``; None when it says nothing (or 0)."""
+def _reported_cov(report: SensorReport) -> float | None:
+    """The per-axis variance ``std^2`` from the report's ``vehicle_position_std_m``; None when it says nothing (or 0)."""
     std = report.vehicle_position_std_m
-    return None if not std else _isotropic_cov(std)
-
-
-@lru_cache(maxsize=256)
-def _isotropic_cov(std: float) -> np.ndarray:
-    """``std^2 I_3``, one array per value (read only: a vehicle reports the same std step after step)."""
-    cov = np.eye(3) * (std * std)
-    cov.flags.writeable = False
-    return cov
+    return std * std if std else None
 
 
 def step_detections(ready: ReadyStep, roster: Sequence[str], config: TrackerConfig,

@@ -202,7 +202,7 @@ def test_without_navigation_a_detection_carries_the_reported_position_std_on_eve
     stated = msgspec.structs.replace(_seen("uav1", S, (5.0, 6.0, 201.5)), vehicle_position_std_m=2.5)
     silent = _seen("uav2", S, (7.0, 8.0, 210.0))
     one, two = step_detections(ReadyStep(1, S, (stated, silent)), ["uav1", "uav2", "uav3"], config)
-    assert np.array_equal(one.vehicle_cov, 6.25 * np.eye(3))
+    assert one.vehicle_cov == 6.25 and np.array_equal(one.position_cov, 6.25 * np.eye(3))  # per-axis variance
     assert two.vehicle_cov is None  # no std given: taken as exact
 
 

@@ -105,21 +105,30 @@ def test_detection_rejects_a_bad_covariance() -> None:
     np.testing.assert_array_equal(d.position_cov, [[4.0, 1.0, 0.0], [1.0, 9.0, 0.0], [0.0, 0.0, 0.0]])
 
 
-def test_an_isotropic_vehicle_covariance_takes_the_diagonal_path_with_the_same_result() -> None:
-    """``s^2 I``: J_s J_s^T is diagonal (orthogonal gradients), so the cheap path must equal the full one."""
+def test_per_axis_variances_take_the_diagonal_path_with_the_full_paths_result() -> None:
+    """``s^2`` per vehicle (a report's std) and the matrix ``s^2 I`` must give the same contribution and R."""
     prior = _prior()
     vehicles = np.array([[1200.0, 1300.0, 200.0], [1495.0, 1503.0, 210.0]])  # the second nearly overhead
     z = exact_measurements(np.array([1510.0, 1490.0, 0.0]), vehicles)
-    isotropic = np.stack([6.25 * np.eye(3)] * 2)
-    cheap = UIF.contribution(prior, SENSOR, z, vehicles, isotropic)
-    z_pred, h_pos = pseudo_measurement(prior, SENSOR, vehicles, UIF.sigma)
-    jac = SENSOR.vehicle_jacobian(prior.mean[:2], vehicles)
-    r = UIF.noise_variance(prior, SENSOR, z_pred, vehicles, isotropic)
-    full = UIF._contribution_full_noise(prior, SENSOR, z, z_pred, h_pos, r, jac, isotropic)
+    per_axis = np.array([6.25, 2.0])
+    matrices = per_axis[:, None, None] * np.eye(3)
+    cheap = UIF.contribution(prior, SENSOR, z, vehicles, per_axis)
+    full = UIF.contribution(prior, SENSOR, z, vehicles, matrices)
     np.testing.assert_allclose(cheap.matrix, full.matrix, rtol=1e-9)
     np.testing.assert_allclose(cheap.vector, full.vector, rtol=1e-9)
-    nudged = UIF.contribution(prior, SENSOR, z, vehicles, isotropic + np.diag([1e-9, 0.0, 0.0]))  # full path
-    np.testing.assert_allclose(nudged.matrix, cheap.matrix, rtol=1e-6)
+    z_pred, _ = pseudo_measurement(prior, SENSOR, vehicles, UIF.sigma)
+    np.testing.assert_allclose(UIF.noise_covariance(prior, SENSOR, z_pred, vehicles, per_axis),
+                               UIF.noise_covariance(prior, SENSOR, z_pred, vehicles, matrices), rtol=1e-9, atol=1e-15)
+    exact = UIF.contribution(prior, SENSOR, z, vehicles)
+    assert np.all(np.linalg.eigvalsh(exact.matrix - cheap.matrix) > 0.0)  # the uncertainty costs information
+
+
+def test_a_detection_takes_a_per_axis_variance_and_refuses_a_bad_one() -> None:
+    detection = Detection(0, np.zeros(3), np.zeros(3), vehicle_cov=4)
+    assert detection.vehicle_cov == 4.0 and np.array_equal(detection.position_cov, 4.0 * np.eye(3))
+    for bad in (-1.0, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="per-axis"):
+            Detection(0, np.zeros(3), np.zeros(3), vehicle_cov=bad)
 
 
 def test_the_isotropic_vehicle_term_is_the_diagonal_of_j_s_p_s_j_s_and_that_is_all_of_it() -> None:

@@ -154,7 +154,8 @@ class ImmTargetFilter:
                     ) -> tuple[GaussianEstimate, float]:
         """The DUIF update of one mode's prediction and the log-likelihood of the detections under it.
 
-        ``groups``: per sensor model, measurements (k, m), vehicle positions (k, 3), vehicle covariances (k, 3, 3) or None.
+        ``groups``: per sensor model, measurements (k, m), vehicle positions (k, 3), and vehicle covariances
+        (k, 3, 3), per-axis variances (k,) or None (as :meth:`UnscentedInformationFilter.contribution` takes).
         """
         if not groups:
             return prior, 0.0
@@ -164,11 +165,7 @@ class ImmTargetFilter:
         h_rows, nu, r_blocks = [], [], []
         for sensor, z, xyz, covs in groups:
             z_pred, h_pos = pseudo_measurement(prior, sensor, xyz, self.sigma)
-            r = uif.noise_variance(prior, sensor, z_pred, xyz, covs)  # the R of the mode's update
-            r = r[..., None] * np.eye(sensor.dim)
-            if covs is not None:
-                jac = sensor.vehicle_jacobian(prior.mean[:2], xyz)
-                r = r + jac @ covs @ jac.swapaxes(-1, -2)
+            r = uif.noise_covariance(prior, sensor, z_pred, xyz, covs)  # the R of the mode's update
             h_rows.append(h_pos.reshape(-1, 2))
             nu.append(sensor.residual(z, z_pred).ravel())
             r_blocks.extend(r)

@@ -66,7 +66,12 @@ from gcs.core.models.sensor import SensorModel
 __all__ = ["GaussianEstimate", "InformationContribution", "UnscentedInformationFilter", "pseudo_measurement"]
 
 NS_PER_S = 1_000_000_000
-_EYE3 = np.eye(3)
+_EYE2 = np.eye(2)
+
+
+def _per_axis(vehicle_cov: NDArray[np.float64], vehicle_xyz: NDArray[np.float64]) -> bool:
+    """Whether ``vehicle_cov`` holds per-axis variances (...) rather than covariances (..., 3, 3)."""
+    return vehicle_cov.ndim == vehicle_xyz.ndim - 1
 _SIGMA_DIRECTIONS = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
 """Sigma-point directions in the position plane: centre, +e1, +e2, -e1, -e2."""
 
@@ -266,21 +271,22 @@ class UnscentedInformationFilter:
         others', which it is between vehicles but not over time for one vehicle (a
         slowly drifting error); the result is exact without it (None).
 
-        When every ``P_s`` is isotropic (``s^2 I``: a report's per-axis std) the sum stays
-        diagonal: the gradients of range, azimuth and elevation with respect to the
-        vehicle are mutually orthogonal, so ``J_s J_s^T`` is diagonal and ``R`` gains
-        ``s^2``, ``s^2 / rho_h^2`` and ``s^2 / rho^2`` (:meth:`SensorModel.isotropic_vehicle_variance`).
+        ``vehicle_cov`` may instead be per-axis variances ``s^2`` (shape (...), one
+        fewer axis than ``vehicle_xyz``): ``P_s = s^2 I``, a report's stated std. The
+        sum then stays diagonal: the gradients of range, azimuth and elevation with
+        respect to the vehicle are mutually orthogonal, so ``J_s J_s^T`` is diagonal
+        and ``R`` gains ``s^2``, ``s^2 / rho_h^2`` and ``s^2 / rho^2``
+        (:meth:`SensorModel.isotropic_vehicle_variance`).
         """
         vehicle_xyz = np.asarray(vehicle_xyz, dtype=np.float64)
         z_pred, h_pos = pseudo_measurement(prior, sensor, vehicle_xyz, self.sigma)
         r = self.noise_variance(prior, sensor, z_pred, vehicle_xyz, vehicle_cov)
         if vehicle_cov is not None:
             vehicle_cov = np.asarray(vehicle_cov, dtype=np.float64)
-            per_axis = vehicle_cov[..., 0, 0]
-            if not np.array_equal(vehicle_cov, per_axis[..., None, None] * _EYE3):
+            if not _per_axis(vehicle_cov, vehicle_xyz):
                 jac = sensor.vehicle_jacobian(prior.mean[:2], vehicle_xyz)  # (..., m, 3)
                 return self._contribution_full_noise(prior, sensor, z, z_pred, h_pos, r, jac, vehicle_cov)
-            r = r + sensor.isotropic_vehicle_variance(prior.mean, vehicle_xyz, per_axis)
+            r = r + sensor.isotropic_vehicle_variance(prior.mean, vehicle_xyz, vehicle_cov)
         ht_rinv = h_pos.swapaxes(-1, -2) / r[..., None, :]  # (H^p)^T R^-1, (..., 2, m)
         nu = sensor.residual(z, z_pred)
         nu += h_pos @ prior.mean[:2]  # nu + H^p x^-  (eq. 12-13)
@@ -298,8 +304,26 @@ class UnscentedInformationFilter:
             return np.broadcast_to(r, z_pred.shape)
         relative_cov = prior.cov[..., :2, :2]
         if vehicle_cov is not None:
-            relative_cov = relative_cov + np.asarray(vehicle_cov, dtype=np.float64)[..., :2, :2]
+            vehicle_cov = np.asarray(vehicle_cov, dtype=np.float64)
+            if _per_axis(vehicle_cov, vehicle_xyz):
+                relative_cov = relative_cov + vehicle_cov[..., None, None] * _EYE2
+            else:
+                relative_cov = relative_cov + vehicle_cov[..., :2, :2]
         return r + sensor.linearisation_variance(prior.mean, vehicle_xyz, relative_cov)
+
+    def noise_covariance(self, prior: GaussianEstimate, sensor: SensorModel, z_pred: NDArray[np.float64],
+                         vehicle_xyz: NDArray[np.float64], vehicle_cov: NDArray[np.float64] | None = None
+                         ) -> NDArray[np.float64]:
+        """The full ``R (+ J_s P_s J_s^T)`` of :meth:`contribution`, shape (..., m, m)."""
+        r = self.noise_variance(prior, sensor, z_pred, vehicle_xyz, vehicle_cov)
+        if vehicle_cov is None:
+            return r[..., None] * np.eye(sensor.dim)
+        vehicle_cov = np.asarray(vehicle_cov, dtype=np.float64)
+        if _per_axis(vehicle_cov, vehicle_xyz):
+            return (r + sensor.isotropic_vehicle_variance(prior.mean, vehicle_xyz, vehicle_cov))[..., None] * np.eye(
+                sensor.dim)
+        jac = sensor.vehicle_jacobian(prior.mean[:2], vehicle_xyz)
+        return r[..., None] * np.eye(sensor.dim) + jac @ vehicle_cov @ jac.swapaxes(-1, -2)
 
     @staticmethod
     def _contribution_full_noise(prior, sensor, z, z_pred, h_pos, r, jac, vehicle_cov) -> InformationContribution:

@@ -248,11 +248,12 @@ class SensorModel:
         dx, dy, dz = self._relative(target_xy, vehicle_xyz)
         h2 = dx * dx + dy * dy
         straight_below = h2 < _MIN_HORIZONTAL_M2
-        if np.any(straight_below):  # no line of sight to speak of: any horizontal direction will do
+        if straight_below.any():  # no line of sight to speak of: any horizontal direction will do
             dx = np.where(straight_below, 1e-3, dx)
             h2 = np.maximum(h2, _MIN_HORIZONTAL_M2)
         h = np.sqrt(h2)
         ux, uy = dx / h, dy / h
+        r2 = h2 + dz * dz
         # P in the (u, v) frame, v = (-uy, ux): p_uu = u^T P u, p_uv = u^T P v, p_vv = tr P - p_uu.
         pxx, pxy, pyy = position_cov[..., 0, 0], position_cov[..., 0, 1], position_cov[..., 1, 1]
         qx, qy = pxx * ux + pxy * uy, pxy * ux + pyy * uy  # P u
@@ -265,7 +266,6 @@ class SensorModel:
             if component == AZIMUTH:  # [[0, c], [c, 0]]: 1/2 tr((A P)^2) = c^2 (p_uv^2 + p_uu p_vv)
                 out[..., k] = (p_uv2 + p_uu * p_vv) / (h2 * h2)
                 continue
-            r2 = h2 + dz * dz
             if component == RANGE:
                 r = np.sqrt(r2)
                 a, b = dz * dz / (r2 * r), 1.0 / r
