@@ -496,8 +496,10 @@ def format_report(report: dict) -> str:
 
 def _worst_latency(report: dict) -> str:
     """The team size with the highest p99 (a missing p99 counts as the worst), for the goal's line."""
-    rows = report["vehicles"].items()
-    count, row = max(rows, key=lambda item: math.inf if item[1]["latency_ms_p99"] is None else item[1]["latency_ms_p99"])
+    def p99(item: tuple[str, dict]) -> float:
+        return math.inf if item[1]["latency_ms_p99"] is None else item[1]["latency_ms_p99"]
+
+    count, row = max(report["vehicles"].items(), key=p99)
     at = row["latency_at_reports_per_s"]
     where = "" if at == report["goals"]["reports_per_s"] else f" at {_fmt(at, 0)} reports/s"
     return (f"worst at {count} vehicles{where}: p50 {_fmt(row['latency_ms_p50'])} ms, "

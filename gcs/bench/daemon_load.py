@@ -44,9 +44,9 @@ __all__ = ["FIRST_STAMP_NS", "Vehicle", "Fleet", "Load", "publisher_main"]
 
 NS_PER_S = 1_000_000_000
 FIRST_STAMP_NS = 1_000 * NS_PER_S
+"""Stamp of the first round (any positive time: stamps are data time)."""
 REPORTED_POSITION_STD_M = 2.0
 """The 1-sigma each report states for its vehicle's position (m per axis; the GPS fix's ``h_acc_m``)."""
-"""Stamp of the first round (any positive time: stamps are data time)."""
 
 
 @dataclass(frozen=True)

@@ -39,7 +39,7 @@ def _measurement(report: SensorReport, components: tuple[str, ...]) -> np.ndarra
 
 
 def _reported_cov(report: SensorReport) -> float | None:
-    """The per-axis variance ``std^2`` from the report's ``vehicle_position_std_m``; None when it says nothing (or 0)."""
+    """The per-axis variance ``std^2`` of the report's ``vehicle_position_std_m``; None without one (or 0)."""
     std = report.vehicle_position_std_m
     return std * std if std else None
 

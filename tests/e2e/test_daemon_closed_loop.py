@@ -28,7 +28,9 @@ from tests.e2e.processes import script, stop
 from tests.loopback import free_tcp_port, free_udp_port
 
 DURATION_S = 120
-RATE = 2.0
+RATE = 1.0
+"""Real time, as vehicles fly. At 2x the GA's deadline is 0.3 s of wall time, and on a slowed machine, beside
+three simulators, the plans were cut short: a CI run saw the target in 107 of 120 steps (2026-11-23)."""
 SEED = 0
 
 
@@ -95,8 +97,9 @@ def test_daemon_with_three_vehicle_processes_tracks_like_the_in_process_loop(tmp
     (tmp_path / "summary.json").write_text(json.dumps(summary))
     assert steps == DURATION_S, summary
     # The issue's bars: the target seen in 90% of the steps, and an RMSE within 2x of the in-process loop
-    # (measured 2026-11-23, four runs: 116-120 of 120 steps, RMSE 9.2-9.7 m; in process 120 and 11.1 m. Before
-    # the filter weighed the azimuth from right above the target by its linearisation error, runs spread over
+    # (measured 2026-11-23 in real time, three runs: 113-120 of 120 steps, RMSE 8.2-10.0 m; at 2x, seven runs:
+    # 115-120 steps, 8.4-10.5 m, and 107 steps once on a slowed machine; in process 120 and 11.1 m. Before the
+    # filter weighed the azimuth from right above the target by its linearisation error, runs spread over
     # 8.4-21.6 m: docs/benchmarks.md, "Right above the target").
     assert seen_any >= 0.9 * steps, summary
     assert len(errors) >= 0.9 * steps, summary

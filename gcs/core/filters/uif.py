@@ -67,13 +67,13 @@ __all__ = ["GaussianEstimate", "InformationContribution", "UnscentedInformationF
 
 NS_PER_S = 1_000_000_000
 _EYE2 = np.eye(2)
+_SIGMA_DIRECTIONS = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
+"""Sigma-point directions in the position plane: centre, +e1, +e2, -e1, -e2."""
 
 
 def _per_axis(vehicle_cov: NDArray[np.float64], vehicle_xyz: NDArray[np.float64]) -> bool:
     """Whether ``vehicle_cov`` holds per-axis variances (...) rather than covariances (..., 3, 3)."""
     return vehicle_cov.ndim == vehicle_xyz.ndim - 1
-_SIGMA_DIRECTIONS = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
-"""Sigma-point directions in the position plane: centre, +e1, +e2, -e1, -e2."""
 
 
 class NotPositiveDefinite(ValueError):
@@ -320,8 +320,8 @@ class UnscentedInformationFilter:
             return r[..., None] * np.eye(sensor.dim)
         vehicle_cov = np.asarray(vehicle_cov, dtype=np.float64)
         if _per_axis(vehicle_cov, vehicle_xyz):
-            return (r + sensor.isotropic_vehicle_variance(prior.mean, vehicle_xyz, vehicle_cov))[..., None] * np.eye(
-                sensor.dim)
+            r = r + sensor.isotropic_vehicle_variance(prior.mean, vehicle_xyz, vehicle_cov)
+            return r[..., None] * np.eye(sensor.dim)
         jac = sensor.vehicle_jacobian(prior.mean[:2], vehicle_xyz)
         return r[..., None] * np.eye(sensor.dim) + jac @ vehicle_cov @ jac.swapaxes(-1, -2)
 

@@ -188,7 +188,7 @@ class SensorModel:
 
     def isotropic_vehicle_variance(self, target_xy: NDArray[np.float64], vehicle_xyz: NDArray[np.float64],
                                    per_axis_var: NDArray[np.float64]) -> NDArray[np.float64]:
-        """``diag(J_s P_s J_s^T)`` for ``P_s = s^2 I_3`` (a vehicle position uncertain by ``s`` on every axis), (..., m).
+        """``diag(J_s P_s J_s^T)``, shape (..., m), for ``P_s = s^2 I_3``: a vehicle position off by ``s`` per axis.
 
         The gradients of range, azimuth and elevation with respect to the vehicle
         (:meth:`vehicle_jacobian`) are mutually orthogonal, of lengths ``1``,
@@ -216,8 +216,8 @@ class SensorModel:
         A filter that linearises ``H`` about the predicted position ``p`` (the
         EKF's Jacobian or the UIF's statistical ``H^p``) drops the second-order
         term ``1/2 e^T (d^2 H_k) e`` of the position error ``e ~ N(0, P)``,
-        whose variance is (Bar-Shalom, Li & Kirubarajan 2001, sec. 10.3, the
-        second-order filter)
+        whose variance is (the second-order filter's term; Bar-Shalom, Li &
+        Kirubarajan 2001, ch. 10)
 
         .. math::
             \\Omega_k = \\tfrac12 \\operatorname{tr}\\big((\\nabla^2 H_k \\, P)^2\\big).
@@ -355,4 +355,3 @@ class SensorModel:
         diff = np.asarray(z - z_pred, dtype=np.float64)
         diff[..., self.azimuth_index] = wrap_angle(diff[..., self.azimuth_index])
         return diff
-
