@@ -73,7 +73,7 @@ from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
 from gcs.daemon.ingest import MAX_ABS_POSITION_M
 from gcs.core.navigation.fleet_ekf import gaussian_updates
-from gcs.core.navigation.skf import (MIN_GPS_FIX, NavGaussian, NavParams, initial, nav_measurements,
+from gcs.core.navigation.skf import (NavGaussian, NavParams, initial, nav_measurements,
                                      position_at)
 from protocols.messages import NavReport
 
@@ -207,7 +207,7 @@ class FleetNavigator:
                 self._refused(nav, error)
                 continue
             self._estimates[nav.vehicle_id] = new
-            fix = nav.gps is not None and nav.gps.fix_type >= MIN_GPS_FIX
+            fix = measurement.gps_xy is not None  # nav_measurement keeps a fix of MIN_GPS_FIX or better
             self._fix[nav.vehicle_id] = fix
             self._vertical_var[nav.vehicle_id] = float(nav.gps.v_acc_m) ** 2 if fix else 0.0
             self.counters["nav.applied"] += 1

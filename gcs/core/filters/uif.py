@@ -280,14 +280,12 @@ class UnscentedInformationFilter:
         """
         vehicle_xyz = np.asarray(vehicle_xyz, dtype=np.float64)
         z_pred, h_pos = pseudo_measurement(prior, sensor, vehicle_xyz, self.sigma)
-        r = self.noise_variance(prior, sensor, z_pred, vehicle_xyz, vehicle_cov)
-        if vehicle_cov is not None:
-            vehicle_cov = np.asarray(vehicle_cov, dtype=np.float64)
-            if not _per_axis(vehicle_cov, vehicle_xyz):
-                jac = sensor.vehicle_jacobian(prior.mean[:2], vehicle_xyz)  # (..., m, 3)
-                return self._contribution_full_noise(prior, sensor, z, z_pred, h_pos, r, jac, vehicle_cov)
-            r = r + sensor.isotropic_vehicle_variance(prior.mean, vehicle_xyz, vehicle_cov)
-        ht_rinv = h_pos.swapaxes(-1, -2) / r[..., None, :]  # (H^p)^T R^-1, (..., 2, m)
+        r, coupled = self._noise(prior, sensor, z_pred, vehicle_xyz, vehicle_cov)
+        if coupled is None:
+            ht_rinv = h_pos.swapaxes(-1, -2) / r[..., None, :]  # (H^p)^T R^-1, R diagonal: (..., 2, m)
+        else:
+            r_full = coupled + r[..., None] * np.eye(sensor.dim)
+            ht_rinv = np.linalg.solve(r_full, h_pos).swapaxes(-1, -2)  # (H^p)^T R^-1, R symmetric: (..., 2, m)
         nu = sensor.residual(z, z_pred)
         nu += h_pos @ prior.mean[:2]  # nu + H^p x^-  (eq. 12-13)
         return InformationContribution((ht_rinv @ nu[..., None])[..., 0], ht_rinv @ h_pos)
@@ -315,24 +313,24 @@ class UnscentedInformationFilter:
                          vehicle_xyz: NDArray[np.float64], vehicle_cov: NDArray[np.float64] | None = None
                          ) -> NDArray[np.float64]:
         """The full ``R (+ J_s P_s J_s^T)`` of :meth:`contribution`, shape (..., m, m)."""
+        r, coupled = self._noise(prior, sensor, z_pred, np.asarray(vehicle_xyz, dtype=np.float64), vehicle_cov)
+        full = r[..., None] * np.eye(sensor.dim)
+        return full if coupled is None else full + coupled
+
+    def _noise(self, prior: GaussianEstimate, sensor: SensorModel, z_pred: NDArray[np.float64],
+               vehicle_xyz: NDArray[np.float64], vehicle_cov: NDArray[np.float64] | None
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+        """The ``R`` of :meth:`contribution` as its diagonal (..., m) and, for vehicle covariances
+        given as matrices, the full ``J_s P_s J_s^T`` (..., m, m) to add to it (None otherwise:
+        no vehicle error, or per-axis variances, whose term is diagonal and already in)."""
         r = self.noise_variance(prior, sensor, z_pred, vehicle_xyz, vehicle_cov)
         if vehicle_cov is None:
-            return r[..., None] * np.eye(sensor.dim)
+            return r, None
         vehicle_cov = np.asarray(vehicle_cov, dtype=np.float64)
         if _per_axis(vehicle_cov, vehicle_xyz):
-            r = r + sensor.isotropic_vehicle_variance(prior.mean, vehicle_xyz, vehicle_cov)
-            return r[..., None] * np.eye(sensor.dim)
-        jac = sensor.vehicle_jacobian(prior.mean[:2], vehicle_xyz)
-        return r[..., None] * np.eye(sensor.dim) + jac @ vehicle_cov @ jac.swapaxes(-1, -2)
-
-    @staticmethod
-    def _contribution_full_noise(prior, sensor, z, z_pred, h_pos, r, jac, vehicle_cov) -> InformationContribution:
-        """Eq. (13) with the full ``R + J_s P_s J_s^T`` in place of ``R`` (see :meth:`contribution`)."""
-        r_full = jac @ vehicle_cov @ jac.swapaxes(-1, -2)
-        r_full = r_full + np.broadcast_to(r, r_full.shape[:-1])[..., None] * np.eye(sensor.dim)
-        ht_rinv = np.linalg.solve(r_full, h_pos).swapaxes(-1, -2)  # (H^p)^T R^-1, R symmetric: (..., 2, m)
-        nu = sensor.residual(z, z_pred) + h_pos @ prior.mean[:2]
-        return InformationContribution((ht_rinv @ nu[..., None])[..., 0], ht_rinv @ h_pos)
+            return r + sensor.isotropic_vehicle_variance(prior.mean, vehicle_xyz, vehicle_cov), None
+        jac = sensor.vehicle_jacobian(prior.mean[:2], vehicle_xyz)  # (..., m, 3)
+        return np.broadcast_to(r, z_pred.shape), jac @ vehicle_cov @ jac.swapaxes(-1, -2)
 
     def update(self, prior: GaussianEstimate, contributions: Sequence[InformationContribution]) -> GaussianEstimate:
         r"""Fuse contributions into the prior (eq. 14) and recover the state (eq. 15).

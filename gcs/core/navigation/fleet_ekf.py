@@ -141,10 +141,7 @@ def gaussian_updates(params: NavParams, estimates: Sequence[NavGaussian], measur
     for i, (estimate, m) in enumerate(zip(estimates, measurements)):
         gap = (m.stamp_ns - estimate.stamp_ns) / NS_PER_S - (m.ins[2] if m.ins is not None else 0.0)
         if m.ins is None or not m.ins[2] > 0.0 or m.stamp_ns < estimate.stamp_ns or gap > GAP_TOLERANCE_S:
-            try:
-                results[i] = gaussian_update(params, estimate, m)
-            except (ValueError, ArithmeticError, np.linalg.LinAlgError) as error:
-                results[i] = error
+            results[i] = _one_update(params, estimate, m)
             continue
         rows = ((GPS_ROWS if m.gps_xy is not None else ()) + (VELOCITY_ROWS if m.velocity_xy is not None else ())
                 + (HEADING_ROWS if m.heading_rad is not None else ()))
@@ -161,14 +158,19 @@ def gaussian_updates(params: NavParams, estimates: Sequence[NavGaussian], measur
                 means[:, THETA] = wrap_angle(means[:, THETA])
         except (ValueError, ArithmeticError, np.linalg.LinAlgError):  # one at a time, each with its own error
             for i in members:
-                try:
-                    results[i] = gaussian_update(params, estimates[i], measurements[i])
-                except (ValueError, ArithmeticError, np.linalg.LinAlgError) as error:
-                    results[i] = error
+                results[i] = _one_update(params, estimates[i], measurements[i])
             continue
         for slot, i in enumerate(members):
             results[i] = NavGaussian(measurements[i].stamp_ns, means[slot], covs[slot])
     return results
+
+
+def _one_update(params: NavParams, estimate: NavGaussian, measurement: NavMeasurement) -> NavGaussian | Exception:
+    """:func:`gaussian_update` alone: its result, or the error it raised."""
+    try:
+        return gaussian_update(params, estimate, measurement)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as error:
+        return error
 
 
 def _observed(params: NavParams, measurements: Sequence[NavMeasurement]
