@@ -46,8 +46,14 @@ def scenario_planner(scenario: Scenario) -> str:
 
 
 def filter_sensor_models(scenario: Scenario) -> tuple[SensorModel, ...]:
-    """The filter's sensor model of every vehicle (wang2012 eq. 3-4; zuo2021 eq. 2 noise)."""
-    return tuple(_sensor_model(scenario.sensor_for(vehicle)) for vehicle in scenario.vehicles)
+    """The filter's sensor model of every vehicle (wang2012 eq. 3-4; zuo2021 eq. 2 noise).
+
+    Vehicles with the same sensor share one model object: the tracker groups a step's
+    detections by model, and a dictionary finds an object it holds without comparing it.
+    """
+    shared: dict[SensorModel, SensorModel] = {}
+    return tuple(shared.setdefault(model, model)
+                 for model in (_sensor_model(scenario.sensor_for(vehicle)) for vehicle in scenario.vehicles))
 
 
 def observer_sensor_model(scenario: Scenario) -> SensorModel:

@@ -44,6 +44,8 @@ _DECODERS: dict[type[Message], msgspec.json.Decoder] = {
 }
 _ENCODER = msgspec.json.Encoder()
 _VERSION_RE = re.compile(r"[0-9]{1,9}")
+_PARSED: dict[str, type[Message]] = {}
+"""Encoding strings :func:`parse_encoding` accepted, and the type each names (every message parses one)."""
 # The path msgspec appends to a validation error: "... - at `$.a[1]`" or "`key` in `$.d`".
 _TRAILING_PATH_RE = re.compile(r"`(\$[^`]*)`$")
 _NAMED_FIELD_RE = re.compile(r"^Object (?:missing required|contains unknown) field `([^`]*)`")
@@ -71,6 +73,9 @@ def parse_encoding(encoding: str) -> type[Message]:
         ``reason="encoding"``, saying whether the media type, the ``gcs.`` schema
         namespace, the type name or the version is wrong.
     """
+    tp = _PARSED.get(encoding) if isinstance(encoding, str) else None
+    if tp is not None:
+        return tp
     if not isinstance(encoding, str):
         raise ProtocolError(
             f"encoding must be a str, got {type(encoding).__name__}", reason="encoding"
@@ -100,6 +105,7 @@ def parse_encoding(encoding: str) -> type[Message]:
             f"(this build speaks version {tp.VERSION})",
             reason="encoding",
         )
+    _PARSED[encoding] = tp  # valid strings only: a few per type (the version may have leading zeros)
     return tp
 
 

@@ -182,7 +182,7 @@ def fuse(config: TrackerConfig, estimate: GaussianEstimate | None, stamp_ns: int
     groups: dict[SensorModel, list[Detection]] = {}
     for detection in detections:
         groups.setdefault(config.sensors[detection.vehicle], []).append(detection)
-    stacked = [(sensor, np.stack([d.values for d in group]), np.stack([d.vehicle_xyz for d in group]),
+    stacked = [(sensor, np.array([d.values for d in group]), np.array([d.vehicle_xyz for d in group]),
                 _vehicle_covs(group)) for sensor, group in groups.items()]
     if config.target_imm is not None:
         if not isinstance(estimate, ImmEstimate):

@@ -31,11 +31,14 @@ from protocols.messages import PlanCommand, PredictedPoint, SensorReport, TrackE
 __all__ = ["step_detections", "fuse_step", "FusionDiverged", "check_estimate", "track_message", "plan_commands", "PlanMemory", "with_observers"]
 
 
+_REPORT_FIELD = {"range": "range_m", "azimuth": "azimuth_rad", "elevation": "elevation_rad"}
+"""The ``SensorReport`` field of each sensor model component."""
+
+
 def _measurement(report: SensorReport, components: tuple[str, ...]) -> np.ndarray | None:
     """The report's values in the sensor model's component order; None if one is missing."""
-    fields = {"range": report.range_m, "azimuth": report.azimuth_rad, "elevation": report.elevation_rad}
-    values = [fields[c] for c in components]
-    return None if any(v is None for v in values) else np.array(values, dtype=np.float64)
+    values = [getattr(report, _REPORT_FIELD[c]) for c in components]
+    return None if None in values else np.array(values, dtype=np.float64)
 
 
 def _reported_cov(report: SensorReport) -> float | None:
@@ -119,10 +122,11 @@ def check_estimate(estimate: GaussianEstimate | None) -> None:
     if estimate is None:
         return
     mean, cov = estimate.mean, estimate.cov
-    if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(cov))):
+    if not (np.isfinite(mean).all() and np.isfinite(cov).all()):
         raise FusionDiverged("the fused estimate is not finite")
-    if not np.all(np.diag(cov)[:2] <= MAX_POSITION_VARIANCE_M2):
-        raise FusionDiverged(f"the fused position variance {np.diag(cov)[:2]} is beyond {MAX_POSITION_VARIANCE_M2:g}")
+    variances = (float(cov[0, 0]), float(cov[1, 1]))
+    if not max(variances) <= MAX_POSITION_VARIANCE_M2:
+        raise FusionDiverged(f"the fused position variance {variances} is beyond {MAX_POSITION_VARIANCE_M2:g}")
     try:
         np.linalg.cholesky(_symmetric(cov))
     except np.linalg.LinAlgError as error:

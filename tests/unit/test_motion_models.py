@@ -67,3 +67,21 @@ def test_matrices_are_read_only_and_bad_inputs_are_rejected() -> None:
         motion_model("ct", 1.0)
     with pytest.raises(ValueError, match="noise_density"):
         constant_velocity(float("nan"))
+
+
+@pytest.mark.parametrize("model", [constant_velocity(1.96), constant_acceleration(0.5)])
+def test_horizon_matrices_are_the_step_composed_j_times(model) -> None:
+    f, q = model.matrices(0.5)
+    powers, noises = model.horizon_matrices(0.5, 4)
+    assert powers.shape == noises.shape == (4, model.dim, model.dim)
+    power, noise = np.eye(model.dim), np.zeros((model.dim, model.dim))
+    for j in range(4):
+        power, noise = f @ power, f @ noise @ f.T + q
+        np.testing.assert_allclose(powers[j], power, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(noises[j], noise, rtol=1e-12, atol=1e-12)
+    with pytest.raises(ValueError):
+        powers[0, 0, 0] = 2.0
+    with pytest.raises(ValueError, match="steps"):
+        model.horizon_matrices(0.5, 0)
+    with pytest.raises(ValueError, match="positive"):
+        model.horizon_matrices(-1.0, 3)

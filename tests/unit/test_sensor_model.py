@@ -115,3 +115,15 @@ def test_linearisation_variance_matters_under_the_vehicle_only() -> None:
     assert near[RBE.azimuth_index] == pytest.approx(100.0**2 / 10.0**4)  # |P|^2 / rho_h^4 for an isotropic P
     right_above = RBE.linearisation_variance(np.array([0.0, 0.0]), vehicle, cov)
     assert np.all(np.isfinite(right_above)) and right_above[RBE.azimuth_index] > 1e6
+
+
+def test_equal_models_hash_alike_and_the_scenarios_vehicles_share_one() -> None:
+    from gcs.bench.urban import with_vehicles
+    from gcs.scenarios import load_scenario
+    from gcs.tracking import filter_sensor_models
+
+    a, b = SensorModel.range_bearing(10.0, 0.05, 0.05), SensorModel.range_bearing(10.0, 0.05, 0.05)
+    c = SensorModel.range_bearing(10.0, 0.05, 0.06)
+    assert a == b and hash(a) == hash(b) and a != c and len({a, b, c}) == 2
+    models = filter_sensor_models(with_vehicles(load_scenario("wang2012_urban"), 10))
+    assert len(models) == 10 and all(m is models[0] for m in models)  # one group, found without comparing

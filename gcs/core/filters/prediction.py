@@ -53,15 +53,12 @@ def predict_horizon(
     if steps < 1:
         raise ValueError(f"steps must be >= 1, got {steps}")
     step_ns = int(round(step_s * NS_PER_S))
-    first = uif.predict(posterior, posterior.stamp_ns + step_ns)  # eq. (16)
-    f, q = uif.motion.matrices(step_ns / NS_PER_S)
-    means = [first.mean]
-    covs = [first.cov]
-    for _ in range(steps - 1):  # eq. (17), with the covariance carried along
-        means.append(f @ means[-1])
-        covs.append(f @ covs[-1] @ f.T + q)
-    stamps = tuple(first.stamp_ns + j * step_ns for j in range(steps))
-    return HorizonPrediction(stamps, GaussianEstimate(np.stack(means), np.stack(covs), stamps[0]))
+    # Eq. (16) is eq. (17)'s first step: the linear motion model's prediction of one step.
+    powers, noises = uif.motion.horizon_matrices(step_ns / NS_PER_S, steps)
+    means = powers @ posterior.mean
+    covs = powers @ posterior.cov @ powers.swapaxes(-1, -2) + noises
+    stamps = tuple(posterior.stamp_ns + j * step_ns for j in range(1, steps + 1))
+    return HorizonPrediction(stamps, GaussianEstimate(means, covs, stamps[0]))
 
 
 def expected_information(

@@ -63,6 +63,19 @@ def _ca_matrices(dt: float, q: float) -> tuple[NDArray[np.float64], NDArray[np.f
     return f, qm
 
 
+@lru_cache(maxsize=64)
+def _horizon_matrices(name: str, dt: float, q: float, steps: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    f, qm = (_cv_matrices if name == "cv2d" else _ca_matrices)(dt, q)
+    powers, noises = [f], [qm]
+    for _ in range(steps - 1):
+        powers.append(f @ powers[-1])
+        noises.append(f @ noises[-1] @ f.T + qm)
+    stacked = np.stack(powers), np.stack(noises)
+    for array in stacked:
+        array.flags.writeable = False
+    return stacked
+
+
 @dataclass(frozen=True)
 class LinearMotionModel:
     """A linear Gaussian motion model x[k+1] = F(T) x[k] + q, q ~ N(0, Q(T)).
@@ -100,6 +113,19 @@ class LinearMotionModel:
             raise ValueError(f"time step must be positive, got {dt!r}")
         build = _cv_matrices if self.name == "cv2d" else _ca_matrices
         return build(float(dt), float(self.noise_density))
+
+    def horizon_matrices(self, dt: float, steps: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``(F^j, Q_j)`` for j = 1..steps steps of ``dt``, stacked (steps, dim, dim) (read-only, cached).
+
+        ``x[k+j] = F^j x[k]`` and ``P[k+j] = F^j P[k] (F^j)^T + Q_j`` with
+        ``Q_1 = Q`` and ``Q_j = F Q_{j-1} F^T + Q``: the covariance carried along
+        wang2012 eq. (17), j steps at once.
+        """
+        if not dt > 0.0:
+            raise ValueError(f"time step must be positive, got {dt!r}")
+        if steps < 1:
+            raise ValueError(f"steps must be >= 1, got {steps}")
+        return _horizon_matrices(self.name, float(dt), float(self.noise_density), int(steps))
 
     def propagate(self, states: NDArray[np.float64], dt: float) -> NDArray[np.float64]:
         """Noise-free transition ``F x`` of states with shape (..., dim) (wang2012 eq. 17)."""
