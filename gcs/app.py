@@ -57,6 +57,7 @@ from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
 from gcs.core.kinematics import VehicleState
+from gcs.core.filters.prediction import HorizonPrediction
 from gcs.core.filters.uif import GaussianEstimate
 from gcs.core.tracker import TrackerConfig, prediction
 from gcs.daemon.fusion import (FusionDiverged, PlanMemory, fuse_step, plan_commands, track_message,
@@ -156,6 +157,19 @@ class _Aim:
     altitude_m: float
     airspeed_mps: float
     min_distance_m: float
+
+
+@dataclass(frozen=True)
+class _Planning:
+    """What planning a fused step needs: the step, the vehicles alive when it was fused, its estimate,
+    the k+1..k+n prediction and the planner's clock scale (captured then; the job is built when it
+    is handed over)."""
+
+    ready: ReadyStep
+    active: tuple[str, ...]
+    estimate: GaussianEstimate
+    predicted: HorizonPrediction
+    clock_scale: float
 
 
 @dataclass
@@ -298,31 +312,35 @@ class Daemon:
     # ------------------------------------------------------------------ loop
 
     def turn(self, now: float) -> bool:
-        """One pass of the loop; True when something was received, fused or planned."""
-        planned = self._apply_finished_plans()
+        """One pass of the loop; True when something was received, fused or planned.
+
+        What was received is handled a step's worth of reports (one per roster vehicle)
+        at a time, and the steps that completed are fused and published before the next
+        are handled: when the loop is behind, a step's track does not wait for the
+        reports of the steps after it. Only the newest step fused in the pass is planned.
+        """
+        activity = self._apply_finished_plans()
         received = self.zenoh.drain()
-        for item in received:
-            try:
-                self._handle(item, now)
-            except Exception:  # a bug on one input must not take the ground station down
-                self.counters["errors.ingest"] += 1
-                log.exception("handling %s on %s failed; continuing", item.kind, item.key)
+        batch = max(1, len(self.roster))
+        newest: _Planning | None = None
+        for start in range(0, len(received), batch):
+            for item in received[start:start + batch]:
+                try:
+                    self._handle(item, now)
+                except Exception:  # a bug on one input must not take the ground station down
+                    self.counters["errors.ingest"] += 1
+                    log.exception("handling %s on %s failed; continuing", item.kind, item.key)
+            if start + batch < len(received):
+                newest, done = self._release(now, newest)
+                activity += done
         if self.commander is not None:
             self.commander.poll(now)
-        expected = {vid for vid in self.roster if self.registry.alive(vid, now)} - self.ingest.off_clock
-        ready = self.steps.ready(expected, now)
-        for position, step_ in enumerate(ready):
-            try:
-                self._decide(step_, now, plan_now=position == len(ready) - 1)
-            except FusionDiverged as error:  # absurd data: the previous estimate stands
-                self.counters["rejected.diverged"] += 1
-                log.warning("decision step %d not fused: %s", step_.index, error)
-            except Exception:  # a bug in one step must not take the ground station down
-                self.counters["errors.decision"] += 1
-                log.exception("decision step %d failed; continuing", step_.index)
-            planned += self._apply_finished_plans()
+        newest, done = self._release(now, newest)
+        activity += done
+        if newest is not None:
+            self._submit(newest)
         self.scorer.score(flush=False)
-        planned += self._apply_finished_plans()
+        activity += self._apply_finished_plans()
         if self.commander is not None:
             if now >= self._next_steer_s:
                 self._steer()
@@ -331,7 +349,32 @@ class Daemon:
         self.zenoh.answer_queries(status=lambda: self.status(now))
         if self.live is not None:
             self.live.publish(now, lambda: self.status(now))
-        return bool(received or ready or planned)
+        return bool(received or activity)
+
+    def _release(self, now: float, newest: _Planning | None) -> tuple[_Planning | None, int]:
+        """Fuse and publish every step that is ready. Returns the newest one's planning (``newest``
+        if none of them can be planned: a step a newer one replaces is fused only,
+        ``steps_fused_only``) and how many steps were released and plans applied."""
+        expected = {vid for vid in self.roster if self.registry.alive(vid, now)} - self.ingest.off_clock
+        ready = self.steps.ready(expected, now)
+        applied = 0
+        for step_ in ready:
+            try:
+                planning = self._decide(step_, now)
+            except FusionDiverged as error:  # absurd data: the previous estimate stands
+                self.counters["rejected.diverged"] += 1
+                log.warning("decision step %d not fused: %s", step_.index, error)
+                planning = None
+            except Exception:  # a bug in one step must not take the ground station down
+                self.counters["errors.decision"] += 1
+                log.exception("decision step %d failed; continuing", step_.index)
+                planning = None
+            if planning is not None:
+                if newest is not None:
+                    self.counters["steps_fused_only"] += 1
+                newest = planning
+            applied += self._apply_finished_plans()
+        return newest, len(ready) + applied
 
     def _handle(self, item, now: float) -> None:
         if self.recorder is not None:
@@ -374,9 +417,9 @@ class Daemon:
             config = self._subset_configs[indices] = subset_config(self.tracker, indices)
         return config
 
-    def _decide(self, ready: ReadyStep, now: float, plan_now: bool = True) -> None:
-        """Fuse one step's reports (every roster vehicle's) and publish the track; hand the
-        planning for the vehicles alive now to the planner, unless a newer step is already waiting."""
+    def _decide(self, ready: ReadyStep, now: float) -> _Planning | None:
+        """Fuse one step's reports (every roster vehicle's) and publish the track; what planning it for
+        the vehicles alive now needs (None when there is nothing to plan)."""
         roster, tracker = with_observers(self.tracker, self.roster, self.ingest.unlisted, self._observer_sensor)
         if self.navigator is not None:
             self.navigator.advance_to(ready.stamp_ns)
@@ -393,18 +436,23 @@ class Daemon:
                                                    predicted))
         active = self.registry.plannable(now)
         scale = self._clock_scale(ready, now)
+        self._record(ready, active, estimate)
         if not active:
             self.counters["steps_without_vehicles"] += 1
-        elif not plan_now:
-            self.counters["steps_fused_only"] += 1
-        elif estimate is not None:
-            self.planner.submit(PlanJob(
-                index=ready.index, stamp_ns=ready.stamp_ns, active=tuple(active),
-                indices=tuple(self.roster.index(v) for v in active),
-                state=self.loop.memory.state_for(active, estimate),
-                vehicles=self.registry.vehicle_state(active, ready.stamp_ns), predicted=predicted,
-                clock_scale=scale, submitted_s=time.monotonic()))
-        self._record(ready, active, estimate)
+            return None
+        if estimate is None:
+            return None
+        return _Planning(ready, tuple(active), estimate, predicted, scale)
+
+    def _submit(self, planning: _Planning) -> None:
+        """Hand a fused step's planning to the planner (replacing a job it has not started)."""
+        ready, active, estimate = planning.ready, planning.active, planning.estimate
+        self.planner.submit(PlanJob(
+            index=ready.index, stamp_ns=ready.stamp_ns, active=active,
+            indices=tuple(self.roster.index(v) for v in active),
+            state=self.loop.memory.state_for(active, estimate),
+            vehicles=self.registry.vehicle_state(list(active), ready.stamp_ns), predicted=planning.predicted,
+            clock_scale=planning.clock_scale, submitted_s=time.monotonic()))
 
     def _apply_finished_plans(self) -> int:
         """Apply what the planner has finished (checked several times a pass, so that a plan waits little)."""

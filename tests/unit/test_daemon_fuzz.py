@@ -215,3 +215,40 @@ def test_a_step_whose_fusion_diverges_is_counted_and_the_previous_estimate_stand
         daemon.planner.close()
     assert daemon.counters["rejected.diverged"] == 1 and daemon.loop.estimate is before
     assert "errors.decision" not in daemon.counters
+
+
+def test_a_behind_loop_publishes_each_step_before_handling_the_next_and_plans_the_newest_once() -> None:
+    """Three steps' reports in one pass: each step's track is put as soon as its reports are handled
+    (not after the whole batch), and only the last step is planned."""
+    daemon = _daemon()
+    order: list[tuple[str, int]] = []
+    handle, publish = daemon._handle, daemon.zenoh.publish_track
+
+    def handled(item, now):
+        handle(item, now)
+        if item.kind == "sample" and "/report" in item.key:
+            order.append(("report", msgspec.json.decode(item.payload)["stamp_ns"]))
+
+    def published(track):
+        order.append(("track", track.stamp_ns))
+        publish(track)
+
+    daemon._handle, daemon.zenoh.publish_track = handled, published
+    alive = [Received("alive", f"gcs/vehicle/{v}/alive", b"", "", 0) for v in ROSTER]
+    navs = [_sample(nav_key(v), NavReport(vehicle_id=v, seq=1, stamp_ns=EPOCH_NS, velocity_enu_mps=(25.0, 0.0, 0.0),
+                                          heading_rad=0.0)) for v in ROSTER]
+    try:
+        _run(daemon, [(0.1, alive + navs + [_seen_from(v, EPOCH_NS) for v in ROSTER])])  # step 0 times out
+        order.clear()
+        plans_before = len(daemon.plans)
+        daemon.zenoh.inbox.extend(_seen_from(v, EPOCH_NS + k * S) for k in (1, 2, 3) for v in ROSTER)
+        daemon.turn(20.0)
+    finally:
+        daemon.planner.close()
+    expected = []
+    for k in (1, 2, 3):
+        expected += [("report", EPOCH_NS + k * S)] * len(ROSTER) + [("track", EPOCH_NS + k * S)]
+    assert order == expected
+    planned = daemon.plans[plans_before:]
+    assert [plan.stamp_ns for plan in planned] == [EPOCH_NS + 3 * S]
+    assert daemon.counters["steps_fused_only"] == 2
