@@ -84,6 +84,18 @@ def _planner(name: str, scenario: Scenario, generations: int | None, stall: int 
     raise ValueError(f"unknown planner {name!r}; expected one of {', '.join(PLANNERS)}")
 
 
+def _visibility(world: World, planner: str, altitude_m: float, max_range_m: float):
+    """How the planner learns the visibility regions of the predicted points (wang2012 eq. 22).
+
+    The GA asks thousands of positions a plan: the maps (a few milliseconds each to
+    build) answer them cheaply. The other planners score one plan: the sight lines
+    answer its few positions directly, with the same answers, and nothing is built.
+    """
+    if planner in ("ga_k5", "ga_k0"):
+        return lambda points: VisibilityMaps(world.visibility_maps(points, altitude_m, max_range_m))
+    return lambda points: world.sight_lines(points, altitude_m, max_range_m)
+
+
 def tracker_config(scenario: Scenario, world: World | None, planner: str, generations: int | None = None,
                    stall: int | None | str = FROM_SCENARIO) -> TrackerConfig:
     """The tracker for a scenario and one of :data:`PLANNERS`.
@@ -107,8 +119,7 @@ def tracker_config(scenario: Scenario, world: World | None, planner: str, genera
         horizon_steps=cfg.horizon_steps,
         weights=weights,
         predict_ahead=planner != "ga_k0",
-        visibility=None if world is None else (
-            lambda points: VisibilityMaps(world.visibility_maps(points, altitude, max_range))),
+        visibility=None if world is None else _visibility(world, planner, altitude, max_range),
         restricted=world.in_restricted if world is not None and len(world.airspace) else None,
         initial_position_std_m=scenario.estimator.initial_position_std_m,
         initial_velocity_std_mps=scenario.estimator.initial_velocity_std_mps,

@@ -178,3 +178,22 @@ def test_maps_of_an_open_field_see_everything_within_range() -> None:
     maps = VisibilityMaps(visibility_maps(Buildings.empty(), np.array([[0.0, 0.0], [100.0, 0.0]]), 100.0, 1000.0))
     seen = maps.visible(np.array([[[500.0, 0.0], [100.0, 2000.0]]]))
     assert seen.tolist() == [[True, False]]
+
+
+@pytest.mark.parametrize(("altitude", "max_range", "target_height"), [(200.0, 5000.0, 0.0), (60.0, 900.0, 1.5)])
+def test_sight_lines_answer_as_the_maps_do(altitude: float, max_range: float, target_height: float) -> None:
+    """SightLines (no maps built, for planners that score one plan) gives the maps' answers exactly."""
+    rng = np.random.default_rng(int(altitude))
+    points = STREETS.nearest_intersection(rng.uniform(0, 3000, (5, 2))) + rng.uniform(-14, 14, (5, 2))
+    maps = VisibilityMaps(visibility_maps(CITY, points, altitude, max_range, target_height_m=target_height))
+    lines = World(CITY, World.empty().airspace, STREETS, (3000.0, 3000.0)).sight_lines(points, altitude, max_range,
+                                                                                      target_height)
+    xy = points + rng.normal(0.0, 500.0, (400, 3, 5, 2))  # e.g. population x vehicles x horizon
+    xy[0, 0, 0] = (np.nan, 0.0)
+    xy[0, 0, 1] = points[1]  # right above the target
+    got = lines.visible(xy)
+    assert got.shape == (400, 3, 5) and got.any() and not got.all()
+    np.testing.assert_array_equal(got, maps.visible(xy))
+    assert not got[0, 0, 0] and got[0, 0, 1]
+    with pytest.raises(ValueError, match="shape"):
+        lines.visible(xy[..., :4, :])

@@ -25,6 +25,7 @@ from gcs.core.world.airspace import RestrictedAirspace
 from gcs.core.world.buildings import Buildings, StreetGrid, buildings_from_geojson, generate_city
 from gcs.core.world.los import (
     DEFAULT_BINS,
+    SightLines,
     VisibilityMap,
     VisibilityMaps,
     line_of_sight,
@@ -37,6 +38,7 @@ __all__ = [
     "Buildings",
     "StreetGrid",
     "RestrictedAirspace",
+    "SightLines",
     "VisibilityMap",
     "VisibilityMaps",
     "DEFAULT_BINS",
@@ -89,6 +91,11 @@ class World:
     ) -> tuple[VisibilityMap, ...]:
         """One :class:`VisibilityMap` per predicted target point ``(n, 2)``."""
         return visibility_maps(self.buildings, target_xys, altitude_m, max_range_m, target_height_m, bins)
+
+    def sight_lines(self, target_xys: ArrayLike, altitude_m: float, max_range_m: float,
+                    target_height_m: float = 0.0) -> SightLines:
+        """:class:`SightLines` of predicted target points ``(n, 2)``: the maps' answers, without the maps."""
+        return SightLines(self.buildings, target_xys, altitude_m, max_range_m, target_height_m)
 
     def in_restricted(self, xyz: ArrayLike) -> NDArray[np.bool_]:
         """Whether points (..., 3) are in restricted airspace (wang2012 eq. 5, 26)."""
