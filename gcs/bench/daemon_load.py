@@ -34,9 +34,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gcs.adapters.zenoh_session import ZenohSettings, declare_publisher, open_session, publish
+from gcs.adapters.zenoh_session import ZenohSettings, declare_publisher, open_session
 from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
+from protocols.codec import encode
 from protocols.keys import alive_key, nav_key, report_key
 from protocols.messages import GpsFix, NavReport, SensorReport
 
@@ -114,17 +115,20 @@ class Load:
         self.next_round += 1
         return stamp
 
-    def _report(self, slot: int, stamp_ns: int) -> None:
+    def _report(self, slot: int, stamp_ns: int) -> bytes:
+        """The encoded ``SensorReport`` of vehicle ``slot`` for ``stamp_ns``."""
         v, (r_std, a_std, e_std) = self.fleet.vehicles[slot], self.fleet.std
         self.seq += 1
-        publish(self.reports[slot], SensorReport(
+        payload, _ = encode(SensorReport(
             vehicle_id=v.id, seq=self.seq, stamp_ns=stamp_ns, vehicle_position_enu_m=v.position_enu_m,
             vehicle_position_std_m=REPORTED_POSITION_STD_M, detected=True, range_m=v.range_m,
             azimuth_rad=v.azimuth_rad, elevation_rad=v.elevation_rad,
             range_std_m=r_std, azimuth_std_rad=a_std, elevation_std_rad=e_std))
+        return payload
 
-    def _nav(self, slot: int, stamp_ns: int) -> None:
-        """Heading and velocity (the vehicle becomes plannable), with a GPS fix when ``nav_per_round``."""
+    def _nav(self, slot: int, stamp_ns: int) -> bytes:
+        """The encoded ``NavReport`` of vehicle ``slot``: heading and velocity (the vehicle becomes
+        plannable), with a GPS fix when ``nav_per_round``."""
         v = self.fleet.vehicles[slot]
         self.seq += 1
         velocity = (v.speed_mps * math.cos(v.heading_rad), v.speed_mps * math.sin(v.heading_rad), 0.0)
@@ -133,8 +137,9 @@ class Load:
             lat, lon, alt = v.lat_lon_alt
             gps = GpsFix(lat_deg=lat, lon_deg=lon, alt_m=alt, fix_type=3, h_acc_m=REPORTED_POSITION_STD_M,
                          v_acc_m=3.0)
-        publish(self.navs[slot], NavReport(vehicle_id=v.id, seq=self.seq, stamp_ns=stamp_ns, gps=gps,
-                                           velocity_enu_mps=velocity, heading_rad=v.heading_rad))
+        payload, _ = encode(NavReport(vehicle_id=v.id, seq=self.seq, stamp_ns=stamp_ns, gps=gps,
+                                      velocity_enu_mps=velocity, heading_rad=v.heading_rad))
+        return payload
 
     def warmup(self, timeout_s: float = 5.0) -> dict:
         """Once the daemon's subscribers match: a nav report and one round of reports per vehicle."""
@@ -143,9 +148,9 @@ class Load:
             time.sleep(0.01)
         stamp = self._stamp()
         for slot in range(len(self.fleet.vehicles)):
-            self._nav(slot, stamp)
+            self.navs[slot].put(self._nav(slot, stamp))
         for slot in range(len(self.fleet.vehicles)):
-            self._report(slot, stamp)
+            self.reports[slot].put(self._report(slot, stamp))
         return {"stamp_ns": stamp}
 
     def run(self, rate: float, seconds: float, burst: bool = False) -> dict:
@@ -153,23 +158,27 @@ class Load:
 
         Reports are evenly spaced, or with ``burst`` a round's reports all go at
         the round's start (as vehicles reporting at the same data time would).
+        Every payload is encoded before the first is sent, so that the pacing loop
+        only puts: the load's own work competes for the CPUs with the daemon it measures.
         """
         count = len(self.fleet.vehicles)
         rounds = max(1, round(rate * seconds / count))
         interval = 1.0 / rate
-        stamps, last_sent_ns = [], []
+        stamps = [self._stamp() for _ in range(rounds)]
+        nav_per_round = self.fleet.nav_per_round
+        payloads = [[(self._nav(slot, stamp) if nav_per_round else b"", self._report(slot, stamp))
+                     for slot in range(count)] for stamp in stamps]
+        last_sent_ns = []
         start, cpu = time.perf_counter(), time.process_time()
-        for k in range(rounds):
-            stamp = self._stamp()
-            for slot in range(count):
+        for k, round_ in enumerate(payloads):
+            for slot, (nav, report) in enumerate(round_):
                 ahead = start + (k * count + (0 if burst else slot)) * interval - time.perf_counter()
                 if ahead > 0:
                     time.sleep(ahead)
-                if self.fleet.nav_per_round:
-                    self._nav(slot, stamp)
-                self._report(slot, stamp)
+                if nav_per_round:
+                    self.navs[slot].put(nav)
+                self.reports[slot].put(report)
             last_sent_ns.append(time.time_ns())
-            stamps.append(stamp)
         elapsed = time.perf_counter() - start
         return {"published": rounds * count, "elapsed_s": elapsed, "stamps": stamps, "last_sent_ns": last_sent_ns,
                 "cpu_s": time.process_time() - cpu}
