@@ -82,6 +82,15 @@ NS_PER_S = 1_000_000_000
 AUTOPILOT_NAMES = {3: "ArduPilot", 12: "PX4"}
 STEER_RATE_HZ = 4.0
 """How often the headings toward the planned paths are recomputed (the carrot rate)."""
+MIN_PLAN_INTERVAL_S = 0.05
+"""Wall time between two plans handed to the planner, at least.
+
+The vehicles are steered toward the newest plan :data:`STEER_RATE_HZ` times a
+second, so plans made much faster than that are never flown. Live (1 s decision
+steps) and in the demo (10x) the planner takes longer than this anyway; against
+data arriving hundreds of times faster than real time (``gcs bench daemon``) a
+cheap planner (orbit, pursuit) would otherwise cost the loop more in job hand-over
+and command publication than the fusion it is there for."""
 
 
 @dataclass(frozen=True)
@@ -184,6 +193,9 @@ class _Loop:
     step_times: list[tuple[float, int]] = field(default_factory=list)
     aims: dict[str, _Aim] = field(default_factory=dict)
     data_rate: float = 1.0
+    waiting: _Planning | None = None
+    """The newest fused step's planning, until the planner is free to take it."""
+    next_plan_s: float = -math.inf
 
 
 class Daemon:
@@ -317,7 +329,9 @@ class Daemon:
         What was received is handled a step's worth of reports (one per roster vehicle)
         at a time, and the steps that completed are fused and published before the next
         are handled: when the loop is behind, a step's track does not wait for the
-        reports of the steps after it. Only the newest step fused in the pass is planned.
+        reports of the steps after it. The newest step fused so far waits to be planned
+        until the planner is free (:meth:`_hand_over`); an older one waiting is then
+        fused only (``steps_fused_only``).
         """
         activity = self._apply_finished_plans()
         received = self.zenoh.drain()
@@ -338,9 +352,12 @@ class Daemon:
         newest, done = self._release(now, newest)
         activity += done
         if newest is not None:
-            self._submit(newest)
+            if self.loop.waiting is not None:
+                self.counters["steps_fused_only"] += 1
+            self.loop.waiting = newest
         self.scorer.score(flush=False)
         activity += self._apply_finished_plans()
+        self._hand_over(now)
         if self.commander is not None:
             if now >= self._next_steer_s:
                 self._steer()
@@ -444,8 +461,15 @@ class Daemon:
             return None
         return _Planning(ready, tuple(active), estimate, predicted, scale)
 
-    def _submit(self, planning: _Planning) -> None:
-        """Hand a fused step's planning to the planner (replacing a job it has not started)."""
+    def _hand_over(self, now: float) -> None:
+        """Give the newest fused step's planning to the planner once it is free, and
+        :data:`MIN_PLAN_INTERVAL_S` after the last hand-over; its job is built now, with the
+        warm start of the plan just applied and the vehicles' latest positions."""
+        planning = self.loop.waiting
+        if planning is None or self.planner.busy or now < self.loop.next_plan_s:
+            return
+        self.loop.waiting = None
+        self.loop.next_plan_s = now + MIN_PLAN_INTERVAL_S
         ready, active, estimate = planning.ready, planning.active, planning.estimate
         self.planner.submit(PlanJob(
             index=ready.index, stamp_ns=ready.stamp_ns, active=active,

@@ -239,10 +239,12 @@ def test_a_behind_loop_publishes_each_step_before_handling_the_next_and_plans_th
                                           heading_rad=0.0)) for v in ROSTER]
     try:
         _run(daemon, [(0.1, alive + navs + [_seen_from(v, EPOCH_NS) for v in ROSTER])])  # step 0 times out
+        daemon.turn(10.2)  # its plan (made inline when handed over) is applied
         order.clear()
         plans_before = len(daemon.plans)
         daemon.zenoh.inbox.extend(_seen_from(v, EPOCH_NS + k * S) for k in (1, 2, 3) for v in ROSTER)
         daemon.turn(20.0)
+        daemon.turn(20.1)
     finally:
         daemon.planner.close()
     expected = []
@@ -252,3 +254,52 @@ def test_a_behind_loop_publishes_each_step_before_handling_the_next_and_plans_th
     planned = daemon.plans[plans_before:]
     assert [plan.stamp_ns for plan in planned] == [EPOCH_NS + 3 * S]
     assert daemon.counters["steps_fused_only"] == 2
+
+
+class _HeldPlanner:
+    """A planner the test keeps busy or frees; it records the steps handed to it."""
+
+    def __init__(self) -> None:
+        self.busy, self.jobs = False, []
+
+    def submit(self, job) -> None:
+        self.jobs.append(job.stamp_ns)
+        self.busy = True
+
+    def take(self) -> list:
+        return []
+
+    def finished(self) -> bool:
+        return False
+
+    def close(self) -> None:
+        pass
+
+
+def test_the_newest_step_waits_for_a_free_planner_and_plans_are_handed_over_at_most_every_interval() -> None:
+    from gcs.app import MIN_PLAN_INTERVAL_S
+
+    daemon = _daemon()
+    daemon.planner.close()
+    daemon.planner = planner = _HeldPlanner()
+    alive = [Received("alive", f"gcs/vehicle/{v}/alive", b"", "", 0) for v in ROSTER]
+    navs = [_sample(nav_key(v), NavReport(vehicle_id=v, seq=1, stamp_ns=EPOCH_NS, velocity_enu_mps=(25.0, 0.0, 0.0),
+                                          heading_rad=0.0)) for v in ROSTER]
+    _run(daemon, [(0.1, alive + navs + [_seen_from(v, EPOCH_NS) for v in ROSTER])])  # step 0, handed over at 10.1
+    assert planner.jobs == [EPOCH_NS]
+
+    def step(k: int, now: float) -> None:
+        daemon.zenoh.inbox.extend(_seen_from(v, EPOCH_NS + k * S) for v in ROSTER)
+        daemon.turn(now)
+
+    step(1, 11.0)
+    step(2, 11.1)  # the planner is busy: step 2 waits, step 1 is fused only
+    assert planner.jobs == [EPOCH_NS] and daemon.counters["steps_fused_only"] == 1
+    planner.busy = False
+    daemon.turn(11.2)
+    assert planner.jobs == [EPOCH_NS, EPOCH_NS + 2 * S]
+    planner.busy = False
+    step(3, 11.2 + MIN_PLAN_INTERVAL_S / 2)  # free, but too soon after the last hand-over
+    assert planner.jobs[-1] == EPOCH_NS + 2 * S
+    daemon.turn(11.2 + MIN_PLAN_INTERVAL_S)
+    assert planner.jobs == [EPOCH_NS, EPOCH_NS + 2 * S, EPOCH_NS + 3 * S]
