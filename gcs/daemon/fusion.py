@@ -154,17 +154,14 @@ def plan_commands(vehicles: VehicleState, configs: Sequence[VehicleConfig], cont
                   ) -> list[PlanCommand]:
     """One ``PlanCommand`` per planned vehicle: the heading at the end of the step
     (``psi + u T``), the first turn rate and the planned path over the horizon."""
-    path, _ = rollout(vehicles, controls, step_s, max_turn_rate)
+    path, _ = rollout(vehicles, controls, step_s, max_turn_rate, headings=False)
     paths = path.tolist()  # (V, n, 2) as Python floats
-    commands = []
-    for slot, cfg in enumerate(configs):
-        turn_rate = float(controls[slot, 0])
-        commands.append(PlanCommand(
-            vehicle_id=cfg.id, seq=first_seq + slot, stamp_ns=stamp_ns,
-            heading_rad=wrap_angle(float(vehicles.heading[slot] + turn_rate * step_s)), turn_rate_rad_s=turn_rate,
-            airspeed_mps=cfg.speed_mps, altitude_m=cfg.altitude_m,
-            planned_path_enu_m=tuple(map(tuple, paths[slot])), planner=planner))
-    return commands
+    turn_rates = np.asarray(controls[:, 0], dtype=np.float64)
+    headings = wrap_angle(vehicles.heading + turn_rates * step_s).tolist()
+    return [PlanCommand(vehicle_id=cfg.id, seq=first_seq + slot, stamp_ns=stamp_ns, heading_rad=heading,
+                        turn_rate_rad_s=turn_rate, airspeed_mps=cfg.speed_mps, altitude_m=cfg.altitude_m,
+                        planned_path_enu_m=tuple(map(tuple, path_)), planner=planner)
+            for slot, (cfg, heading, turn_rate, path_) in enumerate(zip(configs, headings, turn_rates.tolist(), paths))]
 
 
 @dataclass

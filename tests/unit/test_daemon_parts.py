@@ -186,3 +186,26 @@ def test_a_vehicle_whose_reports_are_refused_for_their_stamps_is_not_waited_for_
     assert ingest.off_clock == {"uav1"}
     assert ingest.accept(_received(report_key("uav1"), _report("uav1", 100 * S, seq=3))) is None  # a duplicate
     assert ingest.off_clock == {"uav1"}  # says nothing about its clock
+
+
+def test_plan_commands_carry_the_heading_after_the_step_the_first_turn_rate_and_the_path() -> None:
+    from gcs.core.geometry import wrap_angle
+    from gcs.core.kinematics import VehicleState, rollout
+    from gcs.daemon.fusion import plan_commands
+
+    configs = list(SCENARIO.vehicles)
+    n = len(configs)
+    vehicles = VehicleState(np.array([[100.0 * i, 50.0] for i in range(n)]), np.array([3.1, -3.1, 0.5][:n]),
+                            np.full(n, 25.0), np.full(n, 200.0))
+    controls = np.array([[0.2, 0.1, 0.0, 0.0, 0.0], [-0.2, 0.0, 0.0, 0.0, 0.0], [0.05, 0.05, 0.05, 0.05, 0.05]][:n])
+    limits = np.full(n, 0.3)
+    commands = plan_commands(vehicles, configs, controls, limits, 1.0, 1234, 7, "ga_k5")
+    path, _ = rollout(vehicles, controls, 1.0, limits)
+    for slot, (command, cfg) in enumerate(zip(commands, configs)):
+        assert (command.vehicle_id, command.seq, command.stamp_ns, command.planner) == (cfg.id, 7 + slot, 1234, "ga_k5")
+        assert command.turn_rate_rad_s == controls[slot, 0]
+        assert command.heading_rad == wrap_angle(float(vehicles.heading[slot] + controls[slot, 0]))
+        assert -math.pi < command.heading_rad <= math.pi
+        np.testing.assert_array_equal(np.array(command.planned_path_enu_m), path[slot])
+        assert (command.airspeed_mps, command.altitude_m) == (cfg.speed_mps, cfg.altitude_m)
+        encode(command)
