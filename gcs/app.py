@@ -170,15 +170,17 @@ class _Aim:
 
 @dataclass(frozen=True)
 class _Planning:
-    """What planning a fused step needs: the step, the vehicles alive when it was fused, its estimate,
-    the k+1..k+n prediction and the planner's clock scale (captured then; the job is built when it
-    is handed over)."""
+    """What planning a fused step needs, captured when it was fused: the step, the vehicles alive
+    then and their states at its stamp, its estimate, the k+1..k+n prediction, the planner's clock
+    scale and when (``time.monotonic``); the job is built from it when it is handed over."""
 
     ready: ReadyStep
     active: tuple[str, ...]
+    vehicles: VehicleState
     estimate: GaussianEstimate
     predicted: HorizonPrediction
     clock_scale: float
+    fused_s: float
 
 
 @dataclass
@@ -459,12 +461,14 @@ class Daemon:
             return None
         if estimate is None:
             return None
-        return _Planning(ready, tuple(active), estimate, predicted, scale)
+        # The vehicles now, at the step's stamp: by the time the planner is free newer reports may be in.
+        return _Planning(ready, tuple(active), self.registry.vehicle_state(active, ready.stamp_ns), estimate,
+                         predicted, scale, time.monotonic())
 
     def _hand_over(self, now: float) -> None:
         """Give the newest fused step's planning to the planner once it is free, and
         :data:`MIN_PLAN_INTERVAL_S` after the last hand-over; its job is built now, with the
-        warm start of the plan just applied and the vehicles' latest positions."""
+        warm start of the plan just applied."""
         planning = self.loop.waiting
         if planning is None or self.planner.busy or now < self.loop.next_plan_s:
             return
@@ -475,8 +479,8 @@ class Daemon:
             index=ready.index, stamp_ns=ready.stamp_ns, active=active,
             indices=tuple(self.roster.index(v) for v in active),
             state=self.loop.memory.state_for(active, estimate),
-            vehicles=self.registry.vehicle_state(list(active), ready.stamp_ns), predicted=planning.predicted,
-            clock_scale=planning.clock_scale, submitted_s=time.monotonic()))
+            vehicles=planning.vehicles, predicted=planning.predicted,
+            clock_scale=planning.clock_scale, submitted_s=planning.fused_s))
 
     def _apply_finished_plans(self) -> int:
         """Apply what the planner has finished (checked several times a pass, so that a plan waits little)."""

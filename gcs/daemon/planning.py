@@ -9,7 +9,10 @@ and hands the planning to a planner:
 * a **mailbox of one**: :meth:`Planner.submit` replaces a job the planner has
   not started yet (counted as ``superseded``). A plan made from older data
   than the newest fused step is worth nothing once the newer one exists, so the
-  planner never queues behind itself;
+  planner never queues behind itself. The daemon goes further: it keeps the
+  newest step's planning itself and submits only when the planner is free
+  (``Daemon._hand_over``, at most every ``MIN_PLAN_INTERVAL_S``), so a job is
+  built once and carries the warm start of the plan just applied;
 * the planner runs :func:`gcs.core.tracker.plan` (pure) and the loop takes the
   finished :class:`PlanOutcome` s with :meth:`Planner.take` and applies them
   (warm-start memory, commands, ``PlanCommand``): every side effect stays on
@@ -92,7 +95,8 @@ class PlanJob:
         second over the share of the step the planner may use; see
         ``Daemon._clock_scale``): its deadline is in data time.
     submitted_s : float
-        ``time.monotonic`` when the job was handed over.
+        ``time.monotonic`` when its step was fused (the daemon keeps the newest step's
+        planning until the planner is free, then builds the job).
     """
 
     index: int
