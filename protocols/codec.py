@@ -58,10 +58,17 @@ def _registered(tp: object) -> type[Message]:
     return tp
 
 
+def _encoding_of(tp: type[Message]) -> str:
+    return f"{ENCODING_MEDIA_TYPE};{SCHEMA_NAMESPACE}{tp.__name__}/{tp.VERSION}"
+
+
+_ENCODINGS: dict[type[Message], str] = {tp: _encoding_of(tp) for tp in MESSAGE_TYPES}
+
+
 def encoding_for(tp: type[Message]) -> str:
     """Zenoh encoding string of a message type, e.g. ``application/json;gcs.SensorReport/1``."""
-    tp = _registered(tp)
-    return f"{ENCODING_MEDIA_TYPE};{SCHEMA_NAMESPACE}{tp.__name__}/{tp.VERSION}"
+    encoding = _ENCODINGS.get(tp) if isinstance(tp, type) else None
+    return encoding if encoding is not None else _encoding_of(_registered(tp))
 
 
 def parse_encoding(encoding: str) -> type[Message]:

@@ -61,16 +61,20 @@ def step_detections(ready: ReadyStep, roster: Sequence[str], config: TrackerConf
     first: dict[str, SensorReport] = {}
     for report in ready.reports:
         first.setdefault(report.vehicle_id, report)
-    detections = []
+    usable = []
     for index, vehicle_id in enumerate(roster):
         report = first.get(vehicle_id)
         if report is None or not report.detected:
             continue
         values = _measurement(report, config.sensors[index].components)
-        if values is None:
-            continue
-        xyz = np.asarray(report.vehicle_position_enu_m, dtype=np.float64)
-        navigated = None if navigator is None else navigator.position_at(vehicle_id, report.stamp_ns)
+        if values is not None:
+            usable.append((index, report, values))
+    if not usable:
+        return ()
+    positions = np.array([report.vehicle_position_enu_m for _, report, _ in usable], dtype=np.float64)  # (k, 3)
+    detections = []
+    for (index, report, values), xyz in zip(usable, positions):
+        navigated = None if navigator is None else navigator.position_at(report.vehicle_id, report.stamp_ns)
         if navigated is None:
             detections.append(Detection(index, xyz, values, vehicle_cov=_reported_cov(report)))
         else:

@@ -51,6 +51,7 @@ WARN_FIRST = 5
 """Rejections of each reason logged at WARNING before the rest go to DEBUG."""
 
 _CONSUMED = {"report", "nav", "truth"}
+_ACCEPTED = {kind: f"accepted.{kind}" for kind in _CONSUMED}
 MAX_AHEAD_NS = 60 * 1_000_000_000
 """How far a stamp may run ahead of the newest accepted one (a minute of data time)."""
 MAX_CACHED_KEYS = 4096
@@ -137,7 +138,7 @@ class Ingest:
         if self._newest_ns is not None and stamp > self._newest_ns + MAX_AHEAD_NS:
             self.reject("future", f"{received.key}: stamp {stamp} is more than "
                                   f"{MAX_AHEAD_NS // 1_000_000_000} s after the newest ({self._newest_ns})")
-            self._off_clock(parsed.kind, source, True)
+            self._off_clock(parsed.kind, source)
             return None
         recent = self._stamps.get((parsed.kind, source))
         if recent is None:
@@ -151,24 +152,23 @@ class Ingest:
                 "was accepted already" if verdict == "duplicate" else
                 f"is more than {REORDER_WINDOW_NS / 1e9:g} s older than the newest ({newest})"))
             if verdict == "stale":  # a duplicate says nothing about the vehicle's clock
-                self._off_clock(parsed.kind, source, True)
+                self._off_clock(parsed.kind, source)
             return None
         recent.add(stamp)
-        self._off_clock(parsed.kind, source, False)
-        self._newest_ns = stamp if self._newest_ns is None else max(self._newest_ns, stamp)
+        if parsed.kind == "report":
+            self.off_clock.discard(source)
+        if self._newest_ns is None or stamp > self._newest_ns:
+            self._newest_ns = stamp
         if parsed.kind != "truth" and source not in self.roster:
             self.counters[f"accepted.unlisted.{parsed.kind}"] += 1
         else:
-            self.counters[f"accepted.{parsed.kind}"] += 1
+            self.counters[_ACCEPTED[parsed.kind]] += 1
         return message
 
-    def _off_clock(self, kind: str, source: str, rejected: bool) -> None:
-        if kind != "report":
-            return
-        if rejected:
+    def _off_clock(self, kind: str, source: str) -> None:
+        """A report refused for its stamp: its vehicle's clock has gone wrong (taken back by an accepted one)."""
+        if kind == "report":
             self.off_clock.add(source)
-        else:
-            self.off_clock.discard(source)
 
     def _admit_unlisted(self, vehicle_id: str) -> bool:
         """With ``accept_unlisted``: True for a vehicle already admitted, or a new one while there is room."""

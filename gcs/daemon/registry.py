@@ -41,7 +41,7 @@ class VehicleEntry:
     token_changed_s: float | None = None
     reports: int = 0
     last_report_stamp_ns: int | None = None
-    position_enu_m: np.ndarray | None = None
+    position_enu_m: tuple[float, float, float] | None = None
     position_stamp_ns: int | None = None
     heading_rad: float | None = None
     velocity_enu_mps: np.ndarray | None = None
@@ -76,7 +76,7 @@ class Registry:
         if entry.last_report_stamp_ns is not None and report.stamp_ns < entry.last_report_stamp_ns:
             return
         entry.last_report_stamp_ns = report.stamp_ns
-        entry.position_enu_m = np.asarray(report.vehicle_position_enu_m, dtype=np.float64)
+        entry.position_enu_m = report.vehicle_position_enu_m  # an array only when asked (position_at)
         entry.position_stamp_ns = report.stamp_ns
 
     def on_nav(self, nav: NavReport) -> None:
@@ -128,7 +128,7 @@ class Registry:
     def position_at(self, vehicle_id: str, stamp_ns: int) -> np.ndarray:
         """Position (3,) at ``stamp_ns``: the last reported one, moved on with the velocity if older."""
         entry = self.entries[vehicle_id]
-        position = entry.position_enu_m.copy()
+        position = np.array(entry.position_enu_m, dtype=np.float64)
         if entry.velocity_enu_mps is not None and entry.position_stamp_ns is not None:
             dt = (stamp_ns - entry.position_stamp_ns) / NS_PER_S
             if 0.0 < dt <= 5.0:
