@@ -113,11 +113,12 @@ def _cmd_daemon(args: argparse.Namespace) -> int:
 
     scenario = load_scenario(args.scenario)
     command = (f"gcs bench daemon --scenario {args.scenario} --vehicles {' '.join(map(str, args.vehicles))} "
-               f"--seconds {args.seconds:g} --solve-steps {args.solve_steps} --navigation {args.navigation}")
+               f"--seconds {args.seconds:g} --solve-steps {args.solve_steps} --navigation {args.navigation}"
+               + (f" --rates {' '.join(f'{r:g}' for r in args.rates)}" if args.rates else ""))
     profiler = cProfile.Profile() if args.profile else None
     report = daemon.run_benchmark(scenario, build_world(scenario), vehicle_counts=args.vehicles, seconds=args.seconds,
                                   solve_steps=args.solve_steps, command=command, progress=_progress, profiler=profiler,
-                                  navigation=args.navigation)
+                                  navigation=args.navigation, rates=args.rates or ())
     print(daemon.format_report(report))
     if args.json:
         daemon.write_json(report, args.json)
@@ -323,6 +324,9 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     dmn.add_argument("--vehicles", type=_positive_int, nargs="+", default=[10, 50, 100], metavar="N",
                      help="vehicle counts to measure (default 10 50 100)")
     dmn.add_argument("--seconds", type=_positive_float, default=3.0, help="seconds per rate trial (default 3)")
+    dmn.add_argument("--rates", type=_positive_float, nargs="+", metavar="R",
+                     help="instead of searching, one trial at each of these reports/s in turn (e.g. 5000 5000 "
+                          "5000 to see how the latency at the goal varies)")
     dmn.add_argument("--solve-steps", type=_non_negative_int, default=5,
                      help="real-time decision steps to time the GA's solve over, 0 to skip (default 5)")
     dmn.add_argument("--navigation", choices=DAEMON_NAVIGATION, default="auto",

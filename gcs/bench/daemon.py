@@ -14,7 +14,8 @@ For each vehicle count:
 
 1. **Rate search** with the cheap ``orbit`` planner: trials of ``seconds`` at
    1,250, 2,500, 5,000 ... reports/s (evenly spaced), doubling until a trial
-   fails, then bisecting to within 15%. A trial **passes** ("processed with
+   fails, then bisecting to within 15% (or, with ``rates``, one trial at each rate
+   given, in turn). A trial **passes** ("processed with
    nothing dropped") when the load achieved the rate, every published report
    was accepted by ingest (``accepted.report``) with no rejection, no late
    report and no failed decision, and the daemon had accepted the last report
@@ -305,10 +306,13 @@ def next_rate(trials: Sequence[Trial], minimum: float) -> float | None:
     return (best + worst) / 2 if worst / best > RESOLUTION else None
 
 
-def _search(run: _Run, seconds: float, minimum: float, say: Callable[[str], None]) -> Generator[bool, None, list]:
+def _search(run: _Run, seconds: float, minimum: float, say: Callable[[str], None],
+            rates: Sequence[float] = ()) -> Generator[bool, None, list]:
+    """The rate search, or with ``rates`` a trial at each of them in turn (e.g. the goal rate repeated)."""
     yield from run.warm_up()
     trials: list[Trial] = []
-    while (rate := next_rate(trials, minimum)) is not None:
+    fixed = iter(rates)
+    while (rate := next(fixed, None) if rates else next_rate(trials, minimum)) is not None:
         trial = yield from run.trial(round(rate), seconds)
         trials.append(trial)
         say(f"{len(run.roster)} vehicles, {trial.rate_per_s:,.0f} reports/s: "
@@ -331,7 +335,8 @@ def _fmt(value: float | None, digits: int = 2) -> str:
 
 
 def _measure(scenario: Scenario, world: World, seconds: float, solve_steps: int, ga_planner: str,
-             say: Callable[[str], None], profiler: cProfile.Profile | None, navigation: str = "auto") -> dict:
+             say: Callable[[str], None], profiler: cProfile.Profile | None, navigation: str = "auto",
+             rates: Sequence[float] = ()) -> dict:
     """The rate search (orbit) and the GA's solve time for one scenario, against one load process."""
     endpoint = f"tcp/{LOCALHOST}:{free_tcp_port()}"
     context = multiprocessing.get_context("spawn")
@@ -349,7 +354,7 @@ def _measure(scenario: Scenario, world: World, seconds: float, solve_steps: int,
             raise RuntimeError("the load process died while starting") from None
         count = len(scenario.vehicles)
         search = _Run(scenario, world, LATENCY_PLANNER, endpoint, ours, profiler, navigation)
-        trials = search.run(_search(search, seconds, count / scenario.time.step_s, say))
+        trials = search.run(_search(search, seconds, count / scenario.time.step_s, say, rates))
         ga = None
         if solve_steps > 0:
             realtime = _Run(scenario, world, ga_planner, endpoint, ours, navigation=navigation)
@@ -413,10 +418,11 @@ def _load_average() -> str:
 def run_benchmark(scenario: Scenario, world: World, vehicle_counts: Sequence[int] = (10, 50, 100),
                   seconds: float = 3.0, solve_steps: int = 5, command: str = "",
                   progress: Callable[[str], None] | None = None, profiler: cProfile.Profile | None = None,
-                  navigation: str = "auto") -> dict:
+                  navigation: str = "auto", rates: Sequence[float] = ()) -> dict:
     """Measure every vehicle count; returns the report (see :func:`write_json`).
 
-    ``profiler`` (optional) profiles the daemon's loop during the rate searches.
+    ``profiler`` (optional) profiles the daemon's loop during the rate searches. ``rates``
+    (optional) replaces the search by one trial at each rate given, in that order.
     """
     say = progress or (lambda _msg: None)
     planner = scenario_planner(scenario)
@@ -424,9 +430,9 @@ def run_benchmark(scenario: Scenario, world: World, vehicle_counts: Sequence[int
     note, load_start = machine_note(), _load_average()
     started = time.monotonic()
     per_count = {str(count): _measure(with_vehicles(scenario, count), world, seconds, solve_steps, ga_planner, say,
-                                      profiler, navigation) for count in vehicle_counts}
+                                      profiler, navigation, rates) for count in vehicle_counts}
     largest = str(max(vehicle_counts))
-    rates = [row["max_reports_per_s_no_loss"] for row in per_count.values()]
+    best_rates = [row["max_reports_per_s_no_loss"] for row in per_count.values()]
     at_goal = [row["latency_at_reports_per_s"] == GOAL_REPORTS_PER_S for row in per_count.values()]
     p99s = [row["latency_ms_p99"] for row in per_count.values()]
     return {
@@ -434,14 +440,15 @@ def run_benchmark(scenario: Scenario, world: World, vehicle_counts: Sequence[int
         "load_average": {"start": load_start, "end": _load_average()},
         "latency_planner": LATENCY_PLANNER, "solve_planner": ga_planner, "navigation": navigation,
         "nav_per_round": runs_skf(navigation, scenario),
-        "seconds_per_trial": seconds, "grace_s": GRACE_S, "wall_s": time.monotonic() - started,
+        "seconds_per_trial": seconds, "rates": list(rates) or "searched", "grace_s": GRACE_S,
+        "wall_s": time.monotonic() - started,
         "vehicles": per_count,
-        "max_reports_per_s_no_loss": min(rates),
+        "max_reports_per_s_no_loss": min(best_rates),
         "latency_ms_p50": per_count[largest]["latency_ms_p50"],
         "latency_ms_p99": per_count[largest]["latency_ms_p99"],
         "latency_vehicles": int(largest),
         "goals": {"reports_per_s": GOAL_REPORTS_PER_S, "latency_ms_p99": GOAL_LATENCY_MS_P99,
-                  "rate_met": min(rates) >= GOAL_REPORTS_PER_S,
+                  "rate_met": min(best_rates) >= GOAL_REPORTS_PER_S,
                   "latency_met": all(at_goal) and all(p is not None and p <= GOAL_LATENCY_MS_P99 for p in p99s)},
     }
 

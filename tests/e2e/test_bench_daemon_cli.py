@@ -62,3 +62,19 @@ def test_bench_daemon_rejects_a_bad_argument() -> None:
                           capture_output=True, text=True, timeout=60)
     assert done.returncode == 2
     assert "--seconds" in done.stderr
+
+
+def test_bench_daemon_with_fixed_rates_runs_one_trial_at_each_in_turn(tmp_path: Path) -> None:
+    out = tmp_path / "daemon.json"
+    done = subprocess.run(
+        [sys.executable, "-m", "gcs.cli", "bench", "daemon", "--vehicles", "3", "--seconds", "0.5",
+         "--solve-steps", "0", "--rates", "600", "300", "600", "--json", str(out)],
+        capture_output=True, text=True, timeout=300,
+    )
+    assert done.returncode == 0, done.stderr
+    report = json.loads(out.read_text())
+    assert report["rates"] == [600, 300, 600] and "--rates 600 300 600" in report["command"]
+    trials = report["vehicles"]["3"]["trials"]
+    assert [t["rate_per_s"] for t in trials] == [600, 300, 600]
+    for trial in trials:
+        assert trial["accepted"] == trial["published"] > 0 and trial["latency_ms_p50"] > 0
