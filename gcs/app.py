@@ -68,7 +68,7 @@ from gcs.daemon.planning import PLANNER_NICENESS, Planner, PlanJob, PlanOutcome,
 from gcs.daemon.live import LiveMap
 from gcs.daemon.navigation import navigator_for
 from gcs.daemon.records import PlanRecord, StepRecord, StepScorer, keep_newest
-from gcs.daemon.registry import Registry
+from gcs.daemon.registry import Registry, VehicleSnapshot
 from gcs.daemon.steps import ReadyStep, StepAssembler
 from gcs.tracking import observer_sensor_model, scenario_planner, subset_config, tracker_config
 from protocols.keys import parse_key
@@ -82,6 +82,8 @@ NS_PER_S = 1_000_000_000
 AUTOPILOT_NAMES = {3: "ArduPilot", 12: "PX4"}
 STEER_RATE_HZ = 4.0
 """How often the headings toward the planned paths are recomputed (the carrot rate)."""
+PLAN_CHECK_ITEMS = 16
+"""While a pass handles what it received, it applies a finished plan after every this many items."""
 MIN_PLAN_INTERVAL_S = 0.05
 """Wall time between two plans handed to the planner, at least.
 
@@ -171,12 +173,12 @@ class _Aim:
 @dataclass(frozen=True)
 class _Planning:
     """What planning a fused step needs, captured when it was fused: the step, the vehicles alive
-    then and their states at its stamp, its estimate, the k+1..k+n prediction, the planner's clock
+    then and what was known of them (their states at its stamp come from that), its estimate, the k+1..k+n prediction, the planner's clock
     scale and when (``time.monotonic``); the job is built from it when it is handed over."""
 
     ready: ReadyStep
     active: tuple[str, ...]
-    vehicles: VehicleState
+    vehicles: VehicleSnapshot
     estimate: GaussianEstimate
     predicted: HorizonPrediction
     clock_scale: float
@@ -331,7 +333,8 @@ class Daemon:
         What was received is handled a step's worth of reports (one per roster vehicle)
         at a time, and the steps that completed are fused and published before the next
         are handled: when the loop is behind, a step's track does not wait for the
-        reports of the steps after it. The newest step fused so far waits to be planned
+        reports of the steps after it, nor a finished plan's commands for more than
+        :data:`PLAN_CHECK_ITEMS` of them. The newest step fused so far waits to be planned
         until the planner is free (:meth:`_hand_over`); an older one waiting is then
         fused only (``steps_fused_only``).
         """
@@ -339,19 +342,24 @@ class Daemon:
         received = self.zenoh.drain()
         batch = max(1, len(self.roster))
         newest: _Planning | None = None
-        for start in range(0, len(received), batch):
-            for item in received[start:start + batch]:
-                try:
-                    self._handle(item, now)
-                except Exception:  # a bug on one input must not take the ground station down
-                    self.counters["errors.ingest"] += 1
-                    log.exception("handling %s on %s failed; continuing", item.kind, item.key)
-            if start + batch < len(received):
-                newest, done = self._release(now, newest)
+        alive: set[str] | None = None  # the vehicles alive now, until a liveliness change
+        for position, item in enumerate(received, 1):
+            try:
+                self._handle(item, now)
+            except Exception:  # a bug on one input must not take the ground station down
+                self.counters["errors.ingest"] += 1
+                log.exception("handling %s on %s failed; continuing", item.kind, item.key)
+            if item.kind != "sample":
+                alive = None
+            if position % PLAN_CHECK_ITEMS == 0:  # a finished plan waits for a few reports, not a batch
+                activity += self._apply_finished_plans()
+            if position % batch == 0 and position < len(received):
+                alive = self._alive(now) if alive is None else alive
+                newest, done = self._release(now, newest, alive)
                 activity += done
         if self.commander is not None:
-            self.commander.poll(now)
-        newest, done = self._release(now, newest)
+            self.commander.poll(now)  # heartbeats
+        newest, done = self._release(now, newest, self._alive(now))
         activity += done
         if newest is not None:
             if self.loop.waiting is not None:
@@ -370,12 +378,15 @@ class Daemon:
             self.live.publish(now, lambda: self.status(now))
         return bool(received or activity)
 
-    def _release(self, now: float, newest: _Planning | None) -> tuple[_Planning | None, int]:
-        """Fuse and publish every step that is ready. Returns the newest one's planning (``newest``
-        if none of them can be planned: a step a newer one replaces is fused only,
-        ``steps_fused_only``) and how many steps were released and plans applied."""
-        expected = {vid for vid in self.roster if self.registry.alive(vid, now)} - self.ingest.off_clock
-        ready = self.steps.ready(expected, now)
+    def _alive(self, now: float) -> set[str]:
+        return {vid for vid in self.roster if self.registry.alive(vid, now)}
+
+    def _release(self, now: float, newest: _Planning | None, alive: set[str]) -> tuple[_Planning | None, int]:
+        """Fuse and publish every step that is ready, waiting for the ``alive`` vehicles. Returns the
+        newest step's planning (``newest`` if none of them can be planned: a step a newer one
+        replaces is fused only, ``steps_fused_only``) and how many steps were released and plans
+        applied."""
+        ready = self.steps.ready(alive - self.ingest.off_clock, now)
         applied = 0
         for step_ in ready:
             try:
@@ -462,8 +473,8 @@ class Daemon:
         if estimate is None:
             return None
         # The vehicles now, at the step's stamp: by the time the planner is free newer reports may be in.
-        return _Planning(ready, tuple(active), self.registry.vehicle_state(active, ready.stamp_ns), estimate,
-                         predicted, scale, time.monotonic())
+        return _Planning(ready, tuple(active), self.registry.snapshot(active), estimate, predicted, scale,
+                         time.monotonic())
 
     def _hand_over(self, now: float) -> None:
         """Give the newest fused step's planning to the planner once it is free, and
@@ -479,7 +490,7 @@ class Daemon:
             index=ready.index, stamp_ns=ready.stamp_ns, active=active,
             indices=tuple(self.roster.index(v) for v in active),
             state=self.loop.memory.state_for(active, estimate),
-            vehicles=planning.vehicles, predicted=planning.predicted,
+            vehicles=planning.vehicles.at(ready.stamp_ns), predicted=planning.predicted,
             clock_scale=planning.clock_scale, submitted_s=planning.fused_s))
 
     def _apply_finished_plans(self) -> int:

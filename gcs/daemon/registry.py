@@ -14,7 +14,7 @@ telemetry, so that a replay of the same reports plans the same way.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,7 +23,7 @@ from gcs.config import VehicleConfig
 from gcs.core.kinematics import VehicleState
 from protocols.messages import NavReport, SensorReport
 
-__all__ = ["VehicleEntry", "Registry", "LOST_AFTER_S"]
+__all__ = ["VehicleEntry", "Registry", "VehicleSnapshot", "LOST_AFTER_S"]
 
 LOST_AFTER_S = 5.0
 AFTER_WITHDRAWAL_S = 0.5
@@ -120,17 +120,43 @@ class Registry:
     def vehicle_state(self, vehicle_ids: list[str], stamp_ns: int) -> VehicleState:
         """The planner's view of these vehicles at ``stamp_ns``: reported positions and nav headings,
         the scenario's speeds and altitudes (wang2012 eq. 1 holds them constant)."""
-        configs = [self.entries[v].config for v in vehicle_ids]
-        positions = np.array([self.position_at(v, stamp_ns) for v in vehicle_ids])
-        return VehicleState(positions[:, :2], np.array([self.entries[v].heading_rad for v in vehicle_ids]),
-                            np.array([c.speed_mps for c in configs]), np.array([c.altitude_m for c in configs]))
+        return self.snapshot(vehicle_ids).at(stamp_ns)
+
+    def snapshot(self, vehicle_ids: Sequence[str]) -> VehicleSnapshot:
+        """What is known of these vehicles now, to make their :meth:`vehicle_state` of later (cheap:
+        a reference to each entry's values, which are replaced, never changed in place)."""
+        entries = [self.entries[v] for v in vehicle_ids]
+        return VehicleSnapshot(tuple((e.config, e.position_enu_m, e.position_stamp_ns, e.velocity_enu_mps,
+                                      e.heading_rad) for e in entries))
 
     def position_at(self, vehicle_id: str, stamp_ns: int) -> np.ndarray:
         """Position (3,) at ``stamp_ns``: the last reported one, moved on with the velocity if older."""
         entry = self.entries[vehicle_id]
-        position = np.array(entry.position_enu_m, dtype=np.float64)
-        if entry.velocity_enu_mps is not None and entry.position_stamp_ns is not None:
-            dt = (stamp_ns - entry.position_stamp_ns) / NS_PER_S
-            if 0.0 < dt <= 5.0:
-                position[:2] += entry.velocity_enu_mps[:2] * dt
-        return position
+        return _moved(entry.position_enu_m, entry.position_stamp_ns, entry.velocity_enu_mps, stamp_ns)
+
+
+def _moved(position_enu_m, position_stamp_ns: int | None, velocity_enu_mps: np.ndarray | None,
+           stamp_ns: int) -> np.ndarray:
+    """A reported position (3,) moved on to ``stamp_ns`` with the velocity, when it is older by at most 5 s."""
+    position = np.array(position_enu_m, dtype=np.float64)
+    if velocity_enu_mps is not None and position_stamp_ns is not None:
+        dt = (stamp_ns - position_stamp_ns) / NS_PER_S
+        if 0.0 < dt <= 5.0:
+            position[:2] += velocity_enu_mps[:2] * dt
+    return position
+
+
+@dataclass(frozen=True)
+class VehicleSnapshot:
+    """Vehicles as the registry knew them at one moment (:meth:`Registry.snapshot`): per vehicle its
+    configuration, last reported position and its stamp, nav velocity and heading."""
+
+    rows: tuple[tuple[VehicleConfig, tuple[float, float, float], int | None, np.ndarray | None, float], ...]
+
+    def at(self, stamp_ns: int) -> VehicleState:
+        """:meth:`Registry.vehicle_state` at ``stamp_ns`` from what was known then."""
+        positions = np.array([_moved(position, position_stamp, velocity, stamp_ns)
+                              for _, position, position_stamp, velocity, _ in self.rows])
+        return VehicleState(positions[:, :2], np.array([row[4] for row in self.rows]),
+                            np.array([row[0].speed_mps for row in self.rows]),
+                            np.array([row[0].altitude_m for row in self.rows]))

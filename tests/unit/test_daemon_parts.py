@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import msgspec
 import numpy as np
 import pytest
 from hypothesis import given
@@ -151,6 +152,21 @@ def test_position_is_moved_on_with_the_velocity_to_the_step_stamp() -> None:
     registry.on_nav(NavReport(vehicle_id="uav1", seq=1, stamp_ns=10 * S, velocity_enu_mps=(3.0, -4.0, 0.0)))
     assert registry.position_at("uav1", 12 * S) == pytest.approx(np.array([106.0, 192.0, 200.0]))
     assert registry.position_at("uav1", 10 * S) == pytest.approx(np.array([100.0, 200.0, 200.0]))
+
+
+def test_a_snapshot_keeps_what_was_known_when_it_was_taken() -> None:
+    registry = _registry({})
+    registry.on_report(_report("uav1", 10 * S))
+    registry.on_nav(NavReport(vehicle_id="uav1", seq=1, stamp_ns=10 * S, velocity_enu_mps=(3.0, -4.0, 0.0)))
+    snapshot = registry.snapshot(["uav1"])
+    then = registry.vehicle_state(["uav1"], 12 * S)
+    registry.on_report(msgspec.structs.replace(_report("uav1", 11 * S), vehicle_position_enu_m=(500.0, 500.0, 200.0)))
+    registry.on_nav(NavReport(vehicle_id="uav1", seq=2, stamp_ns=11 * S, velocity_enu_mps=(0.0, 10.0, 0.0)))
+    later = snapshot.at(12 * S)
+    for field in ("xy", "heading", "speed", "altitude"):
+        np.testing.assert_array_equal(getattr(later, field), getattr(then, field))
+    np.testing.assert_allclose(later.xy, [[106.0, 192.0]])
+    assert registry.vehicle_state(["uav1"], 12 * S).xy.tolist() == [[500.0, 510.0]]
 
 
 def test_estimates_that_are_not_finite_or_positive_definite_are_refused() -> None:
