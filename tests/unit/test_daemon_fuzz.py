@@ -303,3 +303,28 @@ def test_the_newest_step_waits_for_a_free_planner_and_plans_are_handed_over_at_m
     assert planner.jobs[-1] == EPOCH_NS + 2 * S
     daemon.turn(11.2 + MIN_PLAN_INTERVAL_S)
     assert planner.jobs == [EPOCH_NS, EPOCH_NS + 2 * S, EPOCH_NS + 3 * S]
+
+
+def test_the_loop_freezes_what_it_keeps_every_second_and_collects_it_all_when_idle_every_ten_minutes(
+        monkeypatch) -> None:
+    import gc
+
+    from gcs import app
+
+    calls: list[str] = []
+    monkeypatch.setattr(gc, "freeze", lambda: calls.append("freeze"))
+    monkeypatch.setattr(gc, "unfreeze", lambda: calls.append("unfreeze"))
+    monkeypatch.setattr(gc, "collect", lambda *args: calls.append("collect") or 0)
+    ticks = iter(range(100_000))
+    daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=ZenohSettings(), planner="pursuit", planner_mode="inline"),
+                    clock=lambda: 0.25 * next(ticks))  # every reading of the clock (once a pass) 0.25 s on
+    daemon.zenoh = FakeZenoh()
+    daemon.zenoh.open = lambda: None
+    daemon.zenoh.wait = lambda timeout_s, until=None: False
+    passes = []
+    daemon.run(until=lambda: passes.append(1) or len(passes) > 2800)  # about 700 s of the fake clock
+    assert calls[0] == "freeze" and calls[-1] == "unfreeze"
+    full = [i for i in range(len(calls) - 2) if calls[i:i + 3] == ["unfreeze", "collect", "freeze"]]
+    assert len(full) == 1  # once in 700 s
+    assert 650 <= calls.count("freeze") <= 750  # once a second
+    assert app.FULL_COLLECT_EVERY_S == 600.0 and app.FREEZE_EVERY_S == 1.0
