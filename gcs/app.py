@@ -15,12 +15,14 @@ outputs, always on the loop thread):
    its stamp, fuse every roster vehicle's reports, each from the position its
    navigation gives with that position's covariance
    (:mod:`gcs.daemon.fusion`, the same code ``gcs replay --process`` runs) and
-   publish the ``TrackEstimate`` with its k+1..k+n prediction; hand the newest
-   step's planning, for the vehicles alive now (a lost vehicle is planned
+   publish the ``TrackEstimate`` with its k+1..k+n prediction (a pass that drained
+   several steps' reports fuses each step as soon as its reports are filed); keep
+   the newest step's planning, for the vehicles alive now (a lost vehicle is planned
    without; it rejoins when it returns), from their *reported* positions (an
    autopilot flies its commands from its own navigation, so the plan is made in
-   that frame; the navigation filter serves the fusion), to the planner
-   (:mod:`gcs.daemon.planning`), so that a plan never holds up the reports and
+   that frame; the navigation filter serves the fusion), and hand it to the planner
+   (:mod:`gcs.daemon.planning`) when the planner is free, at most every
+   :data:`MIN_PLAN_INTERVAL_S`, so that a plan never holds up the reports and
    tracks behind it;
 4. apply the plans the planner has finished: publish each
    ``PlanCommand`` (heading ``psi + u T``, the heading at the end of the step,
@@ -85,7 +87,8 @@ STEER_RATE_HZ = 4.0
 FREEZE_EVERY_S = 1.0
 """How often the loop hands what it has built so far to ``gc.freeze`` (see :meth:`Daemon.run`)."""
 FULL_COLLECT_EVERY_S = 600.0
-"""How often an idle loop collects everything it froze (any cyclic garbage; the imports' heap too)."""
+"""How often the loop, when idle, collects everything it froze (any cyclic garbage; the imports' heap too);
+a loop never idle does it after twice this."""
 PLAN_CHECK_ITEMS = 16
 """While a pass handles what it received, it applies a finished plan after every this many items."""
 MIN_PLAN_INTERVAL_S = 0.05
@@ -124,8 +127,8 @@ class DaemonOptions:
     planner_mode : str
         Where plans are made (:mod:`gcs.daemon.planning`): ``process`` (the
         default: a child process, so that planning never takes the interpreter
-        from the loop), ``thread``, or ``inline`` (in the loop, each plan applied
-        before the next step is fused).
+        from the loop), ``thread``, or ``inline`` (in the loop, each plan made when
+        it is handed over; deterministic).
     planner_niceness : int
         How much lower the planner process's priority is (0-19; :data:`gcs.daemon.planning.PLANNER_NICENESS`).
     http : (host, port) or None
@@ -314,8 +317,9 @@ class Daemon:
         loop keeps (records, estimates, registry entries) is frozen too, every
         :data:`FREEZE_EVERY_S`: at 100 vehicles its older-generation collections otherwise
         took 5-11 ms, a few times a minute. The loop makes no cyclic garbage (none was
-        collected over whole ``gcs bench daemon`` runs); in case some path does, every
-        :data:`FULL_COLLECT_EVERY_S` the loop, when idle, collects everything it froze.
+        collected over whole ``gcs bench daemon`` runs); in case some path does, the young
+        generations are collected before each freeze, and every :data:`FULL_COLLECT_EVERY_S`
+        the loop collects everything it froze: when idle, or after twice that if never idle.
         The heap is given back to the collector (``gc.unfreeze``) when the loop ends.
         """
         try:
@@ -330,9 +334,10 @@ class Daemon:
                     self.zenoh.publish_status(self.status(now))
                     next_status = now + 1.0
                 if now >= next_freeze:
+                    gc.collect(1)  # the young generations' cycles, if any, before their survivors are frozen
                     gc.freeze()
                     next_freeze = now + FREEZE_EVERY_S
-                if not busy and now >= next_full_collect:
+                if now >= next_full_collect and (not busy or now >= next_full_collect + FULL_COLLECT_EVERY_S):
                     gc.unfreeze()
                     gc.collect()
                     gc.freeze()
@@ -348,9 +353,9 @@ class Daemon:
     def turn(self, now: float) -> bool:
         """One pass of the loop; True when something was received, fused or planned.
 
-        What was received is handled a step's worth of reports (one per roster vehicle)
-        at a time, and the steps that completed are fused and published before the next
-        are handled: when the loop is behind, a step's track does not wait for the
+        What was received is handled a step's worth of items (as many as the roster has
+        vehicles) at a time, and the steps that completed are fused and published before
+        the next are handled (steps that time out go only at the end of the pass): when the loop is behind, a step's track does not wait for the
         reports of the steps after it, nor a finished plan's commands for more than
         :data:`PLAN_CHECK_ITEMS` of them. The newest step fused so far waits to be planned
         until the planner is free (:meth:`_hand_over`); an older one waiting is then
@@ -371,9 +376,9 @@ class Daemon:
                 alive = None
             if position % PLAN_CHECK_ITEMS == 0:  # a finished plan waits for a few reports, not a batch
                 activity += self._apply_finished_plans()
-            if position % batch == 0 and position < len(received):
+            if position % batch == 0 and position < len(received):  # complete steps only: see _release
                 alive = self._alive(now) if alive is None else alive
-                newest, done = self._release(now, newest, alive)
+                newest, done = self._release(now, newest, alive, timeouts=False)
                 activity += done
         if self.commander is not None:
             self.commander.poll(now)  # heartbeats
@@ -399,12 +404,14 @@ class Daemon:
     def _alive(self, now: float) -> set[str]:
         return {vid for vid in self.roster if self.registry.alive(vid, now)}
 
-    def _release(self, now: float, newest: _Planning | None, alive: set[str]) -> tuple[_Planning | None, int]:
+    def _release(self, now: float, newest: _Planning | None, alive: set[str],
+                 timeouts: bool = True) -> tuple[_Planning | None, int]:
         """Fuse and publish every step that is ready, waiting for the ``alive`` vehicles. Returns the
         newest step's planning (``newest`` if none of them can be planned: a step a newer one
         replaces is fused only, ``steps_fused_only``) and how many steps were released and plans
-        applied."""
-        ready = self.steps.ready(alive - self.ingest.off_clock, now)
+        applied. Without ``timeouts`` only complete steps go: while the pass still holds received
+        items, a timed-out step's missing report may be among them."""
+        ready = self.steps.ready(alive - self.ingest.off_clock, now, timeouts)
         applied = 0
         for step_ in ready:
             try:
@@ -495,11 +502,11 @@ class Daemon:
                          time.monotonic())
 
     def _hand_over(self, now: float) -> None:
-        """Give the newest fused step's planning to the planner once it is free, and
-        :data:`MIN_PLAN_INTERVAL_S` after the last hand-over; its job is built now, with the
-        warm start of the plan just applied."""
+        """Give the newest fused step's planning to the planner once it is not planning (a job handed
+        over while it starts replaces the one waiting), and :data:`MIN_PLAN_INTERVAL_S` after the last
+        hand-over; its job is built now, with the warm start of the plan just applied."""
         planning = self.loop.waiting
-        if planning is None or self.planner.busy or now < self.loop.next_plan_s:
+        if planning is None or self.planner.planning or now < self.loop.next_plan_s:
             return
         self.loop.waiting = None
         self.loop.next_plan_s = now + MIN_PLAN_INTERVAL_S

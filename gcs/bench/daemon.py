@@ -134,7 +134,7 @@ def step_latencies_ms(last_sent_ns: dict[int, int], steps: Iterable[StepTiming],
     A step is served by the first plan, in the order their commands were put, for
     it or a newer step (the planner thread plans the newest fused step only). The
     path from the step's last report to its commands is: sent -> fused (the
-    ``TrackEstimate`` put and the planning handed over) -> the planner thread's
+    ``TrackEstimate`` put; its planning waits in the loop for the planner) -> the planner's
     share (waiting for a plan of it or of a newer step, then planning) -> the plan
     taken by the loop and its commands put. Latency without the planner is the
     first and last legs, ``(fused - sent) + (put - finished)``; with it
@@ -258,9 +258,10 @@ class _Run:
         ``passed`` is None unless ``scored``. CPU is in cores (CPU seconds per wall second)
         of this process (every thread: the loop, Zenoh's) and of the load process.
         """
+        yield from self._call("prepare", rate, seconds, burst)  # the load encodes the trial's reports
         before, first_step, first_plan = self._counts(), len(self.log), len(self.plans)
         started, cpu = time.perf_counter(), time.process_time()
-        reply = yield from self._call("run", rate, seconds, burst)
+        reply = yield from self._call("run")
         published, last_sent = reply["published"], reply["last_sent_ns"][-1]
         progress, stalled_at = -1, time.monotonic()
         while True:
@@ -276,7 +277,9 @@ class _Run:
             yield False
         wall = time.perf_counter() - started
         sent = dict(zip(reply["stamps"], reply["last_sent_ns"]))
-        yield from self._wait(lambda: not self.daemon.planner.busy, 10.0, "the last plan")
+        # the newest step's planning may still wait in the loop (MIN_PLAN_INTERVAL_S) before its plan
+        yield from self._wait(lambda: not self.daemon.planner.busy and self.daemon.loop.waiting is None, 10.0,
+                              "the last plan")
         yield False  # one more pass applies it
         log = [step for step in self.log[first_step:] if step.stamp_ns >= reply["stamps"][0]]
         planned = [plan for plan in self.plans[first_plan:] if plan.stamp_ns >= reply["stamps"][0]]
@@ -319,7 +322,7 @@ def _search(run: _Run, seconds: float, minimum: float, say: Callable[[str], None
             f"{'kept up' if trial.passed else 'FAILED'} (achieved {trial.achieved_per_s:,.0f}/s, "
             f"accepted {trial.accepted}/{trial.published}, lag {_fmt(trial.lag_s, 3)} s, "
             f"latency p50/p99 {_fmt(trial.latency_ms_p50)}/{_fmt(trial.latency_ms_p99)} ms, "
-            f"visibility maps {_fmt(trial.visibility_ms_median, 1)} ms, "
+            f"visibility {_fmt(trial.visibility_ms_median, 1)} ms, "
             f"CPU cores daemon {trial.daemon_cpu:.2f} load {trial.load_cpu:.2f})")
     return trials
 

@@ -8,7 +8,8 @@ vehicle, and obeys commands from a pipe:
 * ``warmup``: once the daemon's subscribers match, one ``NavReport`` per
   vehicle (heading and velocity: the vehicle becomes plannable) and one round
   of reports;
-* ``run(rate, seconds, burst)``: whole rounds at an aggregate rate. Round k
+* ``prepare(rate, seconds, burst)``, then ``run``: whole rounds at an aggregate
+  rate, all encoded by ``prepare`` so that ``run`` only paces and puts. Round k
   carries one ``SensorReport`` per vehicle stamped ``T_0 + k * step``: one
   decision step of data time per round, every (vehicle, stamp) unique. With
   ``Fleet.nav_per_round`` each vehicle's report is preceded by a ``NavReport``
@@ -104,6 +105,7 @@ class Load:
         self.tokens = [session.liveliness().declare_token(alive_key(v.id, prefix)) for v in fleet.vehicles]
         self.next_round = 0
         self.seq = 0
+        self._prepared: tuple | None = None
 
     def close(self) -> None:
         """Withdraw the tokens and the publishers."""
@@ -153,21 +155,35 @@ class Load:
             self.reports[slot].put(self._report(slot, stamp))
         return {"stamp_ns": stamp}
 
-    def run(self, rate: float, seconds: float, burst: bool = False) -> dict:
-        """Whole rounds at ``rate`` reports/s for about ``seconds``; the send time of each round's last report.
+    def prepare(self, rate: float, seconds: float, burst: bool = False) -> dict:
+        """Encode the whole rounds of the next :meth:`run`: ``rate`` reports/s for about ``seconds``.
 
-        Reports are evenly spaced, or with ``burst`` a round's reports all go at
-        the round's start (as vehicles reporting at the same data time would).
-        Every payload is encoded before the first is sent, so that the pacing loop
-        only puts: the load's own work competes for the CPUs with the daemon it measures.
+        Done before the run (and outside the benchmark's timing of it), so that the
+        pacing loop only puts: the load's own work competes for the CPUs with the
+        daemon it measures.
         """
         count = len(self.fleet.vehicles)
         rounds = max(1, round(rate * seconds / count))
-        interval = 1.0 / rate
         stamps = [self._stamp() for _ in range(rounds)]
         nav_per_round = self.fleet.nav_per_round
         payloads = [[(self._nav(slot, stamp) if nav_per_round else b"", self._report(slot, stamp))
                      for slot in range(count)] for stamp in stamps]
+        self._prepared = (rate, burst, stamps, payloads)
+        return {"rounds": rounds}
+
+    def run(self) -> dict:
+        """Send what :meth:`prepare` encoded; the send time of each round's last report.
+
+        Reports are evenly spaced, or with ``burst`` a round's reports all go at
+        the round's start (as vehicles reporting at the same data time would).
+        """
+        if self._prepared is None:
+            raise RuntimeError("run without prepare")
+        (rate, burst, stamps, payloads), self._prepared = self._prepared, None
+        count = len(self.fleet.vehicles)
+        rounds = len(stamps)
+        interval = 1.0 / rate
+        nav_per_round = self.fleet.nav_per_round
         last_sent_ns = []
         start, cpu = time.perf_counter(), time.process_time()
         for k, round_ in enumerate(payloads):

@@ -392,6 +392,7 @@ def _report(options: SoakOptions, soak: _Soak, status: DaemonStatus, injector: I
                    "injected": dict(injector.counts)},
         "decisions": counters.get("decisions", 0),
         "plans_superseded": counters.get("plans_superseded", 0),
+        "steps_fused_only": counters.get("steps_fused_only", 0),
         "simulation": soak.simulation_lag(),
         "memory": {"daemon_rss_mb_start": baseline[1] if baseline else None, "daemon_rss_mb_end": end[1],
                    "daemon_rss_mb_max": max((m[1] for m in rss), default=None),
@@ -424,7 +425,8 @@ def format_report(report: dict) -> str:
         f"daemon RSS: {mb(memory['daemon_rss_mb_start'])} MB at 10% -> {mb(memory['daemon_rss_mb_end'])} MB at the end "
         f"(growth {mb(memory['daemon_rss_growth_mb'])} MB, max {mb(memory['daemon_rss_mb_max'])}); planner process "
         f"{mb(memory['planner_rss_mb_start'])} -> {mb(memory['planner_rss_mb_end'])} MB",
-        f"decisions: {report['decisions']:,} planned ({report['plans_superseded']:,} superseded by a newer step); "
+        f"decisions: {report['decisions']:,} planned ({report['steps_fused_only']:,} steps fused only, a newer one "
+        f"planned instead); "
         f"simulation steps started late: {report['simulation']['late_steps']:,} of {report['simulation']['steps']:,} "
         f"(the machine's share of the lateness)",
     ])

@@ -42,7 +42,7 @@ def add_daemon_arguments(parser: argparse.ArgumentParser) -> None:
                         help="record everything received and published (MCAP), finished on exit")
     parser.add_argument("--plan-in", choices=PLANNER_MODES, default="process", dest="planner_mode",
                         help="where plans are made: a child process (default), a thread of the daemon, or inline "
-                             "in its loop (each plan before the next step is fused)")
+                             "in its loop (deterministic; the loop waits for each plan)")
     parser.add_argument("--planner-nice", type=_niceness, default=PLANNER_NICENESS, dest="planner_niceness",
                         metavar="N", help=f"how much lower the planner process's priority is, 0-19 (default "
                                           f"{PLANNER_NICENESS}; 19: the loop first when reports flood in, at the "

@@ -186,6 +186,10 @@ class ProcessPlanner(Planner):
     def busy(self) -> bool:
         return self._in_flight is not None or self._pending is not None
 
+    @property
+    def planning(self) -> bool:
+        return self._in_flight is not None
+
     def finished(self) -> bool:
         if self._closed or not self._check_ready():  # (once ready, the job waiting has been sent)
             return False

@@ -74,7 +74,8 @@ START_TIMEOUT_S = 60.0
 
 @dataclass(frozen=True)
 class PlanJob:
-    """Everything one plan needs, captured on the loop when its step was fused.
+    """Everything one plan needs, built on the loop when it is handed over: the step's estimate,
+    prediction and vehicles as they were when it was fused, the warm start of the plan applied last.
 
     Attributes
     ----------
@@ -174,6 +175,12 @@ class Planner:
         """A job is waiting or being planned."""
         raise NotImplementedError
 
+    @property
+    def planning(self) -> bool:
+        """A job is being planned (one submitted now waits for it, replacing any job still waiting,
+        e.g. while the planner process starts)."""
+        raise NotImplementedError
+
     def finished(self) -> bool:
         """An outcome is ready for :meth:`take` (cheap: the loop asks while it waits for input)."""
         raise NotImplementedError
@@ -198,6 +205,10 @@ class InlinePlanner(Planner):
 
     @property
     def busy(self) -> bool:
+        return False
+
+    @property
+    def planning(self) -> bool:
         return False
 
     def finished(self) -> bool:
@@ -234,6 +245,11 @@ class ThreadPlanner(Planner):
     def busy(self) -> bool:
         with self._wakeup:
             return self._running or self._pending is not None
+
+    @property
+    def planning(self) -> bool:
+        with self._wakeup:
+            return self._running
 
     def finished(self) -> bool:
         return bool(self._done)  # a list's truth is read atomically; take() holds the lock to swap it

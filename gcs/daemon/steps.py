@@ -162,13 +162,15 @@ class StepAssembler:
         hold = first + HOLD_WAITS * self.max_wait_s
         return hold if len(times) < quorum else min(times[quorum - 1] + self.max_wait_s, hold)
 
-    def ready(self, expected: set[str], now_s: float) -> list[ReadyStep]:
-        """Release, in order, every step that is complete or has waited long enough."""
+    def ready(self, expected: set[str], now_s: float, timeouts: bool = True) -> list[ReadyStep]:
+        """Release, in order, every step that is complete or (unless not ``timeouts``) has waited long
+        enough. The daemon's loop asks without timeouts while it still holds received reports to file:
+        a step's missing report may be among them."""
         out = []
         while self._open:
             index = min(self._open)
             complete = self._complete(index, expected)
-            if not complete and now_s < self.deadline_s(index, expected):
+            if not complete and (not timeouts or now_s < self.deadline_s(index, expected)):
                 break
             if not complete:
                 self.counters["steps_released_by_timeout"] += 1

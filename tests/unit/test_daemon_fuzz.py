@@ -257,14 +257,14 @@ def test_a_behind_loop_publishes_each_step_before_handling_the_next_and_plans_th
 
 
 class _HeldPlanner:
-    """A planner the test keeps busy or frees; it records the steps handed to it."""
+    """A planner the test keeps planning or frees; it records the steps handed to it."""
 
     def __init__(self) -> None:
-        self.busy, self.jobs = False, []
+        self.planning, self.jobs = False, []
 
     def submit(self, job) -> None:
         self.jobs.append(job.stamp_ns)
-        self.busy = True
+        self.planning = True
 
     def take(self) -> list:
         return []
@@ -293,20 +293,19 @@ def test_the_newest_step_waits_for_a_free_planner_and_plans_are_handed_over_at_m
         daemon.turn(now)
 
     step(1, 11.0)
-    step(2, 11.1)  # the planner is busy: step 2 waits, step 1 is fused only
+    step(2, 11.1)  # the planner is planning: step 2 waits, step 1 is fused only
     assert planner.jobs == [EPOCH_NS] and daemon.counters["steps_fused_only"] == 1
-    planner.busy = False
+    planner.planning = False
     daemon.turn(11.2)
     assert planner.jobs == [EPOCH_NS, EPOCH_NS + 2 * S]
-    planner.busy = False
+    planner.planning = False
     step(3, 11.2 + MIN_PLAN_INTERVAL_S / 2)  # free, but too soon after the last hand-over
     assert planner.jobs[-1] == EPOCH_NS + 2 * S
     daemon.turn(11.2 + MIN_PLAN_INTERVAL_S)
     assert planner.jobs == [EPOCH_NS, EPOCH_NS + 2 * S, EPOCH_NS + 3 * S]
 
 
-def test_the_loop_freezes_what_it_keeps_every_second_and_collects_it_all_when_idle_every_ten_minutes(
-        monkeypatch) -> None:
+def test_the_loop_freezes_what_it_keeps_every_second_and_collects_it_all_every_ten_minutes(monkeypatch) -> None:
     import gc
 
     from gcs import app
@@ -326,5 +325,77 @@ def test_the_loop_freezes_what_it_keeps_every_second_and_collects_it_all_when_id
     assert calls[0] == "freeze" and calls[-1] == "unfreeze"
     full = [i for i in range(len(calls) - 2) if calls[i:i + 3] == ["unfreeze", "collect", "freeze"]]
     assert len(full) == 1  # once in 700 s
-    assert 650 <= calls.count("freeze") <= 750  # once a second
+    assert 650 <= calls.count("freeze") <= 750  # once a second, each after a collection of the young generations
+    assert calls.count("collect") == calls.count("freeze") - 1  # (not before the first, at the start)
     assert app.FULL_COLLECT_EVERY_S == 600.0 and app.FREEZE_EVERY_S == 1.0
+
+
+def _ready_daemon() -> Daemon:
+    """A daemon whose roster is alive and plannable, its first step (stamp EPOCH_NS) released."""
+    daemon = _daemon()
+    alive = [Received("alive", f"gcs/vehicle/{v}/alive", b"", "", 0) for v in ROSTER]
+    navs = [_sample(nav_key(v), NavReport(vehicle_id=v, seq=1, stamp_ns=EPOCH_NS, velocity_enu_mps=(25.0, 0.0, 0.0),
+                                          heading_rad=0.0)) for v in ROSTER]
+    _run(daemon, [(0.1, alive + navs + [_seen_from(v, EPOCH_NS) for v in ROSTER])])
+    return daemon
+
+
+def test_while_the_planner_process_starts_a_newer_step_replaces_the_job_waiting() -> None:
+    """The process planner keeps a job submitted while its child starts; the newest step must win."""
+
+    class Starting(_HeldPlanner):
+        def submit(self, job) -> None:  # the child is not ready: the job waits, nothing is being planned
+            self.jobs.append(job.stamp_ns)
+
+    daemon = _ready_daemon()
+    daemon.planner.close()
+    daemon.planner = planner = Starting()
+    for k in range(1, 8):
+        daemon.zenoh.inbox.extend(_seen_from(v, EPOCH_NS + k * S) for v in ROSTER)
+        daemon.turn(11.0 + 0.1 * k)
+    assert planner.jobs[-1] == EPOCH_NS + 7 * S and len(planner.jobs) == 7
+
+
+def test_a_step_is_not_timed_out_while_its_missing_report_waits_in_the_same_pass() -> None:
+    """The loop is behind by more than max_wait_s: the step's last report is drained behind other items
+    in the pass that times the step out; it is used, not rejected as late."""
+    from protocols.keys import truth_key as key_of_truth
+
+    daemon = _ready_daemon()
+    try:
+        daemon.zenoh.inbox.extend(_seen_from(v, EPOCH_NS + S) for v in ROSTER[:-1])
+        daemon.turn(11.0)
+        truths = [_sample(key_of_truth("target"), TargetTruth(target_id="target", seq=k, stamp_ns=EPOCH_NS + k * S,
+                                                              position_enu_m=(0.0, 0.0), velocity_enu_mps=(0.0, 0.0)))
+                  for k in range(len(ROSTER))]  # a roster's worth of other items first
+        daemon.zenoh.inbox.extend(truths + [_seen_from(ROSTER[-1], EPOCH_NS + S)])
+        daemon.turn(11.0 + 2 * daemon.options.max_wait_s)
+    finally:
+        daemon.planner.close()
+    assert "rejected.late" not in daemon.steps.counters
+    (record,) = [r for r in daemon.records if r.stamp_ns == EPOCH_NS + S]
+    assert all(record.seen[v] for v in ROSTER)
+
+
+def test_a_loop_never_idle_still_collects_everything_it_froze(monkeypatch) -> None:
+    import gc
+
+    clock = [0.0]
+
+    def tick() -> float:
+        clock[0] += 1.0
+        return clock[0]
+
+    full_collections: list[float] = []
+    monkeypatch.setattr(gc, "freeze", lambda: None)
+    monkeypatch.setattr(gc, "unfreeze", lambda: full_collections.append(clock[0]))
+    monkeypatch.setattr(gc, "collect", lambda *args: 0)
+    daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=ZenohSettings(), planner="pursuit", planner_mode="inline"),
+                    clock=tick)
+    daemon.zenoh = FakeZenoh()
+    daemon.zenoh.open = lambda: None
+    daemon.turn = lambda now: True  # always busy
+    passes = []
+    daemon.run(until=lambda: passes.append(1) or len(passes) > 1300)  # 1,300 s, never idle
+    assert len(full_collections) == 2  # once, and the unfreeze when the loop ends
+    assert 1200.0 <= full_collections[0] <= 1202.0  # at twice the interval

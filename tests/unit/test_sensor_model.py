@@ -127,3 +127,15 @@ def test_equal_models_hash_alike_and_the_scenarios_vehicles_share_one() -> None:
     assert a == b and hash(a) == hash(b) and a != c and len({a, b, c}) == 2
     models = filter_sensor_models(with_vehicles(load_scenario("wang2012_urban"), 10))
     assert len(models) == 10 and all(m is models[0] for m in models)  # one group, found without comparing
+
+
+def test_a_model_from_another_process_hashes_as_this_process_hashes_it() -> None:
+    import pickle
+
+    model = SensorModel.range_bearing(10.0, 0.05, 0.05)
+    hash(model)
+    state = model.__getstate__()
+    assert "_hash" not in state  # string hashes differ between processes: each hashes for itself
+    copy = pickle.loads(pickle.dumps(model))
+    assert copy == model and hash(copy) == hash(model)
+    np.testing.assert_array_equal(copy.noise_variance(), model.noise_variance())

@@ -72,12 +72,21 @@ class SensorModel:
         object.__setattr__(self, "_az", self.components.index(AZIMUTH))
         object.__setattr__(self, "_var", np.asarray(self.std, dtype=np.float64) ** 2)
         object.__setattr__(self, "_inv_var", 1.0 / self._var)  # type: ignore[attr-defined]
-        object.__setattr__(self, "_hash", hash((self.components, self.std, self.distance_dependent,
-                                                self.reference_range_m, self.target_height_m)))
 
     def __hash__(self) -> int:
-        """Hashed once: the tracker groups every step's detections by sensor model."""
-        return self._hash  # type: ignore[attr-defined]
+        """Hashed once (per process: strings hash differently in each): the tracker groups every step's
+        detections by sensor model."""
+        cached = self.__dict__.get("_hash")
+        if cached is None:
+            cached = hash((self.components, self.std, self.distance_dependent, self.reference_range_m,
+                           self.target_height_m))
+            object.__setattr__(self, "_hash", cached)
+        return cached
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state.pop("_hash", None)  # another process hashes its strings differently
+        return state
 
     @classmethod
     def range_bearing(cls, range_std_m: float, azimuth_std_rad: float, elevation_std_rad: float, **kw) -> SensorModel:
