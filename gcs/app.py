@@ -180,8 +180,9 @@ class _Aim:
 @dataclass(frozen=True)
 class _Planning:
     """What planning a fused step needs, captured when it was fused: the step, the vehicles alive
-    then and what was known of them (their states at its stamp come from that), its estimate, the k+1..k+n prediction, the planner's clock
-    scale and when (``time.monotonic``); the job is built from it when it is handed over."""
+    then and what was known of them (their states at its stamp come from that), its estimate,
+    the k+1..k+n prediction, the planner's clock scale and when (``time.monotonic``); the job
+    is built from it when it is handed over."""
 
     ready: ReadyStep
     active: tuple[str, ...]
@@ -355,9 +356,10 @@ class Daemon:
 
         What was received is handled a step's worth of items (as many as the roster has
         vehicles) at a time, and the steps that completed are fused and published before
-        the next are handled (steps that time out go only at the end of the pass): when the loop is behind, a step's track does not wait for the
-        reports of the steps after it, nor a finished plan's commands for more than
-        :data:`PLAN_CHECK_ITEMS` of them. The newest step fused so far waits to be planned
+        the next are handled (steps that time out go only at the end of the pass): when
+        the loop is behind, a step's track does not wait for the reports of the steps
+        after it, nor a finished plan's commands for more than :data:`PLAN_CHECK_ITEMS`
+        of them. The newest step fused so far waits to be planned
         until the planner is free (:meth:`_hand_over`); an older one waiting is then
         fused only (``steps_fused_only``).
         """
@@ -402,6 +404,7 @@ class Daemon:
         return bool(received or activity)
 
     def _alive(self, now: float) -> set[str]:
+        """The roster vehicles alive now (liveliness token or MAVLink heartbeat)."""
         return {vid for vid in self.roster if self.registry.alive(vid, now)}
 
     def _release(self, now: float, newest: _Planning | None, alive: set[str],
@@ -497,7 +500,7 @@ class Daemon:
             return None
         if estimate is None:
             return None
-        # The vehicles now, at the step's stamp: by the time the planner is free newer reports may be in.
+        # What is known of the vehicles now: by the time the planner is free, newer reports may be in.
         return _Planning(ready, tuple(active), self.registry.snapshot(active), estimate, predicted, scale,
                          time.monotonic())
 

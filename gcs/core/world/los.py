@@ -23,7 +23,8 @@ from gcs.core.world._kernel import box_overlap, canonical_order, combos_blocked
 from gcs.core.world.buildings import Buildings
 from gcs.core.world.visibility import DEFAULT_BINS, VisibilityMap, VisibilityMaps, visibility_map, visibility_maps
 
-__all__ = ["line_of_sight", "SightLines", "VisibilityMap", "VisibilityMaps", "visibility_map", "visibility_maps", "DEFAULT_BINS"]
+__all__ = ["line_of_sight", "SightLines", "VisibilityMap", "VisibilityMaps", "visibility_map", "visibility_maps",
+           "DEFAULT_BINS"]
 
 _CHUNK = 1 << 18
 """Largest (pairs x buildings) block handled at once, to bound memory."""
