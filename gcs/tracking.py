@@ -84,14 +84,14 @@ def _planner(name: str, scenario: Scenario, generations: int | None, stall: int 
     raise ValueError(f"unknown planner {name!r}; expected one of {', '.join(PLANNERS)}")
 
 
-def _visibility(world: World, planner: str, altitude_m: float, max_range_m: float):
-    """How the planner learns the visibility regions of the predicted points (wang2012 eq. 22).
+def _visibility(world: World, planner, altitude_m: float, max_range_m: float):
+    """How ``planner`` learns the visibility regions of the predicted points (wang2012 eq. 22).
 
     The GA asks thousands of positions a plan: the maps (a few milliseconds each to
     build) answer them cheaply. The other planners score one plan: the sight lines
     answer its few positions directly, with the same answers, and nothing is built.
     """
-    if planner in ("ga_k5", "ga_k0"):
+    if isinstance(planner, GeneticPlanner):
         return lambda points: VisibilityMaps(world.visibility_maps(points, altitude_m, max_range_m))
     return lambda points: world.sight_lines(points, altitude_m, max_range_m)
 
@@ -104,6 +104,7 @@ def tracker_config(scenario: Scenario, world: World | None, planner: str, genera
     restricted airspace for the planner), e.g. ``gcs replay --process``.
     """
     cfg = scenario.planner
+    search = _planner(planner, scenario, generations, stall)
     motion = motion_model(scenario.estimator.model, scenario.estimator.accel_psd_m2_s3)
     altitude = min(v.altitude_m for v in scenario.vehicles)  # wang2012: visibility at the lowest UAV's height
     max_range = min(scenario.sensor_for(v).max_range_m for v in scenario.vehicles)
@@ -113,13 +114,13 @@ def tracker_config(scenario: Scenario, world: World | None, planner: str, genera
     return TrackerConfig(
         uif=UnscentedInformationFilter(motion),
         sensors=filter_sensor_models(scenario),
-        planner=_planner(planner, scenario, generations, stall),
+        planner=search,
         max_turn_rate=np.array([v.max_turn_rate_rad_s for v in scenario.vehicles]),
         step_s=scenario.time.step_s,
         horizon_steps=cfg.horizon_steps,
         weights=weights,
         predict_ahead=planner != "ga_k0",
-        visibility=None if world is None else _visibility(world, planner, altitude, max_range),
+        visibility=None if world is None else _visibility(world, search, altitude, max_range),
         restricted=world.in_restricted if world is not None and len(world.airspace) else None,
         initial_position_std_m=scenario.estimator.initial_position_std_m,
         initial_velocity_std_mps=scenario.estimator.initial_velocity_std_mps,

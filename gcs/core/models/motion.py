@@ -64,8 +64,8 @@ def _ca_matrices(dt: float, q: float) -> tuple[NDArray[np.float64], NDArray[np.f
 
 
 @lru_cache(maxsize=64)
-def _horizon_matrices(name: str, dt: float, q: float, steps: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    f, qm = (_cv_matrices if name == "cv2d" else _ca_matrices)(dt, q)
+def _horizon_matrices(build, dt: float, q: float, steps: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    f, qm = build(dt, q)
     powers, noises = [f], [qm]
     for _ in range(steps - 1):
         powers.append(f @ powers[-1])
@@ -111,8 +111,12 @@ class LinearMotionModel:
         """``(F, Q)`` for a step of ``dt`` seconds (read-only arrays, cached)."""
         if not dt > 0.0:
             raise ValueError(f"time step must be positive, got {dt!r}")
-        build = _cv_matrices if self.name == "cv2d" else _ca_matrices
-        return build(float(dt), float(self.noise_density))
+        return self._build(float(dt), float(self.noise_density))
+
+    @property
+    def _build(self):
+        """The cached ``(F, Q)`` builder of this model."""
+        return _cv_matrices if self.name == "cv2d" else _ca_matrices
 
     def horizon_matrices(self, dt: float, steps: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``(F^j, Q_j)`` for j = 1..steps steps of ``dt``, stacked (steps, dim, dim) (read-only, cached).
@@ -125,7 +129,7 @@ class LinearMotionModel:
             raise ValueError(f"time step must be positive, got {dt!r}")
         if steps < 1:
             raise ValueError(f"steps must be >= 1, got {steps}")
-        return _horizon_matrices(self.name, float(dt), float(self.noise_density), int(steps))
+        return _horizon_matrices(self._build, float(dt), float(self.noise_density), int(steps))
 
     def propagate(self, states: NDArray[np.float64], dt: float) -> NDArray[np.float64]:
         """Noise-free transition ``F x`` of states with shape (..., dim) (wang2012 eq. 17)."""
