@@ -78,6 +78,10 @@ class ReadyStep:
     reports: tuple[SensorReport, ...]
 
 
+_NEVER = -(2**62)
+"""The latest step of a vehicle that has not reported."""
+
+
 def _stamp_order(report: SensorReport) -> tuple[int, str, int]:
     return report.stamp_ns, report.vehicle_id, report.seq
 
@@ -139,18 +143,21 @@ class StepAssembler:
             self.add(report, seen_s)
 
     def _complete(self, index: int, expected: set[str]) -> bool:
+        """Whether step ``index`` waits for nothing more: every expected vehicle has reported for it (and,
+        if it sends nav, sent nav stamped at or after it) or has reported for a step past the reorder window."""
         if index != self._next:  # the first step, or a gap before it: wait for the timeout
             return False
-        reported, stamp = self._arrived_s[index], self.stamp_of(index)
-
-        def done(vehicle_id: str) -> bool:
-            if self._latest_step.get(vehicle_id, -(2**62)) > index + self.reorder_steps:
-                return True  # two steps on: neither its report nor its nav for this step is waited for
-            nav = self._latest_nav_ns.get(vehicle_id)
-            sends_nav = nav is not None and nav > stamp - self.step_ns
-            return vehicle_id in reported and (not sends_nav or nav >= stamp)
-
-        return all(done(v) for v in expected)
+        reported, latest = self._arrived_s[index], self._latest_step
+        past_window = index + self.reorder_steps  # a vehicle that reported after this is not waited for
+        for vehicle_id in expected - reported.keys():
+            if latest.get(vehicle_id, _NEVER) <= past_window:
+                return False
+        stamp = self.stamp_of(index)
+        since = stamp - self.step_ns  # a vehicle sends nav when its newest nav is after the step before
+        for vehicle_id, nav_ns in self._latest_nav_ns.items():
+            if since < nav_ns < stamp and vehicle_id in expected and latest.get(vehicle_id, _NEVER) <= past_window:
+                return False  # its report is in, its nav for the step not yet
+        return True
 
     def deadline_s(self, index: int, expected: set[str]) -> float:
         """When step ``index`` times out: ``max_wait_s`` after half the expected vehicles (at least one)
@@ -170,7 +177,8 @@ class StepAssembler:
         while self._open:
             index = min(self._open)
             complete = self._complete(index, expected)
-            if not complete and (not timeouts or now_s < self.deadline_s(index, expected)):
+            if not complete and (not timeouts or now_s < min(self._arrived_s[index].values()) + self.max_wait_s
+                                 or now_s < self.deadline_s(index, expected)):  # (no deadline comes sooner)
                 break
             if not complete:
                 self.counters["steps_released_by_timeout"] += 1

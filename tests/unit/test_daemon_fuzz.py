@@ -399,3 +399,32 @@ def test_a_loop_never_idle_still_collects_everything_it_froze(monkeypatch) -> No
     daemon.run(until=lambda: passes.append(1) or len(passes) > 1300)  # 1,300 s, never idle
     assert len(full_collections) == 2  # once, and the unfreeze when the loop ends
     assert 1200.0 <= full_collections[0] <= 1202.0  # at twice the interval
+
+
+def test_a_withdrawn_token_is_seen_at_once_and_an_aged_heartbeat_within_the_refresh() -> None:
+    """The loop reuses its set of vehicles alive (ALIVE_REFRESH_S): a liveliness change must not wait for
+    the refresh (the step is released without the vehicle in the same pass), and a vehicle alive by
+    MAVLink heartbeat alone is lost no later than the refresh after its heartbeat passes LOST_AFTER_S."""
+    from gcs.app import ALIVE_REFRESH_S
+    from gcs.daemon.registry import LOST_AFTER_S
+
+    daemon = _ready_daemon()
+    gone, kept = ROSTER[0], ROSTER[1:]
+    try:
+        assert daemon._alive(11.0) == frozenset(ROSTER)
+        timed_out = daemon.steps.counters["steps_released_by_timeout"]  # the first step always times out
+        daemon.zenoh.inbox.extend([Received("gone", f"gcs/vehicle/{gone}/alive", b"", "", 0)]
+                                  + [_seen_from(v, EPOCH_NS + S) for v in kept])
+        daemon.turn(11.0 + ALIVE_REFRESH_S / 10)
+        assert daemon._alive(11.0 + ALIVE_REFRESH_S / 10) == frozenset(kept)
+        assert [r.stamp_ns for r in daemon.records][-1] == EPOCH_NS + S  # released complete, not timed out
+        assert daemon.steps.counters["steps_released_by_timeout"] == timed_out
+
+        heard_s = 12.0  # gone's heartbeat goes on after its token went, then stops at heard_s
+        daemon.registry.heartbeat_age = lambda vehicle, now: now - heard_s if vehicle == gone else None
+        assert gone in daemon._alive(heard_s + ALIVE_REFRESH_S)
+        lost_s = heard_s + LOST_AFTER_S
+        assert gone in daemon._alive(lost_s - ALIVE_REFRESH_S / 2)
+        assert gone not in daemon._alive(lost_s + ALIVE_REFRESH_S)
+    finally:
+        daemon.planner.close()

@@ -7,7 +7,7 @@ import math
 import msgspec
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gcs.adapters.zenoh_io import Received
@@ -102,6 +102,39 @@ def test_steps_release_when_every_expected_vehicle_has_reported() -> None:
     released = steps.ready(expected, now_s=0.3)
     assert [r.index for r in released] == [1]  # step 2 waits for uav1
     assert released[0].stamp_ns == 101 * S
+
+
+def _waits_for_nothing(steps: StepAssembler, index: int, expected: set[str]) -> bool:
+    """The module docstring's "complete", vehicle by vehicle (the reference for ``StepAssembler._complete``)."""
+    if index != steps._next:
+        return False
+    stamp = steps.stamp_of(index)
+    for vehicle in expected:
+        if steps._latest_step.get(vehicle, -(2**62)) > index + steps.reorder_steps:
+            continue  # it reported past the window: not waited for
+        nav = steps._latest_nav_ns.get(vehicle)
+        sends_nav = nav is not None and nav > stamp - steps.step_ns
+        if vehicle not in steps._arrived_s[index] or (sends_nav and nav < stamp):
+            return False
+    return True
+
+
+@settings(max_examples=300)
+@given(st.lists(st.tuples(st.sampled_from(["report", "nav"]), st.sampled_from(["uav1", "uav2", "uav3"]),
+                          st.integers(0, 3), st.integers(-1, 1)), max_size=20),
+       st.sets(st.sampled_from(["uav1", "uav2", "uav3"])))
+def test_a_step_is_complete_exactly_when_no_expected_vehicle_is_waited_for(events, expected) -> None:
+    steps = StepAssembler(step_ns=S, max_wait_s=0.5)
+    steps.add(_report("uav1", 100 * S), now_s=0.0)
+    steps.ready(set(), now_s=1.0)  # step 0 out: step 1 is next
+    for kind, vehicle, step, offset in events:
+        stamp = 100 * S + step * S + offset * (S // 4)
+        if kind == "nav":
+            steps.add_nav(vehicle, stamp)
+        else:
+            steps.add(_report(vehicle, stamp), now_s=1.0)
+    for index in list(steps._open):
+        assert steps._complete(index, expected) == _waits_for_nothing(steps, index, expected)
 
 
 def test_steps_time_out_in_order_and_late_reports_are_counted() -> None:
