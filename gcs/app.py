@@ -94,10 +94,11 @@ PLAN_CHECK_ITEMS = 16
 ALIVE_REFRESH_S = 0.02
 """How long the loop reuses the set of vehicles alive when no liveliness change came in between.
 
-A liveliness token declared or withdrawn is seen at once; what only time changes
-(a MAVLink heartbeat that arrives or ages past ``LOST_AFTER_S``, 5 s) is seen within
-this. Asking every vehicle on every pass cost the loop a quarter of its time at 100
-vehicles, where a pass handles a report or two."""
+A liveliness token declared or withdrawn is seen at once; what changes without a
+liveliness sample (a MAVLink heartbeat that arrives, or one that ages past
+``LOST_AFTER_S``, 5 s) is seen within this. Asking every vehicle on every pass
+cost the loop a quarter of its time at 100 vehicles, where a pass handles a report
+or two."""
 MIN_PLAN_INTERVAL_S = 0.05
 """Wall time between two plans handed to the planner, at least.
 
@@ -249,7 +250,7 @@ class Daemon:
         self._started_s = clock()
         self._subset_configs: dict[tuple[int, ...], TrackerConfig] = {}
         self._next_steer_s = 0.0
-        self._alive_now: frozenset[str] | None = None  # the vehicles alive (see _alive), and since when
+        self._alive_now: frozenset[str] | None = None  # the vehicles alive (see _alive), asked at _alive_since_s
         self._alive_since_s = 0.0
         self._closed = False
         self._opened = False
