@@ -11,7 +11,7 @@ and hands the planning to a planner:
   than the newest fused step is worth nothing once the newer one exists, so the
   planner never queues behind itself. The daemon goes further: it keeps the
   newest step's planning itself and submits only when the planner is free
-  (``Daemon._hand_over``, at most every ``MIN_PLAN_INTERVAL_S``), so a job is
+  (``Daemon._hand_over``, at most every ``plan_interval_s``), so a job is
   built once and carries the warm start of the plan just applied;
 * the planner runs :func:`gcs.core.tracker.plan` (pure) and the loop takes the
   finished :class:`PlanOutcome` s with :meth:`Planner.take` and applies them

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 
 import msgspec
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -276,9 +277,25 @@ class _HeldPlanner:
         pass
 
 
-def test_the_newest_step_waits_for_a_free_planner_and_plans_are_handed_over_at_most_every_interval() -> None:
-    from gcs.app import MIN_PLAN_INTERVAL_S
+def test_a_plan_interval_grows_with_the_team_from_the_minimum_to_a_steering_period() -> None:
+    from gcs.app import MIN_PLAN_INTERVAL_S, PLAN_INTERVAL_PER_VEHICLE_S, STEER_RATE_HZ, plan_interval_s
 
+    small = int(MIN_PLAN_INTERVAL_S / PLAN_INTERVAL_PER_VEHICLE_S)
+    assert [plan_interval_s(n) for n in (0, 1, 3, small)] == [MIN_PLAN_INTERVAL_S] * 4
+    assert plan_interval_s(small + 20) == pytest.approx((small + 20) * PLAN_INTERVAL_PER_VEHICLE_S)
+    assert MIN_PLAN_INTERVAL_S < plan_interval_s(small + 20) < plan_interval_s(small + 40) <= 1.0 / STEER_RATE_HZ
+    assert plan_interval_s(100) == plan_interval_s(10_000) == 1.0 / STEER_RATE_HZ
+
+
+@pytest.mark.parametrize("per_vehicle_s", [None, 0.05])
+def test_the_newest_step_waits_for_a_free_planner_and_plans_are_handed_over_at_most_every_interval(
+        per_vehicle_s, monkeypatch) -> None:
+    from gcs import app
+
+    if per_vehicle_s is not None:  # as if the team were large: the interval is that of 3 vehicles at this cost
+        monkeypatch.setattr(app, "PLAN_INTERVAL_PER_VEHICLE_S", per_vehicle_s)
+    interval = app.plan_interval_s(len(ROSTER))
+    assert interval == (app.MIN_PLAN_INTERVAL_S if per_vehicle_s is None else 3 * per_vehicle_s)
     daemon = _daemon()
     daemon.planner.close()
     daemon.planner = planner = _HeldPlanner()
@@ -299,9 +316,9 @@ def test_the_newest_step_waits_for_a_free_planner_and_plans_are_handed_over_at_m
     daemon.turn(11.2)
     assert planner.jobs == [EPOCH_NS, EPOCH_NS + 2 * S]
     planner.planning = False
-    step(3, 11.2 + MIN_PLAN_INTERVAL_S / 2)  # free, but too soon after the last hand-over
+    step(3, 11.2 + interval * 0.9)  # free, but too soon after the last hand-over
     assert planner.jobs[-1] == EPOCH_NS + 2 * S
-    daemon.turn(11.2 + MIN_PLAN_INTERVAL_S)
+    daemon.turn(11.2 + interval)
     assert planner.jobs == [EPOCH_NS, EPOCH_NS + 2 * S, EPOCH_NS + 3 * S]
 
 
