@@ -18,6 +18,9 @@ DAEMON_NAVIGATION = ("auto", "skf", "reported")
 """The daemon's ``--navigation`` choices (:data:`gcs.daemon.navigation.NAVIGATION_MODES`, not imported: the
 parser stays light)."""
 
+LOAD_NICENESS = 5
+"""``gcs bench daemon --load-nice``'s default (:data:`gcs.bench.daemon_load.LOAD_NICENESS`, not imported either)."""
+
 PLOTS_HELP = "write PNG plots and a markdown table (<benchmark>.md) into DIR"
 
 
@@ -114,11 +117,13 @@ def _cmd_daemon(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario)
     command = (f"gcs bench daemon --scenario {args.scenario} --vehicles {' '.join(map(str, args.vehicles))} "
                f"--seconds {args.seconds:g} --solve-steps {args.solve_steps} --navigation {args.navigation}"
-               + (f" --rates {' '.join(f'{r:g}' for r in args.rates)}" if args.rates else ""))
+               + (f" --rates {' '.join(f'{r:g}' for r in args.rates)}" if args.rates else "")
+               + (f" --load-nice {args.load_niceness}" if args.load_niceness != LOAD_NICENESS else ""))
     profiler = cProfile.Profile() if args.profile else None
     report = daemon.run_benchmark(scenario, build_world(scenario), vehicle_counts=args.vehicles, seconds=args.seconds,
                                   solve_steps=args.solve_steps, command=command, progress=_progress, profiler=profiler,
-                                  navigation=args.navigation, rates=args.rates or ())
+                                  navigation=args.navigation, rates=args.rates or (),
+                                  load_niceness=args.load_niceness)
     print(daemon.format_report(report))
     if args.json:
         daemon.write_json(report, args.json)
@@ -251,6 +256,13 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _niceness(text: str) -> int:
+    value = int(text)
+    if not 0 <= value <= 19:
+        raise argparse.ArgumentTypeError(f"must be 0-19, got {value}")
+    return value
+
+
 def _positive_float(text: str) -> float:
     value = float(text)
     if not value > 0:
@@ -333,6 +345,9 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
                      help="the daemon's --navigation (default auto, as gcs run); when it runs the SKF the load "
                           "sends a NavReport per vehicle per round beside its sensor report (GPS fix; not counted "
                           "in the rate)")
+    dmn.add_argument("--load-nice", type=_niceness, default=LOAD_NICENESS, dest="load_niceness", metavar="N",
+                     help=f"how much lower the load process's priority is, 0-19 (default {LOAD_NICENESS}: the "
+                          "vehicles' own computers in use; 0 shares the CPUs with the daemon evenly)")
     dmn.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     dmn.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
     dmn.add_argument("--profile", type=Path, metavar="FILE",

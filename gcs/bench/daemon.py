@@ -2,7 +2,8 @@
 
 Two processes on 127.0.0.1, joined by a Zenoh TCP link (peers, multicast off,
 a free port; no MAVLink): the **load** (:mod:`gcs.bench.daemon_load`, a spawned
-process) plays N vehicles; the **daemon** (:class:`gcs.app.Daemon`, in this
+process, ``load_niceness`` below this one's priority: the vehicles' own computers
+in use) plays N vehicles; the **daemon** (:class:`gcs.app.Daemon`, in this
 process, running its own loop :meth:`~gcs.app.Daemon.run`) consumes their
 reports. The daemon's ``on_step`` hook notes the wall time at which each
 decision step was fused (its ``TrackEstimate`` put); its ``on_plan`` hook, the
@@ -56,7 +57,7 @@ from gcs.app import Daemon, DaemonOptions
 from gcs.daemon.records import PlanRecord, StepRecord
 from gcs.daemon.navigation import runs_skf
 from gcs.daemon.planning import START_TIMEOUT_S
-from gcs.bench.daemon_load import Fleet, publisher_main
+from gcs.bench.daemon_load import LOAD_NICENESS, Fleet, publisher_main
 from gcs.bench.urban import with_vehicles
 from gcs.config import Scenario
 from gcs.core.world import World
@@ -339,20 +340,20 @@ def _fmt(value: float | None, digits: int = 2) -> str:
 
 def _measure(scenario: Scenario, world: World, seconds: float, solve_steps: int, ga_planner: str,
              say: Callable[[str], None], profiler: cProfile.Profile | None, navigation: str = "auto",
-             rates: Sequence[float] = ()) -> dict:
+             rates: Sequence[float] = (), load_niceness: int = LOAD_NICENESS) -> dict:
     """The rate search (orbit) and the GA's solve time for one scenario, against one load process."""
     endpoint = f"tcp/{LOCALHOST}:{free_tcp_port()}"
     context = multiprocessing.get_context("spawn")
     ours, theirs = context.Pipe()
     fleet = Fleet.of(scenario, nav_per_round=runs_skf(navigation, scenario))
-    load = context.Process(target=publisher_main, args=(theirs, endpoint, fleet), daemon=True)
+    load = context.Process(target=publisher_main, args=(theirs, endpoint, fleet, load_niceness), daemon=True)
     load.start()
     theirs.close()  # so that a dead load process reads as EOF here
     try:
         if not ours.poll(30.0):
             raise RuntimeError("the load process did not start")
         try:
-            ours.recv()
+            ready = ours.recv()
         except EOFError:
             raise RuntimeError("the load process died while starting") from None
         count = len(scenario.vehicles)
@@ -371,7 +372,7 @@ def _measure(scenario: Scenario, world: World, seconds: float, solve_steps: int,
         if load.is_alive():
             load.terminate()
             load.join(5.0)
-    return _summary(trials, ga)
+    return _summary(trials, ga) | {"load_nice": ready.get("nice")}
 
 
 def _summary(trials: list[Trial], ga: Trial | None) -> dict:
@@ -421,19 +422,23 @@ def _load_average() -> str:
 def run_benchmark(scenario: Scenario, world: World, vehicle_counts: Sequence[int] = (10, 50, 100),
                   seconds: float = 3.0, solve_steps: int = 5, command: str = "",
                   progress: Callable[[str], None] | None = None, profiler: cProfile.Profile | None = None,
-                  navigation: str = "auto", rates: Sequence[float] = ()) -> dict:
+                  navigation: str = "auto", rates: Sequence[float] = (),
+                  load_niceness: int = LOAD_NICENESS) -> dict:
     """Measure every vehicle count; returns the report (see :func:`write_json`).
 
     ``profiler`` (optional) profiles the daemon's loop during the rate searches. ``rates``
     (optional) replaces the search by one trial at each rate given, in that order.
+    ``load_niceness``: how much lower the load process's priority is (0-19).
     """
+    if not 0 <= load_niceness <= 19:
+        raise ValueError(f"the load's niceness must be 0-19, got {load_niceness!r}")
     say = progress or (lambda _msg: None)
     planner = scenario_planner(scenario)
     ga_planner = planner if planner.startswith("ga_") else "ga_k5"
     note, load_start = machine_note(), _load_average()
     started = time.monotonic()
     per_count = {str(count): _measure(with_vehicles(scenario, count), world, seconds, solve_steps, ga_planner, say,
-                                      profiler, navigation, rates) for count in vehicle_counts}
+                                      profiler, navigation, rates, load_niceness) for count in vehicle_counts}
     largest = str(max(vehicle_counts))
     best_rates = [row["max_reports_per_s_no_loss"] for row in per_count.values()]
     at_goal = [row["latency_at_reports_per_s"] == GOAL_REPORTS_PER_S for row in per_count.values()]
@@ -442,7 +447,7 @@ def run_benchmark(scenario: Scenario, world: World, vehicle_counts: Sequence[int
         "scenario": scenario.name, "command": command, "machine": note,
         "load_average": {"start": load_start, "end": _load_average()},
         "latency_planner": LATENCY_PLANNER, "solve_planner": ga_planner, "navigation": navigation,
-        "nav_per_round": runs_skf(navigation, scenario),
+        "nav_per_round": runs_skf(navigation, scenario), "load_niceness": load_niceness,
         "seconds_per_trial": seconds, "rates": list(rates) or "searched", "grace_s": GRACE_S,
         "wall_s": time.monotonic() - started,
         "vehicles": per_count,
@@ -464,7 +469,7 @@ def format_report(report: dict) -> str:
         f"{report['load_average']['end']} at the end (1/5/15 min)",
         f"scenario {report['scenario']}; daemon --navigation {report.get('navigation', 'reported')}"
         f"{' (SKF: a NavReport per vehicle per round too)' if report.get('nav_per_round') else ''}; "
-        "load in a separate process over Zenoh TCP on 127.0.0.1; "
+        f"load in a separate process (nice +{report.get('load_niceness', 0)}) over Zenoh TCP on 127.0.0.1; "
         f"{report['seconds_per_trial']:g} s per trial; no loss = every report accepted and the daemon within "
         f"{report['grace_s']:g} s of the last one; latency = last report of a step sent -> its commands put, "
         f"less the planner thread's share ({report['latency_planner']} planner; at 5,000 reports/s, else at the "

@@ -9,9 +9,12 @@ solve time is positive.
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
+
+import pytest
 
 from tests.markdown_tables import assert_close, assert_pngs, number, read_tables
 
@@ -32,6 +35,9 @@ def test_bench_daemon_writes_the_documented_json_plots_and_table(tmp_path: Path)
             "goals"} <= set(report)
     assert set(report["vehicles"]) == {"3"} and report["latency_vehicles"] == 3
     row = report["vehicles"]["3"]
+    # the load ran 5 below the benchmark's priority (ours: it inherits it), as the table says
+    assert report["load_niceness"] == 5 and row["load_nice"] == min(19, os.nice(0) + 5)
+    assert "load in a separate process (nice +5)" in done.stdout
     assert PER_COUNT_KEYS <= set(row)
     assert report["max_reports_per_s_no_loss"] == row["max_reports_per_s_no_loss"] > 0
     assert (report["latency_ms_p50"], report["latency_ms_p99"]) == (row["latency_ms_p50"], row["latency_ms_p99"])
@@ -57,11 +63,12 @@ def test_bench_daemon_writes_the_documented_json_plots_and_table(tmp_path: Path)
                                                                           for t in trials]
 
 
-def test_bench_daemon_rejects_a_bad_argument() -> None:
-    done = subprocess.run([sys.executable, "-m", "gcs.cli", "bench", "daemon", "--seconds", "0"],
+@pytest.mark.parametrize("argument", [["--seconds", "0"], ["--load-nice", "20"], ["--load-nice", "-1"]])
+def test_bench_daemon_rejects_a_bad_argument(argument: list[str]) -> None:
+    done = subprocess.run([sys.executable, "-m", "gcs.cli", "bench", "daemon", *argument],
                           capture_output=True, text=True, timeout=60)
     assert done.returncode == 2
-    assert "--seconds" in done.stderr
+    assert argument[0] in done.stderr
 
 
 def test_bench_daemon_with_fixed_rates_runs_one_trial_at_each_in_turn(tmp_path: Path) -> None:

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import fields
 
 import pytest
 
 from gcs.bench.daemon import (GOAL_REPORTS_PER_S, MAX_TRIALS, _worst_latency, PlanTiming, StepTiming, Trial, next_rate,
                               step_latencies_ms, track_latencies_ms)
-from gcs.bench.daemon_load import Fleet
+from gcs.bench.daemon_load import Fleet, Load
 from gcs.bench.urban import with_vehicles
 from gcs.scenarios import load_scenario
 
@@ -100,3 +101,40 @@ def test_the_latency_goals_line_names_the_team_size_that_missed_it() -> None:
     assert _worst_latency(report) == "worst at 50 vehicles: p50 5.00 ms, p99 21.40 ms"
     report["vehicles"]["10"] = row(None, 2500)  # never reached the goal's rate: the worst
     assert _worst_latency(report).startswith("worst at 10 vehicles at 2500 reports/s")
+
+
+class _TimedPublisher:
+    """A publisher whose ``put`` notes when it began (``time.time_ns``) and takes 0.2 ms."""
+
+    def __init__(self) -> None:
+        self.put_ns: list[int] = []
+
+    def put(self, payload: bytes) -> None:
+        self.put_ns.append(time.time_ns())
+        busy_until = time.perf_counter() + 2e-4
+        while time.perf_counter() < busy_until:
+            pass
+
+
+def test_a_rounds_send_time_is_read_before_its_last_report_is_put() -> None:
+    # Read after the put, a load preempted as the daemon wakes would shorten the latency it measures.
+    fleet = Fleet.of(with_vehicles(load_scenario("wang2012_urban"), 4))
+    load = Load.__new__(Load)  # no Zenoh session: the publishers are stand-ins
+    load.fleet, load.next_round, load.seq, load._prepared = fleet, 0, 0, None
+    load.reports = [_TimedPublisher() for _ in fleet.vehicles]
+    load.navs = [_TimedPublisher() for _ in fleet.vehicles]
+    assert load.prepare(rate=1e6, seconds=1e-5 * 4)["rounds"] == 10
+    sent = load.run()
+    last_puts = load.reports[-1].put_ns
+    assert sent["published"] == 40 and len(sent["last_sent_ns"]) == len(last_puts) == 10
+    assert all(first_put <= sent_ns <= last_put for sent_ns, first_put, last_put in
+               zip(sent["last_sent_ns"], load.reports[0].put_ns, last_puts))
+
+
+def test_the_bench_parsers_defaults_are_the_modules_own() -> None:
+    # the parser does not import the benchmark's modules (it stays light), so their constants are repeated there
+    from gcs.bench import cli
+    from gcs.bench.daemon_load import LOAD_NICENESS
+    from gcs.daemon.navigation import NAVIGATION_MODES
+
+    assert cli.LOAD_NICENESS == LOAD_NICENESS and cli.DAEMON_NAVIGATION == NAVIGATION_MODES
