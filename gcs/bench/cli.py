@@ -13,6 +13,7 @@ from pathlib import Path
 
 from gcs.bench import PLANNERS
 from gcs.bench.urban_nav import NAVIGATION_MODES
+from gcs.niceness import niceness_argument
 
 DAEMON_NAVIGATION = ("auto", "skf", "reported")
 """The daemon's ``--navigation`` choices (:data:`gcs.daemon.navigation.NAVIGATION_MODES`, not imported: the
@@ -256,13 +257,6 @@ def _positive_int(text: str) -> int:
     return value
 
 
-def _niceness(text: str) -> int:
-    value = int(text)
-    if not 0 <= value <= 19:
-        raise argparse.ArgumentTypeError(f"must be 0-19, got {value}")
-    return value
-
-
 def _positive_float(text: str) -> float:
     value = float(text)
     if not value > 0:
@@ -345,7 +339,7 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
                      help="the daemon's --navigation (default auto, as gcs run); when it runs the SKF the load "
                           "sends a NavReport per vehicle per round beside its sensor report (GPS fix; not counted "
                           "in the rate)")
-    dmn.add_argument("--load-nice", type=_niceness, default=LOAD_NICENESS, dest="load_niceness", metavar="N",
+    dmn.add_argument("--load-nice", type=niceness_argument, default=LOAD_NICENESS, dest="load_niceness", metavar="N",
                      help=f"how much lower the load process's priority is, 0-19 (default {LOAD_NICENESS}: the "
                           "vehicles' own computers in use; 0 shares the CPUs with the daemon evenly)")
     dmn.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")

@@ -61,6 +61,7 @@ from gcs.bench.daemon_load import LOAD_NICENESS, Fleet, publisher_main
 from gcs.bench.urban import with_vehicles
 from gcs.config import Scenario
 from gcs.core.world import World
+from gcs.niceness import check_niceness
 from gcs.tracking import scenario_planner
 
 __all__ = ["GOAL_REPORTS_PER_S", "GOAL_LATENCY_MS_P99", "GRACE_S", "Trial", "StepTiming", "PlanTiming",
@@ -430,8 +431,7 @@ def run_benchmark(scenario: Scenario, world: World, vehicle_counts: Sequence[int
     (optional) replaces the search by one trial at each rate given, in that order.
     ``load_niceness``: how much lower the load process's priority is (0-19).
     """
-    if not 0 <= load_niceness <= 19:
-        raise ValueError(f"the load's niceness must be 0-19, got {load_niceness!r}")
+    check_niceness(load_niceness, "the load's")
     say = progress or (lambda _msg: None)
     planner = scenario_planner(scenario)
     ga_planner = planner if planner.startswith("ga_") else "ga_k5"

@@ -32,7 +32,6 @@ simulated vehicles' (and a real one's), each report states its position's 1-sigm
 from __future__ import annotations
 
 import math
-import os
 import signal
 import time
 from dataclasses import dataclass
@@ -42,6 +41,7 @@ import numpy as np
 from gcs.adapters.zenoh_session import ZenohSettings, declare_publisher, open_session
 from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
+from gcs.niceness import lower_priority
 from protocols.codec import encode
 from protocols.keys import alive_key, nav_key, report_key
 from protocols.messages import GpsFix, NavReport, SensorReport
@@ -220,13 +220,12 @@ def publisher_main(conn, endpoint: str, fleet: Fleet, niceness: int = LOAD_NICEN
     """The load process: listen on ``endpoint`` and obey ``(command, *args)`` from ``conn`` until ``stop``;
     ``niceness`` below the priority it was started with (:data:`LOAD_NICENESS`)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the benchmark process stops us through the pipe
-    if niceness > 0 and hasattr(os, "nice"):
-        os.nice(niceness)
+    nice = lower_priority(niceness)
     session = open_session(ZenohSettings(mode="peer", listen=(endpoint,), connect=()))
     load = None
     try:
         load = Load(session, fleet)
-        conn.send({"ready": True, "nice": os.nice(0) if hasattr(os, "nice") else None})
+        conn.send({"ready": True, "nice": nice})
         while True:
             command, *args = conn.recv()
             if command == "stop":

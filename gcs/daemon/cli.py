@@ -16,6 +16,7 @@ from gcs.config import ScenarioError
 from gcs.daemon.navigation import NAVIGATION_MODES
 from gcs.daemon.status_cli import add_status, format_status, query_status
 from gcs.daemon.planning import PLANNER_MODES, PLANNER_NICENESS
+from gcs.niceness import niceness_argument
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
 from gcs.tracking import PLANNERS
 from gcs.world_loader import build_world
@@ -43,7 +44,7 @@ def add_daemon_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--plan-in", choices=PLANNER_MODES, default="process", dest="planner_mode",
                         help="where plans are made: a child process (default), a thread of the daemon, or inline "
                              "in its loop (deterministic; the loop waits for each plan)")
-    parser.add_argument("--planner-nice", type=_niceness, default=PLANNER_NICENESS, dest="planner_niceness",
+    parser.add_argument("--planner-nice", type=niceness_argument, default=PLANNER_NICENESS, dest="planner_niceness",
                         metavar="N", help=f"how much lower the planner process's priority is, 0-19 (default "
                                           f"{PLANNER_NICENESS}; 19: the loop first when reports flood in, at the "
                                           "price of plans cut short on a busy machine)")
@@ -62,13 +63,6 @@ def add_navigation_argument(parser: argparse.ArgumentParser) -> None:
                              "vehicle's NavReports (GPS + INS) and fuses with its covariance; reported takes each "
                              "SensorReport's own position as exact; auto (default): skf when the scenario declares "
                              "GPS-denied zones, else reported")
-
-
-def _niceness(text: str) -> int:
-    value = int(text)
-    if not 0 <= value <= 19:
-        raise argparse.ArgumentTypeError(f"must be 0-19, got {value}")
-    return value
 
 
 def add_run(sub: argparse._SubParsersAction) -> None:

@@ -13,7 +13,6 @@ from __future__ import annotations
 import gc
 import logging
 import multiprocessing
-import os
 import select
 import signal
 import threading
@@ -26,6 +25,7 @@ from gcs.config import Scenario
 from gcs.core.tracker import TrackerConfig
 from gcs.core.world import World
 from gcs.daemon.planning import PLANNER_NICENESS, START_TIMEOUT_S, PlanJob, PlanOutcome, Planner, run_job
+from gcs.niceness import check_niceness, lower_priority
 
 __all__ = ["ProcessPlanner"]
 
@@ -37,8 +37,7 @@ def _serve(conn, scenario: Scenario, world: World, planner_name: str, seed: int,
     from gcs.tracking import subset_config, tracker_config  # the child's own imports
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group; the daemon stops us
-    if hasattr(os, "nice") and niceness > 0:
-        os.nice(niceness)
+    lower_priority(niceness)
     try:
         tracker = tracker_config(scenario, world, planner_name)
     except Exception as error:
@@ -79,9 +78,7 @@ class ProcessPlanner(Planner):
 
     def __init__(self, scenario: Scenario, world: World, planner_name: str, seed: int,
                  niceness: int = PLANNER_NICENESS) -> None:
-        if not 0 <= niceness <= 19:
-            raise ValueError(f"the planner's niceness must be 0-19, got {niceness!r}")
-        self._arguments = (scenario, world, planner_name, seed, niceness)
+        self._arguments = (scenario, world, planner_name, seed, check_niceness(niceness, "the planner's"))
         self.superseded = 0
         self.restarts = 0
         self._in_flight: PlanJob | None = None
