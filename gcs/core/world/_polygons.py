@@ -18,7 +18,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["as_ring", "signed_area", "pad_edges", "bboxes", "even_odd", "inside_any"]
+__all__ = ["as_ring", "signed_area", "pad_edges", "bboxes", "even_odd", "inside_any", "distances", "farthest_vertex"]
 
 _CHUNK = 1 << 18
 """Largest (points x polygons) block handled at once, to bound memory."""
@@ -155,3 +155,28 @@ def inside_any(
         hit = even_odd(xc[point, 0], yc[point, 0], edges[polygon])
         inside[first + point[hit]] = True
     return inside
+
+
+def distances(x: NDArray[np.float64], y: NDArray[np.float64], edges: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Distance (M, P) from each point (M,) to each polygon (P, E, 2, 2): 0 inside (even-odd), else to the outline.
+
+    Padding edges are zero-length edges at a vertex, whose distance is that
+    vertex's, so they change nothing.
+    """
+    px, py = x[:, None, None], y[:, None, None]
+    x0, y0 = edges[None, :, :, 0, 0], edges[None, :, :, 0, 1]
+    ex, ey = edges[None, :, :, 1, 0] - x0, edges[None, :, :, 1, 1] - y0
+    length2 = ex * ex + ey * ey
+    t = np.clip(((px - x0) * ex + (py - y0) * ey) / np.where(length2 > 0.0, length2, 1.0), 0.0, 1.0)
+    outline = np.hypot(px - x0 - t * ex, py - y0 - t * ey).min(axis=-1)
+    straddles = (y0 > py) != (edges[None, :, :, 1, 1] > py)
+    x_cross = x0 + (py - y0) * ex / np.where(straddles, ey, 1.0)
+    inside = np.count_nonzero(straddles & (px < x_cross), axis=-1) % 2 == 1
+    return np.where(inside, 0.0, outline)
+
+
+def farthest_vertex(x: NDArray[np.float64], y: NDArray[np.float64], edges: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Distance (M, P) from each point (M,) to the farthest vertex of each polygon (P, E, 2, 2)."""
+    dx = edges[None, :, :, 0, 0] - x[:, None, None]
+    dy = edges[None, :, :, 0, 1] - y[:, None, None]
+    return np.hypot(dx, dy).max(axis=-1)

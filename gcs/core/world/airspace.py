@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from gcs.core.world._polygons import as_ring, bboxes, inside_any, pad_edges
+from gcs.core.world._polygons import as_ring, bboxes, distances, farthest_vertex, inside_any, pad_edges
 
 __all__ = ["RestrictedAirspace"]
 
@@ -111,3 +111,22 @@ class RestrictedAirspace:
         band = (z >= self.floors_m) & (z <= self.ceilings_m)
         result = inside_any(flat[:, 0], flat[:, 1], self.bbox, self.edges, admit=band)
         return result.reshape(p.shape[:-1])
+
+    def active(self, altitude_m: float) -> NDArray[np.bool_]:
+        """Which zones (S,) restrict the altitude ``altitude_m`` (closed band)."""
+        return (self.floors_m <= altitude_m) & (altitude_m <= self.ceilings_m)
+
+    def distances_xy(self, xy: ArrayLike, altitude_m: float) -> NDArray[np.float64]:
+        """Horizontal distance (..., S') from points (..., 2) to each zone restricting ``altitude_m``:
+        0 inside, else to its outline. ``S'`` counts the zones :meth:`active` at that altitude."""
+        p = np.asarray(xy, dtype=np.float64)
+        flat = p.reshape(-1, 2)
+        edges = self.edges[self.active(altitude_m)]
+        return distances(flat[:, 0], flat[:, 1], edges).reshape(p.shape[:-1] + (len(edges),))
+
+    def farthest_xy(self, xy: ArrayLike, altitude_m: float) -> NDArray[np.float64]:
+        """Distance (..., S') from points (..., 2) to the farthest vertex of each zone restricting ``altitude_m``."""
+        p = np.asarray(xy, dtype=np.float64)
+        flat = p.reshape(-1, 2)
+        edges = self.edges[self.active(altitude_m)]
+        return farthest_vertex(flat[:, 0], flat[:, 1], edges).reshape(p.shape[:-1] + (len(edges),))
