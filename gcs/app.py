@@ -194,9 +194,15 @@ class DaemonOptions:
     navigation: str = "auto"
 
 
+AIM_AHEAD_STEPS = 4
+"""How far along its plan a vehicle is steered toward: a point this many steps on. A plan of 10 s may
+turn half a circle, so its end can lie behind the vehicle; a few seconds on, the chord follows the arc."""
+
+
 @dataclass(frozen=True)
 class _Aim:
-    """Where a vehicle's plan takes it: the end of the planned path, and the plan's first heading."""
+    """Where a vehicle's plan takes it: its planned position :data:`AIM_AHEAD_STEPS` steps on (or the path's end),
+    and the plan's first heading."""
 
     point_enu_m: np.ndarray
     heading_rad: float
@@ -603,7 +609,8 @@ class Daemon:
                                  dt, stamp_ns, self.loop.plan_seq + 1, self.planner_name)
         self.loop.plan_seq += len(commands)
         for command in commands:
-            self.loop.aims[command.vehicle_id] = _Aim(np.array(command.planned_path_enu_m[-1]), command.heading_rad,
+            ahead = command.planned_path_enu_m[min(AIM_AHEAD_STEPS, len(command.planned_path_enu_m)) - 1]
+            self.loop.aims[command.vehicle_id] = _Aim(np.array(ahead), command.heading_rad,
                                                       command.altitude_m, command.airspeed_mps,
                                                       command.airspeed_mps * dt)
             self.zenoh.publish_plan(command)
@@ -611,7 +618,7 @@ class Daemon:
     def _steer(self) -> None:
         """Turn each vehicle's aim into a heading command from its latest MAVLink position.
 
-        The aim is the end of the vehicle's planned path (k+T). Steering toward it
+        The aim is the vehicle's planned position :data:`AIM_AHEAD_STEPS` steps on. Steering toward it
         from where the vehicle is *now* (pure pursuit on the plan) absorbs the delay
         between the reports a plan was made from and the moment the command is
         flown; within one step's flight of the aim point, or without telemetry,

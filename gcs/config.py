@@ -27,6 +27,7 @@ __all__ = [
     "VehicleConfig",
     "TargetConfig",
     "EstimatorConfig",
+    "SightConfig",
     "PlannerConfig",
     "AirframeConfig",
     "GpsConfig",
@@ -159,6 +160,8 @@ class TargetConfig(_Config):
     spectral density ``accel_psd_m2_s3`` (the per-step velocity noise standard
     deviation is ``sqrt(accel_psd_m2_s3 * step_s)``; wang2012 section 5 gives
     1.4 m/s, i.e. 1.96 m^2/s^3 at 1 s), speed capped at ``max_speed_mps``.
+    ``streets``: drives the street grid at ``street_speed_mps``, turning at an
+    intersection with ``turn_probability``.
     """
 
     id: Identifier = "target"
@@ -168,6 +171,10 @@ class TargetConfig(_Config):
     accel_psd_m2_s3: NonNegative = 1.96
     max_speed_mps: Positive = 15.0
     path_file: str | None = None
+    street_speed_mps: Positive = 10.0
+    """``streets``: cruising speed along the street grid (capped by ``max_speed_mps``)."""
+    turn_probability: Annotated[float, msgspec.Meta(ge=0.0, le=1.0)] = 0.5
+    """``streets``: probability of leaving the straight road at an intersection."""
 
 
 class EstimatorConfig(_Config):
@@ -193,12 +200,54 @@ class EstimatorConfig(_Config):
     """``imm``: probability per step of leaving constant velocity (twice that of leaving the turn)."""
 
 
-class PlannerConfig(_Config):
-    """Heading planner. ``ga_rhc``: wang2012 section 4 (RHC cost eq. 20-26, GA eq. 27-29);
-    ``gcrlb_lm``: zuo2021 section 4 (tr GCRLB, penalty + Levenberg-Marquardt); ``crlb_lm``
-    (Dogancay's constant-noise CRLB) and ``straight`` are zuo2021's baselines."""
+class SightConfig(_Config):
+    """The sight planner (``[planner.sight]``): objective weights and search budget.
 
-    kind: Literal["ga_rhc", "k0", "orbit", "pursuit", "gcrlb_lm", "crlb_lm", "straight"] = "ga_rhc"
+    The objective (:mod:`gcs.core.planners.sight`) counts, in seen steps, the
+    probability that at least one UAV sees the target at each of ``horizon_steps``
+    steps over ``samples`` samples of the prediction (widened by
+    ``manoeuvre_spread`` times the target's speed per second ahead), from at most
+    ``reach_m`` away; plus ``per_uav_weight`` for each UAV's own sight (shared
+    among the UAVs), ``information_weight`` for the share of the position variance
+    removed, a stand-off pull worth at most ``standoff_weight`` (< 1 seen step)
+    toward ``standoff_m`` from the target (half-strength ``standoff_scale_m``
+    beyond it), and ``turn_change_weight`` per full-rate change of turn. The
+    search (:mod:`gcs.core.planners.sequential`) runs ``sweeps`` rounds of the
+    manoeuvre library and ``refine_sweeps`` of ``refine_candidates``
+    perturbations per vehicle, stopping at ``deadline_s`` of data time in the
+    daemon.
+    """
+
+    horizon_steps: Annotated[int, msgspec.Meta(ge=1, le=100)] = 10
+    samples: Annotated[int, msgspec.Meta(ge=1, le=256)] = 16
+    per_uav_weight: NonNegative = 0.5
+    information_weight: NonNegative = 0.5
+    standoff_weight: Annotated[float, msgspec.Meta(ge=0.0, lt=1.0)] = 0.9
+    standoff_m: NonNegative = 100.0
+    standoff_scale_m: Positive = 150.0
+    turn_change_weight: NonNegative = 0.002
+    manoeuvre_spread: NonNegative = 0.6
+    reach_m: Positive = 250.0
+    sweeps: Annotated[int, msgspec.Meta(ge=1, le=100)] = 2
+    refine_sweeps: Annotated[int, msgspec.Meta(ge=0, le=100)] = 1
+    refine_candidates: Annotated[int, msgspec.Meta(ge=1, le=10_000)] = 24
+    deadline_s: Positive = 0.5
+
+
+class PlannerConfig(_Config):
+    """Heading planner. ``sight`` (the default): the probability that at least one UAV sees the
+    target over the predicted distribution, searched vehicle by vehicle (``[planner.sight]``);
+    ``sight_k0``: the same on the current estimate. ``ga_rhc``: wang2012 section 4 (RHC cost
+    eq. 20-26, GA eq. 27-29, with the fields below); ``k0``: the same on the current estimate;
+    ``gcrlb_lm``: zuo2021 section 4 (tr GCRLB, penalty + Levenberg-Marquardt); ``crlb_lm``
+    (Dogancay's constant-noise CRLB) and ``straight`` are zuo2021's baselines.
+
+    ``airspace_margin_m``: every planner's plan keeps this far from restricted airspace
+    (:mod:`gcs.core.planners.airspace_guard`)."""
+
+    kind: Literal["sight", "sight_k0", "ga_rhc", "k0", "orbit", "pursuit", "gcrlb_lm", "crlb_lm", "straight"] = "sight"
+    sight: SightConfig = SightConfig()
+    airspace_margin_m: NonNegative = 25.0
     horizon_steps: Annotated[int, msgspec.Meta(ge=1, le=100)] = 5
     population: Annotated[int, msgspec.Meta(ge=2, le=10_000)] = 50
     generations: Annotated[int, msgspec.Meta(ge=1, le=100_000)] = 200

@@ -18,25 +18,38 @@ from gcs.core.models.motion import motion_model
 from gcs.core.models.sensor import SensorModel
 from gcs.core.planners import (GeneticPlanner, LmGcrlbPlanner, OneStepHeadingPlanner, OrbitPlanner, PursuitPlanner,
                                RhcWeights, StraightLinePlanner, crlb_planner)
+from gcs.core.planners.airspace_guard import AirspaceGuard
+from gcs.core.planners.cross_entropy import CrossEntropyPlanner, SightGeneticPlanner
+from gcs.core.planners.sequential import SequentialPlanner
+from gcs.core.planners.sight import SightWeights
 from gcs.core.tracker import TrackerConfig
 from gcs.core.world import VisibilityMaps, World
 
-__all__ = ["PLANNERS", "URBAN_PLANNERS", "AOA_PLANNERS", "FROM_SCENARIO", "filter_sensor_models", "observer_sensor_model",
+__all__ = ["PLANNERS", "URBAN_PLANNERS", "SEARCH_VARIANTS", "SIGHT_PLANNERS", "K0_PLANNERS", "AOA_PLANNERS", "FROM_SCENARIO", "horizon_steps",
+           "sight_weights", "filter_sensor_models", "observer_sensor_model",
            "tracker_config", "target_imm", "scenario_planner", "subset_config"]
 
-URBAN_PLANNERS = ("ga_k5", "ga_k0", "orbit", "pursuit")
-"""wang2012: GA-RHC on k+5 predictions or on the current estimate (k+0, the paper's
-comparison), stand-off orbit, straight-line pursuit."""
+URBAN_PLANNERS = ("sight", "sight_k0", "ga_k5", "ga_k0", "orbit", "pursuit")
+"""The sight planner on the k+1..k+n predictions or on the current estimate (k+0);
+wang2012: GA-RHC on k+5 predictions or on the current estimate (k+0, the paper's
+comparison); stand-off orbit, straight-line pursuit."""
+SEARCH_VARIANTS = ("sight_cem", "sight_ga")
+"""The sight objective searched otherwise, to compare searches: cross-entropy over whole-team plans, and
+wang2012's GA operators with larger batches and fewer generations (:mod:`gcs.core.planners.cross_entropy`)."""
+SIGHT_PLANNERS = ("sight", "sight_k0") + SEARCH_VARIANTS
+"""Planners of the sight objective (:mod:`gcs.core.planners.sight`)."""
+K0_PLANNERS = ("sight_k0", "ga_k0")
+"""Planners that plan on the current estimate held over the horizon."""
 AOA_PLANNERS = ("gcrlb_lm", "crlb_lm", "straight")
 """zuo2021: the GCRLB-LM heading planner, Dogancay's constant-noise CRLB planner,
 straight flight at the target."""
-PLANNERS = URBAN_PLANNERS + AOA_PLANNERS
+PLANNERS = URBAN_PLANNERS + SEARCH_VARIANTS + AOA_PLANNERS
 """Every planner a scenario or ``gcs run --planner`` may name."""
 
 FROM_SCENARIO = "scenario"
 """Default of ``stall``: take ``planner.stall_generations`` from the scenario."""
 
-_PLANNER_BY_KIND = {"ga_rhc": "ga_k5", "k0": "ga_k0", "orbit": "orbit", "pursuit": "pursuit",
+_PLANNER_BY_KIND = {"sight": "sight", "sight_k0": "sight_k0", "ga_rhc": "ga_k5", "k0": "ga_k0", "orbit": "orbit", "pursuit": "pursuit",
                     "gcrlb_lm": "gcrlb_lm", "crlb_lm": "crlb_lm", "straight": "straight"}
 
 
@@ -67,8 +80,25 @@ def _sensor_model(cfg) -> SensorModel:
                        reference_range_m=cfg.reference_range_m)
 
 
+def sight_weights(scenario: Scenario) -> SightWeights:
+    """The sight objective's weights of a scenario's ``[planner.sight]``."""
+    cfg = scenario.planner.sight
+    return SightWeights(per_uav=cfg.per_uav_weight, information=cfg.information_weight, standoff=cfg.standoff_weight,
+                        standoff_m=cfg.standoff_m, standoff_scale_m=cfg.standoff_scale_m,
+                        turn_change=cfg.turn_change_weight, samples=cfg.samples, manoeuvre=cfg.manoeuvre_spread)
+
+
 def _planner(name: str, scenario: Scenario, generations: int | None, stall: int | None | str):
     cfg = scenario.planner
+    if name == "sight_cem":
+        return CrossEntropyPlanner(sight_weights(scenario), deadline_s=cfg.sight.deadline_s)
+    if name == "sight_ga":
+        return SightGeneticPlanner(population=100, generations=10, deadline_s=cfg.sight.deadline_s,
+                                   weights=sight_weights(scenario))
+    if name in SIGHT_PLANNERS:
+        sight = cfg.sight
+        return SequentialPlanner(sight_weights(scenario), sweeps=sight.sweeps, refine_sweeps=sight.refine_sweeps,
+                                 refine_candidates=sight.refine_candidates, deadline_s=sight.deadline_s)
     if name in ("ga_k5", "ga_k0"):
         return GeneticPlanner(population=cfg.population, generations=generations or cfg.generations,
                               deadline_s=cfg.deadline_s,
@@ -91,9 +121,18 @@ def _visibility(world: World, planner, altitude_m: float, max_range_m: float):
     build) answer them cheaply. The other planners score one plan: the sight lines
     answer its few positions directly, with the same answers, and nothing is built.
     """
+    if isinstance(planner, (SequentialPlanner, CrossEntropyPlanner, SightGeneticPlanner)):
+        return None  # they ask the sight table (TrackerConfig.sight) instead
     if isinstance(planner, GeneticPlanner):
         return lambda points: VisibilityMaps(world.visibility_maps(points, altitude_m, max_range_m))
     return lambda points: world.sight_lines(points, altitude_m, max_range_m)
+
+
+def horizon_steps(scenario: Scenario, planner: str) -> int:
+    """Steps planned ahead: the paper's ``n`` for its GA, ``[planner.sight] horizon_steps`` (long enough to
+    turn) for every other planner of the city."""
+    cfg = scenario.planner
+    return cfg.horizon_steps if planner in ("ga_k5", "ga_k0") else cfg.sight.horizon_steps
 
 
 def tracker_config(scenario: Scenario, world: World | None, planner: str, generations: int | None = None,
@@ -107,25 +146,31 @@ def tracker_config(scenario: Scenario, world: World | None, planner: str, genera
     search = _planner(planner, scenario, generations, stall)
     motion = motion_model(scenario.estimator.model, scenario.estimator.accel_psd_m2_s3)
     altitude = min(v.altitude_m for v in scenario.vehicles)  # wang2012: visibility at the lowest UAV's height
+    # (the GA's maps; the sight planner asks at each UAV's own height, with roofs capped at the lowest)
     max_range = min(scenario.sensor_for(v).max_range_m for v in scenario.vehicles)
     weights = RhcWeights(w_vis=cfg.w_vis, u_max_rad_s=cfg.u_max_rad_s, w_u=cfg.w_u, w_res=cfg.w_res,
                          standoff_m=cfg.standoff_m, control_weight=cfg.control_weight,
                          standoff_weight=cfg.standoff_weight)
+    sensors = filter_sensor_models(scenario)
     return TrackerConfig(
         uif=UnscentedInformationFilter(motion),
-        sensors=filter_sensor_models(scenario),
+        sensors=sensors,
         planner=search,
         max_turn_rate=np.array([v.max_turn_rate_rad_s for v in scenario.vehicles]),
         step_s=scenario.time.step_s,
-        horizon_steps=cfg.horizon_steps,
+        horizon_steps=horizon_steps(scenario, planner) if planner in URBAN_PLANNERS + SEARCH_VARIANTS
+        else cfg.horizon_steps,
         weights=weights,
-        predict_ahead=planner != "ga_k0",
+        predict_ahead=planner not in K0_PLANNERS,
         visibility=None if world is None else _visibility(world, search, altitude, max_range),
         restricted=world.in_restricted if world is not None and len(world.airspace) else None,
         initial_position_std_m=scenario.estimator.initial_position_std_m,
         initial_velocity_std_mps=scenario.estimator.initial_velocity_std_mps,
         bearing_filter=VariableGainUKF(motion) if scenario.estimator.kind == "vgukf" else None,
         target_imm=target_imm(scenario) if scenario.estimator.kind == "imm" else None,
+        sight=None if world is None else world.sight_table(altitude, sensors[0].target_height_m, cfg.sight.reach_m),
+        guard=AirspaceGuard(world.airspace if world is not None else None, cfg.airspace_margin_m),
+        max_range_m=max_range,
     )
 
 

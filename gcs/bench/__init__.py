@@ -1,5 +1,6 @@
 """Reproductions of the papers' experiments and speed benchmarks (``gcs bench ...``)."""
 
+from gcs.tracking import SEARCH_VARIANTS
 from gcs.tracking import URBAN_PLANNERS as PLANNERS
 
-__all__ = ["PLANNERS"]  # the planners of gcs bench urban
+__all__ = ["PLANNERS", "SEARCH_VARIANTS"]  # the planners of gcs bench urban (by default), and the other searches

@@ -11,7 +11,7 @@ import json
 import sys
 from pathlib import Path
 
-from gcs.bench import PLANNERS
+from gcs.bench import PLANNERS, SEARCH_VARIANTS
 from gcs.bench.urban_nav import NAVIGATION_MODES
 from gcs.niceness import niceness_argument
 
@@ -70,6 +70,7 @@ def _cmd_estimation(args: argparse.Namespace) -> int:
 
 def _cmd_urban(args: argparse.Namespace) -> int:
     from gcs.bench import urban_report
+    from gcs.bench.urban_runs import DaskUnavailable
     from gcs.scenarios import load_scenario
     from gcs.world_loader import build_world
 
@@ -77,10 +78,14 @@ def _cmd_urban(args: argparse.Namespace) -> int:
     world = build_world(scenario)
     if args.gps_denied:
         return _urban_gps_denied(args, scenario, world)
-    report, records = urban_report.run_benchmark(
-        scenario, world, runs=args.runs, seed=args.seed, planners=args.planner or PLANNERS, duration_s=args.duration,
-        motion=args.motion, scaling=() if args.no_scaling else (3, 6, 10, 20), progress=_progress,
-    )
+    try:
+        report, records = urban_report.run_benchmark(
+            args.scenario, scenario, world, runs=args.runs, seed=args.seed, planners=args.planners or PLANNERS,
+            duration_s=args.duration, motion=args.motion, scaling=() if args.no_scaling else (3, 6, 10, 20),
+            workers=args.workers, dask=args.dask, progress=_progress)
+    except DaskUnavailable as error:
+        print(f"gcs bench urban: {error}", file=sys.stderr)
+        return 2
     print(urban_report.format_report(report))
     if args.json:
         urban_report.write_json(report, args.json)
@@ -94,7 +99,7 @@ def _urban_gps_denied(args: argparse.Namespace, scenario, world) -> int:
     from gcs.bench import urban_nav_report
 
     report = urban_nav_report.run_benchmark(
-        scenario, world, runs=args.runs, seed=args.seed, planners=args.planner or ("ga_k5",),
+        scenario, world, runs=args.runs, seed=args.seed, planners=args.planners or ("ga_k5",),
         navigations=args.navigation or urban_nav_report.NAVIGATION_MODES, duration_s=args.duration,
         motion=args.motion, progress=_progress)
     print(urban_nav_report.format_report(report))
@@ -295,20 +300,31 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
 
     urb = benches.add_parser(
         "urban",
-        help="wang2012 section 5 closed loop: observations, RMSE and decision time per planner",
+        help="closed loop in the city: observations, RMSE, airspace violations and decision time per planner",
         description="Runs the closed loop (truth target, occluded sensing, DUIF, k+n prediction, planning, "
-                    "UAVs flying the first command) on paired seeds for each planner and prints Table 1 "
-                    "of wang2012 with RMSE and decision times, plus GA timing for 3, 6, 10 and 20 UAVs.",
+                    "UAVs flying the first command) on paired seeds for each planner and prints, per planner, "
+                    "the steps seen by any UAV and per UAV, RMSE, runs that lost the track, airspace violations, "
+                    "decision times and paired Wilcoxon p-values against the orbit and k+0; then the decision "
+                    "time of the sight planner and of wang2012's GA for 3, 6, 10 and 20 UAVs. Shipped "
+                    "scenarios: wang2012_urban, downtown_dense, nofly_city, fast_target (gcs scenario list).",
     )
     urb.add_argument("--scenario", default="wang2012_urban", help="shipped name or .toml path (default wang2012_urban)")
     urb.add_argument("--runs", type=_positive_int, default=10, help="paired runs per planner (default 10)")
     urb.add_argument("--seed", type=int, default=2012, help="seed of the first run (default 2012)")
-    urb.add_argument("--planner", action="append", choices=PLANNERS,
-                     help=f"planner to run (repeatable; default all: {', '.join(PLANNERS)})")
-    urb.add_argument("--duration", type=float, help="seconds of simulation per run (default: the scenario's)")
+    urb.add_argument("--planners", nargs="+", action="extend", choices=PLANNERS + SEARCH_VARIANTS, metavar="PLANNER",
+                     help=f"planners to run (default: {', '.join(PLANNERS)}; also {', '.join(SEARCH_VARIANTS)}, "
+                          "the sight objective searched otherwise)")
+    urb.add_argument("--planner", action="append", choices=PLANNERS + SEARCH_VARIANTS, dest="planners",
+                     help=argparse.SUPPRESS)
+    urb.add_argument("--duration", type=_positive_float, help="seconds of simulation per run (default: the scenario's)")
     urb.add_argument("--motion", choices=["white_noise_acceleration", "streets"],
                      help="target motion (default: the scenario's)")
-    urb.add_argument("--no-scaling", action="store_true", help="skip the 3/6/10/20-UAV GA timing table")
+    urb.add_argument("--workers", type=_positive_int, default=1,
+                     help="run the seeds in this many processes (default 1); results are the same whatever the number")
+    urb.add_argument("--dask", metavar="ADDRESS",
+                     help="run the seeds on the Dask cluster whose scheduler is at ADDRESS, e.g. tcp://127.0.0.1:8786 "
+                          "(needs the cluster extra: pip install .[cluster])")
+    urb.add_argument("--no-scaling", action="store_true", help="skip the 3/6/10/20-UAV timing table")
     urb.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     urb.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
     urb.add_argument("--gps-denied", action="store_true",
@@ -316,7 +332,7 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
                           "RMSE with the vehicles' own navigation (perfect, raw GPS, SKF); planner default ga_k5")
     urb.add_argument("--navigation", action="append", choices=NAVIGATION_MODES,
                      help="with --gps-denied: navigation to run (repeatable; default all)")
-    urb.set_defaults(handler=_outputs_checked(_cmd_urban), planner=None, navigation=None)
+    urb.set_defaults(handler=_outputs_checked(_cmd_urban), planners=None, navigation=None)
 
     dmn = benches.add_parser(
         "daemon",

@@ -3,28 +3,33 @@
 Each 1 s step (the ASRTP loop): the truth target moves; the UAVs fly the
 command chosen at the previous step (eq. 1); every UAV senses the target unless
 a building blocks the line of sight or it is out of range
-(:mod:`sim_vehicles.truth.sensor`); the tracker fuses the detections (DUIF),
-predicts, plans (GA-RHC or a baseline) and returns the next commands
-(:func:`gcs.core.tracker.step`).
+(:mod:`sim_vehicles.truth.sensor`); the tracker fuses the detections
+(:func:`gcs.core.tracker.fuse`), then predicts and plans
+(:func:`gcs.core.tracker.plan`) the next commands.
 
 Planners compared over paired runs (same seed: same city, same target path,
-same sensor noise draws):
+same sensor noise draws): any of :data:`gcs.tracking.URBAN_PLANNERS`, e.g.
 
+* ``sight``: the sight objective on the k+1..k+n predictions (the default planner);
+* ``sight_k0``: the same on the current estimate held over the horizon;
 * ``ga_k5``: GA-RHC on the k+1..k+5 predictions (the paper's method);
 * ``ga_k0``: GA-RHC on the current estimate held over the horizon (the paper's k+0);
 * ``orbit``: stand-off orbit around the estimate;
 * ``pursuit``: fly straight at the estimate.
 
-Reported per planner (Table 1, Figs. 6-8): observations per UAV and by at least
-one UAV, fused position RMSE and its curve over time, and decision time (median
-and 99th percentile of the planner's wall-clock solve time).
+Recorded per step: which UAVs saw the target, the fused position error, the
+decision time (the whole planning step: prediction, sight tables or visibility
+maps, search and the airspace guard; wall clock), and which UAVs were inside
+restricted airspace at any of ``VIOLATION_SAMPLES`` points of the arc they
+flew. Planners run to their full budget with no deadline, so a run's result
+depends on its seed alone, not on the machine or on what else runs beside it.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import msgspec
 
@@ -34,16 +39,22 @@ from numpy.typing import NDArray
 from gcs.bench.urban_nav import FleetNavigation
 from gcs.config import Scenario
 from gcs.core.filters.uif import NS_PER_S
-from gcs.core.kinematics import VehicleState, step_vehicles
+from gcs.core.kinematics import VehicleState, rollout, step_vehicles
 from gcs.core.models.sensor import SensorModel
-from gcs.core.tracker import Detection, StepInputs, TrackerState, step
+from gcs.core.tracker import Detection, TrackerState, fuse, plan
 from gcs.core.world import World
 from gcs.tracking import FROM_SCENARIO, filter_sensor_models, tracker_config
 from gcs.tracking import URBAN_PLANNERS as PLANNERS
 from sim_vehicles.truth.sensor import TargetSensor
 from sim_vehicles.truth.target import start_state, target_model
 
-__all__ = ["PLANNERS", "RunRecord", "run_closed_loop", "sensor_models", "tracker_config", "with_vehicles"]
+__all__ = ["PLANNERS", "LOST_M", "VIOLATION_SAMPLES", "RunRecord", "run_closed_loop", "sensor_models", "tracker_config",
+           "with_vehicles"]
+
+LOST_M = 100.0
+"""A run *lost the track* when the fused estimate was ever farther than this from the target."""
+VIOLATION_SAMPLES = 5
+"""Points of each flown 1 s arc tested against restricted airspace."""
 
 
 @dataclass(frozen=True)
@@ -58,6 +69,7 @@ class RunRecord:
     vehicle_xy: NDArray[np.float64]  # (K, V, 2)
     target_xy: NDArray[np.float64]  # (K, 2)
     estimate_xy: NDArray[np.float64]  # (K, 2)
+    violations: NDArray[np.bool_] | None = None  # (K, V) inside restricted airspace during the step
     navigation: str = "perfect"
     nav_error_m: NDArray[np.float64] | None = None  # (K, V) the vehicles' own position error, with navigation
     gps_fix: NDArray[np.bool_] | None = None  # (K, V) whether each vehicle had a GPS fix, with navigation
@@ -71,6 +83,17 @@ class RunRecord:
     def seen_per_uav(self) -> list[int]:
         """Steps at which each UAV saw the target."""
         return [int(n) for n in self.seen.sum(axis=0)]
+
+    @property
+    def violation_steps(self) -> int:
+        """Vehicle-steps spent (partly) inside restricted airspace."""
+        return 0 if self.violations is None else int(self.violations.sum())
+
+    @property
+    def lost(self) -> bool:
+        """Whether the fused estimate was ever farther than :data:`LOST_M` from the target."""
+        valid = np.isfinite(self.errors_m)
+        return bool(valid.any() and self.errors_m[valid].max() > LOST_M)
 
     @property
     def rmse_m(self) -> float:
@@ -97,7 +120,7 @@ def run_closed_loop(
     clock: Callable[[], float] | None = time.perf_counter,
     navigation: str | None = None,
 ) -> RunRecord:
-    """One closed-loop run. ``clock`` times the planner (and enables its deadline); None for pure runs.
+    """One closed-loop run. ``clock`` times each planning step (never the planner's deadline); None: no timing.
 
     ``generations`` and ``stall`` override the scenario's GA budget (``stall=None``: no early stop).
     ``navigation`` (one of :data:`gcs.bench.urban_nav.NAVIGATION_MODES`) gives the tracker and planner
@@ -125,6 +148,8 @@ def run_closed_loop(
     vehicle_xy, target_xy, estimate_xy = np.zeros((steps, count, 2)), np.zeros((steps, 2)), np.full((steps, 2), np.nan)
     nav = None if navigation is None else FleetNavigation.start(navigation, scenario, seed, vehicles)
     nav_error, gps_fix = np.zeros((steps, count)), np.ones((steps, count), dtype=bool)
+    airspace = len(world.airspace) > 0
+    violations = np.zeros((steps, count), dtype=bool)
     for k in range(steps):
         stamp_ns = int(round(k * dt * NS_PER_S))
         if k > 0:
@@ -142,22 +167,35 @@ def run_closed_loop(
                 detections.append(Detection(i, believed.xyz[i], obs.values[0],
                                             None if nav is None else nav.covariance(i)))
                 seen[k, i] = True
-        inputs = StepInputs(stamp_ns, believed, tuple(detections))
-        state, _, diagnostics = step(config, state, inputs, plan_rng, now=clock)
+        estimate = fuse(config, state.estimate, stamp_ns, detections)
+        started = clock() if clock is not None else 0.0
+        state, _, diagnostics = plan(config, replace(state, estimate=estimate), believed, plan_rng)
+        if diagnostics.plan is not None and clock is not None:
+            decisions[k] = clock() - started
         if nav is not None:
             nav.commanded(believed, state.plan if state.plan is not None else state.turn_rate[:, None], dt,
                           config.max_turn_rate)
             nav_error[k], gps_fix[k] = nav.errors_m(vehicles), nav.fixes
-        if diagnostics.plan is not None and clock is not None:
-            decisions[k] = diagnostics.plan.elapsed_s
+        if airspace:
+            violations[k] = _inside_airspace(world, vehicles, state.turn_rate, dt, config.max_turn_rate)
         if state.estimate is not None:
             estimate_xy[k] = state.estimate.mean[:2]
             errors[k] = float(np.hypot(*(state.estimate.mean[:2] - target.position)))
         vehicle_xy[k], target_xy[k] = vehicles.xy, target.position
     if nav is None:
-        return RunRecord(planner, seed, seen, errors, decisions, vehicle_xy, target_xy, estimate_xy)
-    return RunRecord(planner, seed, seen, errors, decisions, vehicle_xy, target_xy, estimate_xy, navigation,
-                     nav_error, gps_fix)
+        return RunRecord(planner, seed, seen, errors, decisions, vehicle_xy, target_xy, estimate_xy, violations)
+    return RunRecord(planner, seed, seen, errors, decisions, vehicle_xy, target_xy, estimate_xy, violations,
+                     navigation, nav_error, gps_fix)
+
+
+def _inside_airspace(world: World, vehicles: VehicleState, turn_rate: NDArray[np.float64], dt: float,
+                     max_turn_rate: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Which vehicles (V,) will be inside restricted airspace at any of :data:`VIOLATION_SAMPLES` points of the
+    arc they fly next, holding ``turn_rate`` for ``dt``."""
+    xy, _ = rollout(vehicles, np.broadcast_to(turn_rate[:, None], (len(vehicles), VIOLATION_SAMPLES)),
+                    dt / VIOLATION_SAMPLES, max_turn_rate, headings=False)
+    xyz = np.concatenate([xy, np.broadcast_to(vehicles.altitude[:, None, None], xy.shape[:-1] + (1,))], axis=-1)
+    return world.in_restricted(xyz).any(axis=-1)
 
 
 def with_vehicles(scenario: Scenario, count: int) -> Scenario:

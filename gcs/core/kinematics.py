@@ -50,6 +50,11 @@ class VehicleState:
     def __len__(self) -> int:
         return self.heading.shape[0]
 
+    def subset(self, index: int) -> VehicleState:
+        """Vehicle ``index`` alone, as a team of one."""
+        s = slice(index, index + 1)
+        return VehicleState(self.xy[s], self.heading[s], self.speed[s], self.altitude[s])
+
 
 def rollout(
     state: VehicleState,

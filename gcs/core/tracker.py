@@ -8,7 +8,9 @@
 2. predict the target k+1..k+n (eq. 16-17; Step 3), or hold the current
    estimate for the paper's "k+0" comparison;
 3. build the planning problem with the visibility regions of the predicted
-   points and solve it (Step 4);
+   points and solve it (Step 4); every plan then passes the airspace guard
+   (:mod:`gcs.core.planners.airspace_guard`), which replaces a vehicle's plan
+   that would enter restricted airspace;
 4. return the first command of the plan for every vehicle (Step 5), and the
    plan itself to warm-start the next step.
 
@@ -32,10 +34,12 @@ from gcs.core.filters.uif import NS_PER_S, GaussianEstimate, UnscentedInformatio
 from gcs.core.filters.vgukf import VariableGainUKF
 from gcs.core.kinematics import VehicleState
 from gcs.core.models.sensor import AZIMUTH, ELEVATION, RANGE, SensorModel
+from gcs.core.planners.airspace_guard import AirspaceGuard
 from gcs.core.planners.problem import PlanningProblem, PlanResult, RhcWeights, Visibility
+from gcs.core.world.sight_table import SightTable
 
-__all__ = ["Detection", "TrackerConfig", "TrackerState", "StepInputs", "StepDiagnostics", "fuse", "prediction", "plan",
-           "step", "initial_estimate"]
+__all__ = ["Detection", "TrackerConfig", "TrackerState", "StepInputs", "StepDiagnostics", "fuse", "iterated_update",
+           "prediction", "plan", "step", "initial_estimate"]
 
 
 @dataclass(frozen=True)
@@ -112,6 +116,12 @@ class TrackerConfig:
     """zuo2021's VG-UKF: set for bearing-only sensors, replacing the DUIF in :func:`fuse`."""
     target_imm: ImmTargetFilter | None = None
     """The CV + coordinated-turn IMM: set to replace the single-model DUIF in :func:`fuse`."""
+    sight: SightTable | None = None
+    """Where ground points can be seen from, for the sight planner."""
+    guard: AirspaceGuard = AirspaceGuard()
+    """Restricted airspace as a hard constraint on every planner's plan."""
+    max_range_m: float = float("inf")
+    """The sensors' range, metres."""
 
 
 @dataclass(frozen=True)
@@ -189,8 +199,39 @@ def fuse(config: TrackerConfig, estimate: GaussianEstimate | None, stamp_ns: int
             estimate = config.target_imm.start(estimate)
         return config.target_imm.step(estimate, stamp_ns, stacked)
     prior = config.uif.predict(estimate, stamp_ns)
-    contributions = [config.uif.contribution(prior, sensor, z, xyz, covs) for sensor, z, xyz, covs in stacked]
-    return config.uif.update(prior, contributions)
+    return iterated_update(config.uif, prior, stacked)
+
+
+RELINEARISE_SIGMA = 3.0
+"""An update that moves the position more than this many posterior sigma is linearised again about its result."""
+MAX_RELINEARISATIONS = 3
+
+
+def iterated_update(uif: UnscentedInformationFilter, prior: GaussianEstimate, stacked) -> GaussianEstimate:
+    """The DUIF update (eq. 12-15), linearised again about its own result when the detections moved it far.
+
+    Eq. (12) linearises the measurement about the prior. When the prior is wide
+    and wrong (the target was hidden for a while and turned), a detection that
+    fixes the position to a few metres lands far from that point, and one update
+    leaves the estimate short of it. So when the posterior mean lies more than
+    :data:`RELINEARISE_SIGMA` posterior standard deviations (position, Mahalanobis)
+    from the point the measurement was linearised about, the contributions are
+    computed again about the posterior (its mean and covariance, for the sigma
+    points and the second-order ``R``) and fused into the same prior: the
+    iterated filter's Gauss-Newton step (Bell and Cathey 1993), at most
+    :data:`MAX_RELINEARISATIONS` times. An update that stays near the prior, the
+    usual case, is eq. (12)-(15) unchanged.
+    """
+    about = prior
+    posterior = prior
+    for _ in range(MAX_RELINEARISATIONS + 1):
+        contributions = [uif.contribution(about, sensor, z, xyz, covs) for sensor, z, xyz, covs in stacked]
+        posterior = uif.update(prior, contributions)
+        moved = posterior.mean[:2] - about.mean[:2]
+        if moved @ np.linalg.solve(posterior.cov[:2, :2], moved) <= RELINEARISE_SIGMA**2:
+            break
+        about = posterior
+    return posterior
 
 
 def _vehicle_covs(group: Sequence[Detection]) -> NDArray[np.float64] | None:
@@ -262,8 +303,14 @@ def plan(
         visibility=None if config.visibility is None else config.visibility(predicted.positions),
         restricted=config.restricted,
         weights=config.weights,
+        sight=config.sight,
+        guard=config.guard,
+        max_range_m=config.max_range_m,
     )
     result = config.planner.solve(problem, rng, warm_start=state.plan, now=now)
+    safe = config.guard.safe(vehicles, result.controls, config.step_s, config.max_turn_rate)
+    if safe is not result.controls:
+        result = replace(result, controls=safe, message=f"{result.message}; airspace fallback")
     turn_rate = result.controls[:, 0].copy()
     return TrackerState(estimate, result.controls, turn_rate), turn_rate, StepDiagnostics(estimate, predicted, result, 0)
 

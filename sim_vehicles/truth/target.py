@@ -251,9 +251,6 @@ def _csv_row(cells: list[str], where: str) -> tuple[float, float, float]:
 TargetModel = WhiteNoiseTarget | StreetTarget | ScriptedTarget
 """Any ground-target truth model: ``step(state, dt, rng) -> TargetState``."""
 
-STREET_SPEED_MPS = 10.0
-"""Cruising speed of the street-following target (capped by ``target.max_speed_mps``)."""
-
 
 def target_model(scenario: Scenario, world: World, motion: str | None = None,
                  base_dir: Path | None = None) -> TargetModel:
@@ -262,7 +259,7 @@ def target_model(scenario: Scenario, world: World, motion: str | None = None,
     * ``white_noise_acceleration``: :class:`WhiteNoiseTarget`, blocked outside the
       city rectangle ``[0, width] x [0, depth]`` and inside buildings;
     * ``streets``: :class:`StreetTarget` on the world's street grid (a generated
-      city), at ``min(10, max_speed_mps)`` m/s;
+      city), at ``min(street_speed_mps, max_speed_mps)``, turning with ``turn_probability``;
     * ``scripted``: :class:`ScriptedTarget` from ``target.path_file``, relative to
       ``base_dir`` (the current directory when None) unless absolute.
 
@@ -284,7 +281,8 @@ def target_model(scenario: Scenario, world: World, motion: str | None = None,
     if motion == "streets":
         if world.streets is None:
             raise ValueError("a street-following target needs a generated city with streets")
-        return StreetTarget(world.streets.xs, world.streets.ys, speed_mps=min(STREET_SPEED_MPS, cfg.max_speed_mps))
+        return StreetTarget(world.streets.xs, world.streets.ys, speed_mps=min(cfg.street_speed_mps, cfg.max_speed_mps),
+                            turn_probability=cfg.turn_probability)
     if motion == "scripted":
         if not cfg.path_file:
             raise ValueError("$.target.path_file: required when motion = 'scripted'")

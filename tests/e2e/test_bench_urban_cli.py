@@ -35,7 +35,7 @@ def test_bench_urban_writes_json_and_plots(tmp_path: Path) -> None:
         assert_close(row["RMSE m"], metrics["rmse_m"])
         assert_close(row["decision ms (median)"], metrics["decision_ms_median"])
         assert [float(x) for x in row["seen per UAV (mean)"].split(" / ")] == metrics["seen_per_uav_mean"]
-    assert "run 1/1 ga_k5" in done.stderr  # progress
+    assert "seed 3 ga_k5: seen by any" in done.stderr  # progress
 
 
 def test_bench_urban_gps_denied_writes_the_navigation_comparison(tmp_path: Path) -> None:

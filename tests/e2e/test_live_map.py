@@ -20,6 +20,7 @@ from pathlib import Path
 
 import pytest
 
+from gcs.tracking import horizon_steps
 from gcs.scenarios import load_scenario
 from gcs.world_loader import build_world
 from tests.e2e.browser import ARTIFACTS, Browser, chromium_binary
@@ -164,7 +165,7 @@ def test_demo_page_draws_the_city_vehicles_plans_and_track_and_they_move(tmp_pat
     assert {v["link"] for v in first["vehicles"]} == {"ok"} and first["panel_links"] == ["ok", "ok", "ok"]
     assert sorted(first["plans"]) == ["plan-uav1", "plan-uav2", "plan-uav3"] and first["trails"] == 3
     assert first["track"]["drawn"] and first["track"]["rx"] > 0
-    assert first["prediction_points"] == load_scenario("wang2012_urban").planner.horizon_steps
+    assert first["prediction_points"] == horizon_steps(load_scenario("wang2012_urban"), "sight")
     assert first["rmse"] is not None and float(first["rmse"]) > 0  # the simulator's truth is known
     assert later["snapshots"] > first["snapshots"]
     assert (later["track"]["x"], later["track"]["y"]) != (first["track"]["x"], first["track"]["y"])

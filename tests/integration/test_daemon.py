@@ -8,6 +8,7 @@ from contextlib import ExitStack
 
 import zenoh
 
+from gcs.tracking import horizon_steps, scenario_planner
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODES
 from gcs.adapters.zenoh_session import ZenohSettings, open_session, query
 from gcs.app import Daemon, DaemonOptions
@@ -43,7 +44,7 @@ def test_daemon_tracks_answers_rejects_bad_input_and_replans_around_a_lost_vehic
             session = stack.enter_context(open_session(ZenohSettings(connect=(endpoint,))))
             (sample,) = query(session, track_key("target"), 5.0)
             track = decode(sample.payload.to_bytes(), str(sample.encoding), TrackEstimate)
-            assert track.model == "cv2d" and len(track.prediction) == SCENARIO.planner.horizon_steps
+            assert track.model == "cv2d" and len(track.prediction) == horizon_steps(SCENARIO, scenario_planner(SCENARIO))
             bad = [(report_key("uav1"), b"\xff\xfe not json", "application/json;gcs.SensorReport/1"),
                    (report_key("intruder"), *encode(SensorReport(
                        vehicle_id="intruder", seq=1, stamp_ns=EPOCH_NS, vehicle_position_enu_m=(0.0, 0.0, 100.0),

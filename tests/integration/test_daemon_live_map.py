@@ -11,6 +11,7 @@ import urllib.request
 
 import pytest
 
+from gcs.tracking import horizon_steps, scenario_planner
 from gcs.adapters.web.server import LiveMapServer
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.app import Daemon, DaemonOptions
@@ -54,10 +55,10 @@ def test_the_map_shows_the_daemons_vehicles_track_plans_and_counters_then_goes_a
         # the flight (at 25 m/s) between the two stamps, and GPS noise, apart
         assert math.dist((vehicle["x"], vehicle["y"]), entry.position_enu_m[:2]) < 25.0 * (
             1.0 + abs(entry.position_stamp_ns - vehicle["stamp_ns"]) / 1e9)
-        assert len(vehicle["plan"]) == SCENARIO.planner.horizon_steps and len(vehicle["trail"]) >= 3
+        assert len(vehicle["plan"]) == horizon_steps(SCENARIO, scenario_planner(SCENARIO)) and len(vehicle["trail"]) >= 3
     (track,) = tracks["tracks"]
     assert track["seq"] <= daemon.loop.track_seq and track["seq"] >= 4
-    assert len(track["prediction"]) == SCENARIO.planner.horizon_steps and track["ellipse"]["rx"] > 0
+    assert len(track["prediction"]) == horizon_steps(SCENARIO, scenario_planner(SCENARIO)) and track["ellipse"]["rx"] > 0
     assert status["mode"] == "live" and status["scenario"] == SCENARIO.name
     assert status["counters"]["decisions"] <= daemon.counters["decisions"]
     assert status["counters"]["accepted.report"] >= 15 and status["rmse_m"] > 0  # the simulator publishes truth

@@ -18,6 +18,7 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
+from gcs.tracking import horizon_steps, scenario_planner
 from gcs.adapters.foxglove_out import FoxgloveMissing, FoxgloveOptions, FoxgloveOut, foxglove_options
 from gcs.adapters.recording import read_recording
 from gcs.core.geometry import LocalFrame
@@ -215,7 +216,7 @@ def test_a_recording_converts_to_an_mcap_that_opens_on_a_map(tmp_path: Path) -> 
     corner = FRAME.to_enu(ring[0][1], ring[0][0], 0.0)[:2]
     assert corner == pytest.approx(world.buildings.footprints[0][0], abs=0.06)
     prediction = _geojson(by_topic["/map/target/prediction"][-1][2].data)["features"][0]["geometry"]
-    assert prediction["type"] == "LineString" and len(prediction["coordinates"]) == SCENARIO.planner.horizon_steps + 1
+    assert prediction["type"] == "LineString" and len(prediction["coordinates"]) == horizon_steps(SCENARIO, scenario_planner(SCENARIO)) + 1
 
 
 def test_without_the_sdk_the_error_says_which_extra_to_install(monkeypatch) -> None:

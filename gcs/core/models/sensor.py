@@ -292,7 +292,8 @@ class SensorModel:
         return out
 
     def fisher_information_xy(
-        self, target_xy: NDArray[np.float64], vehicle_xyz: NDArray[np.float64]
+        self, target_xy: NDArray[np.float64], vehicle_xyz: NDArray[np.float64],
+        extra_variance: NDArray[np.float64] | None = None,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """Fisher information ``H^T R^-1 H`` of one detection about the target's (x, y), closed form.
 
@@ -304,7 +305,8 @@ class SensorModel:
             \\quad \\beta = \\frac{1}{\\rho_h^2 \\sigma_\\varphi^2}
 
         (terms of components the sensor does not measure drop out; noise at the
-        true range for distance-dependent sensors).
+        true range for distance-dependent sensors). ``extra_variance`` (..., m),
+        e.g. :meth:`linearisation_variance`, is added to ``R``'s diagonal.
 
         Returns
         -------
@@ -314,7 +316,10 @@ class SensorModel:
         dx, dy, dz = self._relative(target_xy, vehicle_xyz)
         h2 = dx * dx + dy * dy
         r2 = h2 + dz * dz
-        inv_var = self.noise_information(None, target_xy, vehicle_xyz)
+        if extra_variance is None:
+            inv_var = self.noise_information(None, target_xy, vehicle_xyz)
+        else:
+            inv_var = 1.0 / (self.noise_variance(None, target_xy, vehicle_xyz) + extra_variance)
         along = np.zeros(np.shape(h2))
         across = np.zeros(np.shape(h2))
         for k, component in enumerate(self.components):

@@ -24,13 +24,33 @@ from numpy.typing import NDArray
 from gcs.core.geometry import wrap_angle
 from gcs.core.planners.problem import PlanningProblem, PlanResult, evaluate
 
-__all__ = ["OrbitPlanner", "PursuitPlanner"]
+__all__ = ["OrbitPlanner", "PursuitPlanner", "orbit_controls", "pursuit_controls"]
 
 
 def _hold(problem: PlanningProblem, desired_heading: NDArray[np.float64], gain: float) -> NDArray[np.float64]:
     error = wrap_angle(desired_heading - problem.vehicles.heading)
     rate = np.clip(gain * error, -problem.max_turn_rate, problem.max_turn_rate)
     return np.repeat(rate[:, None], problem.horizon, axis=1)
+
+
+def orbit_controls(problem: PlanningProblem, radius_m: float, gain: float = 1.0) -> NDArray[np.float64]:
+    """Turn rates (V, T) toward a counter-clockwise circle of ``radius_m`` about the current estimate.
+
+    The desired heading is the circle's tangent, tilted inward when outside and
+    outward when inside by ``atan((d - r) / r)``.
+    """
+    target = problem.target_means[0, :2]
+    offset = problem.vehicles.xy - target
+    distance = np.hypot(offset[:, 0], offset[:, 1])
+    bearing_from_target = np.arctan2(offset[:, 1], offset[:, 0])
+    desired = bearing_from_target + np.pi / 2 + np.arctan((distance - radius_m) / radius_m)
+    return _hold(problem, desired, gain)
+
+
+def pursuit_controls(problem: PlanningProblem, gain: float = 1.0) -> NDArray[np.float64]:
+    """Turn rates (V, T) toward the current estimate."""
+    to_target = problem.target_means[0, :2] - problem.vehicles.xy
+    return _hold(problem, np.arctan2(to_target[:, 1], to_target[:, 0]), gain)
 
 
 def _result(problem: PlanningProblem, controls: NDArray[np.float64], name: str,
@@ -51,15 +71,8 @@ class OrbitPlanner:
     def solve(self, problem: PlanningProblem, rng: np.random.Generator | None = None,
               warm_start: NDArray[np.float64] | None = None, now: Callable[[], float] | None = None) -> PlanResult:
         start = now() if now is not None else 0.0
-        radius = self.radius_m or problem.weights.standoff_m
-        target = problem.target_means[0, :2]
-        offset = problem.vehicles.xy - target
-        distance = np.hypot(offset[:, 0], offset[:, 1])
-        bearing_from_target = np.arctan2(offset[:, 1], offset[:, 0])
-        # Tangent of a counter-clockwise circle, tilted inward when outside and outward when inside.
-        correction = np.arctan((distance - radius) / radius)
-        desired = bearing_from_target + np.pi / 2 + correction
-        return _result(problem, _hold(problem, desired, self.gain), "orbit", now, start)
+        controls = orbit_controls(problem, self.radius_m or problem.weights.standoff_m, self.gain)
+        return _result(problem, controls, "orbit", now, start)
 
 
 @dataclass(frozen=True)
@@ -71,6 +84,4 @@ class PursuitPlanner:
     def solve(self, problem: PlanningProblem, rng: np.random.Generator | None = None,
               warm_start: NDArray[np.float64] | None = None, now: Callable[[], float] | None = None) -> PlanResult:
         start = now() if now is not None else 0.0
-        to_target = problem.target_means[0, :2] - problem.vehicles.xy
-        desired = np.arctan2(to_target[:, 1], to_target[:, 0])
-        return _result(problem, _hold(problem, desired, self.gain), "pursuit", now, start)
+        return _result(problem, pursuit_controls(problem, self.gain), "pursuit", now, start)

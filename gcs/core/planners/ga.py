@@ -102,8 +102,9 @@ class GeneticPlanner:
         """Best plan found within the generation budget (and the deadline, if ``now`` is given)."""
         start = now() if now is not None else 0.0
         eta = problem.max_turn_rate[:, None]
+        score = self.scorer(problem)
         population = self.initial_population(problem, rng, warm_start)
-        fitness = evaluate(problem, population).fitness
+        fitness = score(population)
         evaluations = len(population)
         best = int(np.argmax(fitness))
         best_fitness, best_plan = float(fitness[best]), population[best].copy()
@@ -119,7 +120,7 @@ class GeneticPlanner:
             winners = np.where(fitness[contenders[..., 0]] >= fitness[contenders[..., 1]],
                                contenders[..., 0], contenders[..., 1])
             children = self._offspring(population[winners[0]], population[winners[1]], eta, rng)
-            child_fitness = evaluate(problem, children).fitness
+            child_fitness = score(children)
             evaluations += n_children
             population = np.concatenate([elite, children])
             fitness = np.concatenate([fitness[order[: self.elite]], child_fitness])
@@ -132,16 +133,25 @@ class GeneticPlanner:
                 if self.stall is not None and stalled >= self.stall:
                     message = f"no improvement for {self.stall} generations; stopped after {generations}"
                     break
-        final = evaluate(problem, best_plan[None])
+        cost, visible_steps = self.final_terms(problem, best_plan)
         elapsed = (now() - start) if now is not None else 0.0
         return PlanResult(
             success=bool(np.isfinite(best_fitness)),
             controls=best_plan,
-            cost=float(final.j_rhc[0]),
+            cost=cost,
             fitness=best_fitness,
             evaluations=evaluations,
             generations=generations,
             elapsed_s=elapsed,
             message=message,
-            visible_steps=int(final.visible[0].sum()),
+            visible_steps=visible_steps,
         )
+
+    def scorer(self, problem: PlanningProblem) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
+        """The fitness of a population (P, V, T), higher is better: eq. (28)-(29)."""
+        return lambda population: evaluate(problem, population).fitness
+
+    def final_terms(self, problem: PlanningProblem, plan: NDArray[np.float64]) -> tuple[float, int]:
+        """The best plan's cost ``J_rhc`` (eq. 20) and its vehicle-steps with the prediction visible."""
+        final = evaluate(problem, plan[None])
+        return float(final.j_rhc[0]), int(final.visible[0].sum())

@@ -48,6 +48,8 @@ from numpy.typing import NDArray
 
 from gcs.core.kinematics import VehicleState, rollout
 from gcs.core.models.sensor import SensorModel
+from gcs.core.planners.airspace_guard import AirspaceGuard
+from gcs.core.world.sight_table import SightTable
 
 __all__ = ["Visibility", "RhcWeights", "PlanningProblem", "CostBreakdown", "PlanResult", "evaluate"]
 
@@ -103,6 +105,13 @@ class PlanningProblem:
     restricted : callable (xyz (..., 3) -> bool (...)) or None
         Restricted airspace test (eq. 5); None means none.
     weights : RhcWeights
+    sight : SightTable or None
+        Where ground points can be seen from, for the sight objective
+        (:mod:`gcs.core.planners.sight`); None: open field is not supported there.
+    guard : AirspaceGuard
+        Restricted airspace as a hard constraint (every planner's plan passes it).
+    max_range_m : float
+        The sensors' range (3-D), metres, for the sight objective.
     """
 
     vehicles: VehicleState
@@ -115,6 +124,9 @@ class PlanningProblem:
     visibility: Visibility | None
     restricted: Callable[[NDArray[np.float64]], NDArray[np.bool_]] | None
     weights: RhcWeights = RhcWeights()
+    sight: SightTable | None = None
+    guard: AirspaceGuard = AirspaceGuard()
+    max_range_m: float = float("inf")
 
     @cached_property
     def prior_information(self) -> NDArray[np.float64]:

@@ -9,6 +9,8 @@ ground at z = 0, a generated city's south-west corner at (0, 0).
 * :func:`line_of_sight` (exact), :class:`VisibilityMap` / :func:`visibility_maps`
   (X^{hV}, fast and identical), :class:`VisibilityMaps` (several at once) --
   :mod:`gcs.core.world.los`
+* :class:`SightTable` (where a ground point is seen from, on a height grid,
+  for the sight planner) -- :mod:`gcs.core.world.sight_table`
 * :class:`RestrictedAirspace` (eq. 5) -- :mod:`gcs.core.world.airspace`
 * :class:`World` bundles them; ``gcs.world_loader.build_world`` makes one
   from a scenario.
@@ -16,12 +18,13 @@ ground at z = 0, a generated city's south-west corner at (0, 0).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from gcs.core.world.airspace import RestrictedAirspace
+from gcs.core.world.sight_table import HeightField, SightTable
 from gcs.core.world.buildings import Buildings, StreetGrid, buildings_from_geojson, generate_city
 from gcs.core.world.los import (
     DEFAULT_BINS,
@@ -38,6 +41,8 @@ __all__ = [
     "Buildings",
     "StreetGrid",
     "RestrictedAirspace",
+    "HeightField",
+    "SightTable",
     "SightLines",
     "VisibilityMap",
     "VisibilityMaps",
@@ -68,6 +73,7 @@ class World:
     airspace: RestrictedAirspace
     streets: StreetGrid | None
     size_m: tuple[float, float]
+    _sight_tables: dict = field(default_factory=dict, init=False, repr=False)
 
     @classmethod
     def empty(cls, size_m: tuple[float, float] = (3000.0, 3000.0)) -> World:
@@ -96,6 +102,22 @@ class World:
                     target_height_m: float = 0.0) -> SightLines:
         """:class:`SightLines` of predicted target points ``(n, 2)``: the maps' answers, without the maps."""
         return SightLines(self.buildings, target_xys, altitude_m, max_range_m, target_height_m)
+
+    def sight_table(self, reference_altitude_m: float, target_height_m: float = 0.0,
+                    reach_m: float = 600.0) -> SightTable:
+        """The :class:`SightTable` of this city for vehicles at or above ``reference_altitude_m``.
+
+        One per (altitude, target height), kept: its tables are memoised, and every
+        planner built on this world shares them.
+        """
+        key = (float(reference_altitude_m), float(target_height_m), float(reach_m))
+        table = self._sight_tables.get(key)
+        if table is None:
+            heights = self._sight_tables.get("field")
+            if heights is None:
+                heights = self._sight_tables["field"] = HeightField.from_buildings(self.buildings)
+            table = self._sight_tables[key] = SightTable(heights, key[0], key[1], reach_m=key[2])
+        return table
 
     def in_restricted(self, xyz: ArrayLike) -> NDArray[np.bool_]:
         """Whether points (..., 3) are in restricted airspace (wang2012 eq. 5, 26)."""
