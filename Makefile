@@ -1,5 +1,5 @@
 # Two commands for a fresh machine: `make demo` and `make test`.
-# Both create .venv when it is missing and install the project with its test extras.
+# Both create .venv when it is missing and install the project with its test and cluster extras.
 
 PYTHON ?= python3
 VENV   ?= .venv
@@ -18,7 +18,7 @@ venv: $(STAMP)
 $(STAMP): pyproject.toml Makefile
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+	$(BIN)/python -m pip install --quiet -e '.[test,cluster]'
 	$(BIN)/python -m pip install --quiet --no-deps '$(MAVPROXY)'
 	@touch $(STAMP)
 

@@ -191,7 +191,7 @@ def write_json(report: dict, path: Path) -> None:
 def write_table(report: dict, directory: Path, written: list[Path] | None = None) -> Path:
     """``urban.md``: observations, RMSE, lost runs, violations, decision time and tests per planner; timing."""
     planners = [(name, p["runs"], p["seen_any_mean"], p["seen_any_min"],
-                 " / ".join(cell(x, 3) for x in p["seen_per_uav_mean"]), p["rmse_m"], p["lost_runs"], p["violations"],
+                 " / ".join(cell(x) for x in p["seen_per_uav_mean"]), p["rmse_m"], p["lost_runs"], p["violations"],
                  p["decision_ms_median"], p["decision_ms_p99"], p.get("p_vs_orbit"), p.get("p_vs_k0"))
                 for name, p in report["planners"].items()]
     scaling = [(row["uavs"], row["sight"]["decision_ms_median"], row["sight"]["decision_ms_p99"],

@@ -13,28 +13,35 @@ from tests.markdown_tables import assert_close, assert_pngs, read_tables
 def test_bench_urban_writes_json_and_plots(tmp_path: Path) -> None:
     out, plots = tmp_path / "urban.json", tmp_path / "plots"
     done = subprocess.run(
-        [sys.executable, "-m", "gcs.cli", "bench", "urban", "--runs", "1", "--duration", "8",
-         "--planner", "ga_k5", "--planner", "orbit", "--no-scaling", "--seed", "3",
+        [sys.executable, "-m", "gcs.cli", "bench", "urban", "--scenario", "nofly_city", "--runs", "3", "--duration", "8",
+         "--planners", "sight", "ga_k5", "orbit", "--no-scaling", "--seed", "3", "--workers", "2",
          "--json", str(out), "--plots", str(plots)],
         capture_output=True, text=True, timeout=600,
     )
     assert done.returncode == 0, done.stderr
     assert "seen by any" in done.stdout
     report = json.loads(out.read_text())
-    assert set(report["planners"]) == {"ga_k5", "orbit"}
-    for metrics in report["planners"].values():
-        assert {"seen_any_mean", "seen_per_uav_mean", "rmse_m", "decision_ms_median", "decision_ms_p99"} <= set(metrics)
+    assert set(report["planners"]) == {"sight", "ga_k5", "orbit"}
+    for name, metrics in report["planners"].items():
+        assert {"seen_any_mean", "seen_per_uav_mean", "rmse_m", "lost_runs", "violations", "decision_ms_median",
+                "decision_ms_p99"} <= set(metrics)
         assert 0 <= metrics["seen_any_mean"] <= 8 and len(metrics["seen_per_uav_mean"]) == 3
-    assert report["planners"]["ga_k5"]["decision_ms_median"] > 0
+        assert metrics["seeds"] == [3, 4, 5] and metrics["seen_any_mean"] == sum(metrics["seen_any"]) / 3
+        assert metrics["violations"] == 0 and 0 < metrics["decision_ms_median"] <= metrics["decision_ms_p99"]
+        if name != "orbit":  # each against the orbit, paired by seed
+            assert 0.0 < metrics["p_vs_orbit"] <= 1.0
+    assert "p_vs_orbit" not in report["planners"]["orbit"]
     assert_pngs(plots, ["urban_trajectories.png", "urban_rmse.png", "urban_observations.png"])
     (table,) = read_tables(plots / "urban.md").values()  # no scaling table with --no-scaling
-    assert [row["planner"] for row in table] == ["ga_k5", "orbit"]
+    assert [row["planner"] for row in table] == ["sight", "ga_k5", "orbit"]
     for row in table:
         metrics = report["planners"][row["planner"]]
         assert_close(row["seen by any (mean)"], metrics["seen_any_mean"])
         assert_close(row["RMSE m"], metrics["rmse_m"])
         assert_close(row["decision ms (median)"], metrics["decision_ms_median"])
-        assert [float(x) for x in row["seen per UAV (mean)"].split(" / ")] == metrics["seen_per_uav_mean"]
+        for cell, value in zip(row["seen per UAV (mean)"].split(" / "), metrics["seen_per_uav_mean"]):
+            assert_close(cell, value)
+        assert int(row["airspace violations"]) == metrics["violations"]
     assert "seed 3 ga_k5: seen by any" in done.stderr  # progress
 
 
