@@ -227,7 +227,7 @@ class SightConfig(_Config):
     standoff_scale_m: Positive = 150.0
     turn_change_weight: NonNegative = 0.002
     manoeuvre_spread: NonNegative = 0.6
-    reach_m: Positive = 250.0
+    reach_m: Positive = 450.0
     sweeps: Annotated[int, msgspec.Meta(ge=1, le=100)] = 2
     refine_sweeps: Annotated[int, msgspec.Meta(ge=0, le=100)] = 1
     refine_candidates: Annotated[int, msgspec.Meta(ge=1, le=10_000)] = 24

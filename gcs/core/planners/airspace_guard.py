@@ -55,7 +55,7 @@ class AirspaceGuard:
         count = np.zeros(xy.shape[0], dtype=np.int64)
         if not self.active or not self.airspace.active(altitude_m).any():
             return count
-        near = self.airspace.distances_xy(xy, altitude_m) <= self.margin_m  # (C, T, S')
+        near = self.airspace.distances_xy(xy, altitude_m, self.margin_m) <= self.margin_m  # (C, T, S')
         count += near.any(axis=-1).sum(axis=-1)
         return count + ~self.clear_circle(xy[:, -1], end_heading, altitude_m, speed_mps / eta)
 
@@ -64,38 +64,53 @@ class AirspaceGuard:
         """Whether either loiter circle (radius ``radius_m``) tangent at positions (C, 2) and headings (C,) is clear."""
         left = np.stack([-np.sin(heading), np.cos(heading)], axis=-1) * radius_m
         centres = np.stack([xy + left, xy - left], axis=1)  # (C, 2, 2)
-        nearest = self.airspace.distances_xy(centres, altitude_m)  # (C, 2, S')
-        farthest = self.airspace.farthest_xy(centres, altitude_m)
-        clear = (nearest >= radius_m + self.margin_m) | (farthest <= radius_m - self.margin_m)
+        reach = radius_m + self.margin_m
+        nearest = self.airspace.distances_xy(centres, altitude_m, reach)  # (C, 2, S')
+        clear = nearest >= reach
+        if not clear.all():  # a circle near a zone is still clear if it holds the zone whole
+            clear |= self.airspace.farthest_xy(centres, altitude_m) <= radius_m - self.margin_m
         return clear.all(axis=-1).any(axis=-1)
 
     def plan_violations(self, vehicles: VehicleState, controls: NDArray[np.float64], step_s: float,
                         max_turn_rate: NDArray[np.float64]) -> NDArray[np.int64]:
-        """Violations (V,) of each vehicle's row of a team plan (V, T)."""
-        xy, heading = rollout(vehicles, controls, step_s, max_turn_rate)
-        return np.array([self.violations(xy[i:i + 1], heading[i:i + 1, -1], float(vehicles.altitude[i]),
-                                         float(vehicles.speed[i]), float(max_turn_rate[i]))[0]
-                         for i in range(len(vehicles))], dtype=np.int64)
+        """Violations (..., V) of each vehicle's row of team plans (..., V, T)."""
+        plans = np.asarray(controls, dtype=np.float64)
+        counts = np.zeros(plans.shape[:-1], dtype=np.int64)
+        if not self.active:
+            return counts
+        for i in range(len(vehicles)):
+            counts[..., i] = self._row_violations(vehicles, i, plans[..., i, :], step_s, float(max_turn_rate[i]))
+        return counts
+
+    def _row_violations(self, vehicles: VehicleState, i: int, rows: NDArray[np.float64], step_s: float,
+                        eta: float) -> NDArray[np.int64]:
+        """Violations (...,) of vehicle ``i`` flying each of ``rows`` (..., T)."""
+        flat = rows.reshape(-1, rows.shape[-1])
+        xy, heading = rollout(vehicles.subset(i), flat[:, None, :], step_s, eta)
+        count = self.violations(xy[:, 0], heading[:, 0, -1], float(vehicles.altitude[i]), float(vehicles.speed[i]), eta)
+        return count.reshape(rows.shape[:-1])
 
     def safe(self, vehicles: VehicleState, controls: NDArray[np.float64], step_s: float,
              max_turn_rate: NDArray[np.float64]) -> NDArray[np.float64]:
-        """``controls`` (V, T) with each violating row replaced by the best primitive (module docstring)."""
+        """Team plans (..., V, T) with each violating row replaced by the best primitive (module docstring);
+        ``controls`` itself when no row violates."""
         if not self.active:
             return controls
-        bad = np.flatnonzero(self.plan_violations(vehicles, controls, step_s, max_turn_rate))
-        if len(bad) == 0:
+        plans = np.asarray(controls, dtype=np.float64)
+        bad = self.plan_violations(vehicles, plans, step_s, max_turn_rate) > 0
+        if not bad.any():
             return controls
-        out = np.array(controls, dtype=np.float64)
-        for i in bad:
+        out = plans.reshape((-1,) + plans.shape[-2:]).copy()
+        bad = bad.reshape(out.shape[:2])
+        for i in np.flatnonzero(bad.any(axis=0)):
             eta = float(max_turn_rate[i])
-            library = primitives(eta, controls.shape[1])
-            one = vehicles.subset(i)
-            xy, heading = rollout(one, library[:, None, :], step_s, eta)
-            count = self.violations(xy[:, 0], heading[:, 0, -1], float(vehicles.altitude[i]), float(vehicles.speed[i]),
-                                    eta)
-            nearness = np.abs(library[:, 0] - controls[i, 0]) + 1e-3 * np.abs(library - controls[i]).sum(axis=1)
-            out[i] = library[np.lexsort((nearness, count))[0]]
-        return out
+            library = primitives(eta, plans.shape[-1])
+            count = self._row_violations(vehicles, i, library, step_s, eta)
+            for k in np.flatnonzero(bad[:, i]):
+                row = out[k, i]
+                nearness = np.abs(library[:, 0] - row[0]) + 1e-3 * np.abs(library - row).sum(axis=1)
+                out[k, i] = library[np.lexsort((nearness, count))[0]]
+        return out.reshape(plans.shape)
 
 
 def shift_into_circle(controls: NDArray[np.float64], eta: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:

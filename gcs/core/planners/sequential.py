@@ -71,8 +71,7 @@ class SequentialPlanner:
                  pursuit_controls(problem)]
         if warm_start is not None and warm_start.shape == (vehicles, steps):
             plans.extend(shift_into_circle(warm_start, eta))
-        guard = problem.guard
-        return np.stack([guard.safe(problem.vehicles, plan, problem.step_s, eta) for plan in plans])
+        return problem.guard.safe(problem.vehicles, np.stack(plans), problem.step_s, eta)
 
     def solve(self, problem: PlanningProblem, rng: np.random.Generator,
               warm_start: NDArray[np.float64] | None = None,

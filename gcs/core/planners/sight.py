@@ -46,10 +46,12 @@ range).
 * turn changes, ``-mu sum_j |u_j - u_{j-1}| / eta`` (``u_0`` the command flown now).
 
 **Manoeuvres.** The constant-velocity prediction knows nothing of turns. A
-target at speed ``s`` that may turn at any moment lies, ``t`` seconds on, within
-about ``kappa s t`` of the straight-line prediction, so the samples are drawn
-from ``N(m_j, P_j + (kappa s t_j)^2 I)`` (``manoeuvre`` = kappa); the
-information term keeps the filter's ``P_j``.
+target that may turn at any moment lies, when the prediction has carried it a
+distance ``e_j`` from where it is now, within about ``kappa e_j`` of the
+straight-line prediction, so the samples are drawn from
+``N(m_j, P_j + (kappa e_j)^2 I)`` (``manoeuvre`` = kappa; ``e_j = s t_j`` at
+speed ``s``; for the current estimate held over the horizon, the paper's k+0,
+``e_j`` stays one step's travel). The information term keeps the filter's ``P_j``.
 
 Constraints: the turn rate is clipped to ``eta`` by the rollout (eq. 1, 27) and
 restricted airspace is a hard constraint (:class:`AirspaceGuard`): every
@@ -161,9 +163,9 @@ class SightModel:
             raise ValueError("the sight objective needs the problem's sight table (PlanningProblem.sight)")
         covs = problem.target_covs[:, :2, :2]
         means = problem.target_means[:, :2]
-        speed = float(np.hypot(*problem.target_means[0, 2:4])) if problem.target_means.shape[1] >= 4 else 0.0
-        ahead = problem.step_s * np.arange(1, len(means) + 1)
-        spread = (weights.manoeuvre * speed * ahead) ** 2
+        now = means[0] - problem.target_means[0, 2:4] * problem.step_s if problem.target_means.shape[1] >= 4 else means[0]
+        ahead = np.hypot(*(means - now).T)  # how far the prediction extrapolates
+        spread = (weights.manoeuvre * ahead) ** 2
         sampled = 0.5 * (covs + covs.swapaxes(-1, -2)) + spread[:, None, None] * np.eye(2)
         chol = np.linalg.cholesky(sampled)
         pattern = sample_pattern(weights.samples)

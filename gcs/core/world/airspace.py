@@ -116,13 +116,25 @@ class RestrictedAirspace:
         """Which zones (S,) restrict the altitude ``altitude_m`` (closed band)."""
         return (self.floors_m <= altitude_m) & (altitude_m <= self.ceilings_m)
 
-    def distances_xy(self, xy: ArrayLike, altitude_m: float) -> NDArray[np.float64]:
+    def distances_xy(self, xy: ArrayLike, altitude_m: float, within_m: float = math.inf) -> NDArray[np.float64]:
         """Horizontal distance (..., S') from points (..., 2) to each zone restricting ``altitude_m``:
-        0 inside, else to its outline. ``S'`` counts the zones :meth:`active` at that altitude."""
+        0 inside, else to its outline. ``S'`` counts the zones :meth:`active` at that altitude.
+
+        Only distances up to ``within_m`` are exact: a point whose gap to a zone's
+        bounding box is larger gets that gap instead (a lower bound, above
+        ``within_m``), which spares the outline test for everything far away.
+        """
         p = np.asarray(xy, dtype=np.float64)
         flat = p.reshape(-1, 2)
-        edges = self.edges[self.active(altitude_m)]
-        return distances(flat[:, 0], flat[:, 1], edges).reshape(p.shape[:-1] + (len(edges),))
+        active = self.active(altitude_m)
+        box, edges = self.bbox[active], self.edges[active]
+        x, y = flat[:, 0:1], flat[:, 1:2]
+        gap = np.hypot(np.maximum(np.maximum(box[:, 0] - x, x - box[:, 2]), 0.0),
+                       np.maximum(np.maximum(box[:, 1] - y, y - box[:, 3]), 0.0))
+        rows = np.flatnonzero((gap <= within_m).any(axis=1))
+        if len(rows):
+            gap[rows] = distances(flat[rows, 0], flat[rows, 1], edges)
+        return gap.reshape(p.shape[:-1] + (len(edges),))
 
     def farthest_xy(self, xy: ArrayLike, altitude_m: float) -> NDArray[np.float64]:
         """Distance (..., S') from points (..., 2) to the farthest vertex of each zone restricting ``altitude_m``."""
