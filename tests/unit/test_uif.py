@@ -110,8 +110,8 @@ def test_duif_agrees_with_a_covariance_form_ukf_on_the_same_data() -> None:
         ukf_means, ukf_covs, _ = run_filterpy_ukf(data, run)
         sigma = np.sqrt(np.einsum("kii->ki", ukf_covs))
         # After the first steps (prior much wider than the measurements) they agree to a
-        # small fraction of a standard deviation; they differ only by the UKF's extra
-        # second-order term in P_zz, which the information form drops (eq. 12).
+        # small fraction of a standard deviation: the filter's second-order R stands for the
+        # UKF's P_zz term that eq. (12) drops, and the vehicles are far from the target.
         gap = np.abs(duif_means - ukf_means) / sigma
         assert gap.max() < 0.3
         assert gap[10:].max() < 0.05
