@@ -106,12 +106,12 @@ def test_duif_agrees_with_a_covariance_form_ukf_on_the_same_data() -> None:
     """Oracle: FilterPy's stacked UKF (covariance form) on the same generated data."""
     data = generate_dataset(runs=3, steps=80, vehicles=3, seed=11)
     for run in range(3):
-        duif_means, duif_covs, _ = run_duif(data, run)
+        duif_means, duif_covs, _ = run_duif(data, run, second_order=False)  # eq. (12)-(13), the UKF's terms
         ukf_means, ukf_covs, _ = run_filterpy_ukf(data, run)
         sigma = np.sqrt(np.einsum("kii->ki", ukf_covs))
         # After the first steps (prior much wider than the measurements) they agree to a
-        # small fraction of a standard deviation: the filter's second-order R stands for the
-        # UKF's P_zz term that eq. (12) drops, and the vehicles are far from the target.
+        # small fraction of a standard deviation; they differ only by the UKF's extra
+        # second-order term in P_zz, which the information form drops (eq. 12).
         gap = np.abs(duif_means - ukf_means) / sigma
         assert gap.max() < 0.3
         assert gap[10:].max() < 0.05

@@ -148,7 +148,8 @@ def test_the_readme_example_runs_and_narrows_the_estimate() -> None:
     from pathlib import Path
 
     readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
-    (code,) = [block for block in re.findall(r"```python\n(.*?)```", readme, re.S) if "UnscentedInformationFilter" in block]
+    blocks = re.findall(r"```python\n(.*?)```", readme, re.S)
+    (code,) = [block for block in blocks if "UnscentedInformationFilter" in block]
     scope: dict = {}
     exec(compile(code, "README.md", "exec"), scope)  # noqa: S102 - the documentation's own example
     prior, posterior = scope["prior"], scope["posterior"]
