@@ -64,6 +64,8 @@ LAYOUTS = {layout.dim: layout for layout in (CV2D, CT2D, CA2D)}
 
 def check_stamp_ns(stamp_ns: object, name: str = "stamp_ns") -> int:
     """``stamp_ns`` as a Python int; TypeError for anything but an integer (a float in seconds, above all)."""
+    if type(stamp_ns) is int:  # the common case, first
+        return stamp_ns
     if isinstance(stamp_ns, (bool, np.bool_)) or not isinstance(stamp_ns, numbers.Integral):
         hint = (f"; for {stamp_ns!r} seconds pass ns_from_s({stamp_ns!r}) = {ns_from_s(stamp_ns)}"
                 if isinstance(stamp_ns, float) and math.isfinite(stamp_ns) else "")
@@ -143,9 +145,23 @@ class GaussianEstimate:
         if not isinstance(layout, StateLayout) or layout.dim != n:
             raise ValueError(f"layout {layout!r} does not describe a {n}-dimensional state")
         stamp = check_stamp_ns(self.stamp_ns)
-        for name, value in (("mean", mean), ("cov", cov), ("stamp_ns", stamp), ("layout", layout)):
-            if value is not getattr(self, name):
-                object.__setattr__(self, name, value)
+        if mean is not self.mean:
+            object.__setattr__(self, "mean", mean)
+        if cov is not self.cov:
+            object.__setattr__(self, "cov", cov)
+        if stamp is not self.stamp_ns:
+            object.__setattr__(self, "stamp_ns", stamp)
+        if layout is not self.layout:
+            object.__setattr__(self, "layout", layout)
+
+    @classmethod
+    def computed(cls, mean: NDArray[np.float64], cov: NDArray[np.float64], stamp_ns: int,
+                 layout: StateLayout) -> GaussianEstimate:
+        """An estimate a filter computed from a checked one (float64 arrays of matching shapes, an int stamp, the
+        same layout), built without checking them again: the filters' inner loop."""
+        estimate = object.__new__(GaussianEstimate)
+        estimate.__dict__.update(mean=mean, cov=cov, stamp_ns=stamp_ns, layout=layout)
+        return estimate
 
     @property
     def dim(self) -> int:

@@ -194,7 +194,7 @@ class UnscentedInformationFilter:
             raise ValueError(f"the {self.motion.name} motion model predicts {self.motion.dim}-dimensional states, "
                              f"the estimate is {estimate.layout.name} ({estimate.dim})")
         f, q = self.motion.matrices((stamp_ns - estimate.stamp_ns) / NS_PER_S)
-        return GaussianEstimate(f @ estimate.mean, f @ estimate.cov @ f.T + q, stamp_ns, layout=estimate.layout)
+        return GaussianEstimate.computed(f @ estimate.mean, f @ estimate.cov @ f.T + q, stamp_ns, estimate.layout)
 
     def contribution(
         self,
@@ -319,7 +319,7 @@ class UnscentedInformationFilter:
         cov = prior.cov - gain @ p_cols.T
         cov = 0.5 * (cov + cov.T)
         mean = prior.mean + cov[:, :2] @ (i_total - a_total @ prior.mean[:2])
-        return GaussianEstimate(mean, cov, prior.stamp_ns, layout=prior.layout)
+        return GaussianEstimate.computed(mean, cov, prior.stamp_ns, prior.layout)
 
 
 def _check_estimate(estimate: object, name: str) -> None:
@@ -339,11 +339,12 @@ def _checked_measurements(prior: GaussianEstimate, sensor: SensorModel, z, vehic
         raise ValueError(f"z must have shape (..., {sensor.dim}) for a {sensor.dim}-component sensor, got {z.shape}")
     if vehicle_xyz.ndim == 0 or vehicle_xyz.shape[-1] != 3:
         raise ValueError(f"vehicle_xyz must have shape (..., 3) (ENU metres), got {vehicle_xyz.shape}")
-    try:
-        np.broadcast_shapes(z.shape[:-1], vehicle_xyz.shape[:-1])
-    except ValueError:
-        raise ValueError(f"z {z.shape} and vehicle_xyz {vehicle_xyz.shape} do not broadcast: one vehicle "
-                         "position per measurement") from None
+    if z.shape[:-1] != vehicle_xyz.shape[:-1]:  # (equal shapes, the usual case, need no more)
+        try:
+            np.broadcast_shapes(z.shape[:-1], vehicle_xyz.shape[:-1])
+        except ValueError:
+            raise ValueError(f"z {z.shape} and vehicle_xyz {vehicle_xyz.shape} do not broadcast: one vehicle "
+                             "position per measurement") from None
     if vehicle_cov is not None:
         vehicle_cov = np.asarray(vehicle_cov, dtype=np.float64)
         if vehicle_cov.shape not in (vehicle_xyz.shape[:-1], vehicle_xyz.shape[:-1] + (3, 3)):
@@ -356,6 +357,13 @@ def _fusion_inputs(prior, contributions) -> tuple[GaussianEstimate, Sequence[Inf
     """The prior and the contributions of :meth:`UnscentedInformationFilter.update`, in either call form."""
     if contributions is None:
         contributions, prior = prior, None
+    if type(contributions) is InformationContribution:
+        contributions = [contributions]
+    if type(contributions) is list and contributions:  # the usual calls, checked cheaply
+        common = contributions[0].prior if prior is None else prior
+        if isinstance(common, GaussianEstimate) and common.mean.ndim == 1 and all(
+                type(c) is InformationContribution and c.prior is common for c in contributions):
+            return common, contributions
     if isinstance(contributions, InformationContribution):
         contributions = [contributions]
     if not isinstance(contributions, Sequence) or not all(isinstance(c, InformationContribution)
