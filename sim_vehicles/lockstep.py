@@ -14,7 +14,9 @@ The vehicles waited for are those whose liveliness token is up and whose
 newest report arrived within :meth:`PeerClock.stale_after_s` of wall time: a
 killed process's token goes within milliseconds, a process that stopped
 reporting without withdrawing its token (stopped, or stuck) is not waited for
-after that long, and a restarted one counts again from its first report.
+after that long, and a restarted one counts again from its first report. A
+report far from its vehicle's clock (:data:`MAX_JUMP_NS`) is taken for a stray
+sample, unless the next agrees with it.
 Nothing here runs on Zenoh's threads: the subscriptions deliver into FIFO
 channels that :meth:`PeerClock.poll` drains.
 """
@@ -30,13 +32,17 @@ import zenoh
 from protocols.errors import ProtocolError
 from protocols.keys import alive_selector, parse_key, reports_selector
 
-__all__ = ["PeerClock", "STALE_AFTER_S", "CHANNEL_CAPACITY"]
+__all__ = ["PeerClock", "STALE_AFTER_S", "CHANNEL_CAPACITY", "MAX_JUMP_NS"]
 
 STALE_AFTER_S = 2.0
 """Wall seconds without a report after which a vehicle whose token is up is no longer waited for (at least;
 three report periods of wall time when those are longer)."""
 CHANNEL_CAPACITY = 4096
 """Samples each subscription holds between two polls."""
+MAX_JUMP_NS = 20 * 1_000_000_000
+"""A report stamped further than this from its vehicle's clock is a stray (a replayed or spoofed sample: the
+soak injects some, a minute ahead or half a minute back) and is not taken for the vehicle's time, unless the
+vehicle's next report agrees with it (then the clock was the stray, and moves there)."""
 
 
 class _Stamped(msgspec.Struct):
@@ -71,6 +77,7 @@ class PeerClock:
         self.alive: set[str] = set()
         self.newest_ns: dict[str, int] = {}
         self.heard_s: dict[str, float] = {}
+        self._last_ns: dict[str, int] = {}
         self._reports = session.declare_subscriber(reports_selector(prefix),
                                                    zenoh.handlers.FifoChannel(CHANNEL_CAPACITY))
         self._tokens = session.liveliness().declare_subscriber(
@@ -95,6 +102,7 @@ class PeerClock:
                 self.alive.discard(vehicle)
                 self.newest_ns.pop(vehicle, None)
                 self.heard_s.pop(vehicle, None)
+                self._last_ns.pop(vehicle, None)
         now = self.clock()
         while (sample := self._reports.try_recv()) is not None:
             try:
@@ -104,7 +112,14 @@ class PeerClock:
             vehicle = report.vehicle_id
             if vehicle in self.own or vehicle not in self.alive:
                 continue
-            self.newest_ns[vehicle] = max(report.stamp_ns, self.newest_ns.get(vehicle, report.stamp_ns))
+            stamp, newest, previous = report.stamp_ns, self.newest_ns.get(vehicle), self._last_ns.get(vehicle)
+            self._last_ns[vehicle] = stamp
+            if newest is None or abs(stamp - newest) <= MAX_JUMP_NS:
+                self.newest_ns[vehicle] = stamp if newest is None else max(newest, stamp)
+            elif previous is not None and abs(stamp - previous) <= MAX_JUMP_NS:
+                self.newest_ns[vehicle] = max(stamp, previous)  # two reports agree: the clock was the stray
+            else:
+                continue  # a stray
             self.heard_s[vehicle] = now
 
     def _current(self) -> list[int]:
@@ -116,10 +131,11 @@ class PeerClock:
         stamps = self._current()
         return min(stamps) if stamps else None
 
-    def fastest_ns(self) -> int | None:
-        """The newest report stamp among the vehicles waited for (None: nobody to wait for)."""
-        stamps = self._current()
-        return max(stamps) if stamps else None
+    def middle_ns(self) -> int | None:
+        """The median (the upper one) of the vehicles' newest report stamps (None: nobody to wait for): where a
+        joining process starts, one stray or one vehicle far ahead of the others not moving it."""
+        stamps = sorted(self._current())
+        return stamps[len(stamps) // 2] if stamps else None
 
     def ahead(self, stamp_ns: int, lead_ns: int) -> bool:
         """Whether a scene at ``stamp_ns`` is more than ``lead_ns`` ahead of the slowest vehicle waited for."""

@@ -88,7 +88,7 @@ class RunOptions:
         that vehicles flown by several processes keep one clock. A time already past
         joins a run in flight (a vehicle process restarted after a crash): the target
         is first moved, publishing nothing, to the clock's time (with ``lockstep``, to
-        the other vehicles' newest report, when that is earlier), so that it
+        the median of the others' newest reports, when some are heard), so that it
         is where the other processes have it; the vehicles start afresh from their
         start points, and their liveliness tokens are declared once the scene has
         joined. ``duration_s`` still counts from zero.
@@ -324,20 +324,22 @@ class Runner:
     def _join(self, dt: float, timers: tuple[_Timer, ...]) -> int:
         """Join a run whose clock started before now (``start_at_ns`` in the past, e.g. a vehicle process
         restarted after a crash): move the target, publishing nothing, to the shared clock's time (with
-        lockstep, to the other vehicles' newest report if that is earlier), taking the time the move itself
-        takes into account, so that it is where the other processes have it; the timers then fire from the
-        next period. Returns the physics steps skipped."""
+        lockstep, to the median of the others' newest reports when some are heard), taking the time the move
+        itself takes into account, so that it is where the other processes have it; the timers then fire from
+        the next period. Returns the physics steps skipped."""
         dt_ns = round(dt * NS_PER_S)
         if self.peers is not None:
             self._wait_for_peers()
 
         def goal_ns() -> int:
-            """The shared clock's time now; with lockstep at most one physics step past the newest report of
-            the others, so that the first report is for a step none of them has reported for yet (still open
-            at a ground station); lockstep then holds it until the slowest is within a report."""
-            goal = round((time.time_ns() - self.options.start_at_ns) * self.options.rate)
-            newest = self.peers.fastest_ns() if self.peers is not None else None
-            return goal if newest is None else min(goal, newest - self.scene.epoch_ns + dt_ns)
+            """The shared clock's time now; with lockstep and other vehicles heard, one physics step past
+            the median of their newest reports, so that the first report is for a step that the vehicles at
+            or behind the median have not reported for yet (still open at a ground station); lockstep then
+            holds it until the slowest is within a report."""
+            middle = self.peers.middle_ns() if self.peers is not None else None
+            if middle is not None:
+                return middle - self.scene.epoch_ns + dt_ns
+            return round((time.time_ns() - self.options.start_at_ns) * self.options.rate)
 
         steps = 0
         while self.scene.elapsed_ns + dt_ns <= (goal := goal_ns()):

@@ -10,7 +10,9 @@ that subscribes to everything the daemon consumes (through the same router,
 so it sees exactly what is on the wire) and injects faults at random
 (exponential gaps, mean ``fault_every_s`` of wall time):
 
-* ``kill``: SIGKILL a vehicle process; it is started again 1-4 s later and
+* ``kill``: SIGKILL a vehicle process (one whose vehicles are on the wire, and
+  never the last such: that kill is a burst of bad samples instead); it is
+  started again 1-4 s later and
   joins the clock (``--start-at`` in the past: its target is moved to the
   running vehicles' time before its vehicles report);
 * ``silence``: mute a process's MAVLink relay for 2-8 s;
@@ -130,6 +132,8 @@ class _Soak:
         self.router_endpoint = ""  # the router's, once it has said where it listens
         self.relays: list[UdpRelay] = []
         self.observed: Counter = Counter()
+        self.heard_s: dict[str, float] = {}
+        """Each vehicle's latest nav or report on the wire (monotonic wall seconds)."""
         self.crashes: Counter = Counter()
         self.faults: Counter = Counter()
         self.silence_s = 0.0
@@ -200,8 +204,29 @@ class _Soak:
             kind = key.rsplit("/", 1)[-1] if "/vehicle/" in key else "truth"
             with self._lock:
                 self.observed[kind] += 1
+                if kind in ("report", "nav"):
+                    self.heard_s[key.split("/vehicle/", 1)[1].split("/", 1)[0]] = time.monotonic()
             injector.observe(key, sample.payload.to_bytes(), str(sample.encoding))
         return on_sample
+
+    def _flying(self, now: float) -> list[int]:
+        """The vehicle processes whose vehicles are on the wire (heard within the last second): a kill leaves
+        one of them flying, for the restarted processes to join (with every vehicle down, the daemon hears
+        nobody while a restarted process starts up, and its first stamps come a start-up's worth of
+        simulated time after the daemon's newest)."""
+        with self._lock:
+            return [i for i, group in enumerate(self.groups) if i not in self.killed
+                    and any(now - self.heard_s.get(v, -1e9) <= 1.0 for v in group)]
+
+    def clock_start(self, injector: Injector, start_at: float) -> float:
+        """The ``--start-at`` of a restarted vehicle process: where the vehicles' data is now (the newest
+        report on the wire), not where the wall clock says it should be, since a run the machine cannot keep
+        at its rate is behind that. With other vehicles running, lockstep joins it to them anyway; this is
+        for the process that restarts while every other is down too (no one to join)."""
+        newest = injector.newest_ns
+        if newest is None or newest <= EPOCH_NS:
+            return start_at
+        return time.time() - (newest - EPOCH_NS) / NS_PER_S / self.options.rate
 
     def status(self, session: zenoh.Session, timeout_s: float = 5.0) -> DaemonStatus | None:
         for sample in query(session, status_key(), timeout_s):
@@ -214,9 +239,8 @@ class _Soak:
         """One fault: the first three are one of each kind (in a random order), then at random."""
         kind = self._first.pop() if self._first else self.rng.choice(["kill", "silence", "inject"],
                                                                        p=[0.25, 0.25, 0.5])
-        running = [i for i, p in enumerate(self.processes) if p is not None and p.poll() is None]
-        if kind == "kill" and running:
-            index = int(self.rng.choice(running))
+        if kind == "kill" and len(self._flying(now)) >= 2:
+            index = int(self.rng.choice(self._flying(now)))
             self.processes[index].kill()
             self.killed.add(index)
             self.faults["kills"] += 1
@@ -289,7 +313,7 @@ def run_soak(options: SoakOptions, command: str = "", progress: Callable[[str], 
             for due, index in [item for item in restarts if item[0] <= now or closing]:
                 restarts.remove((due, index))
                 if not closing:
-                    soak.start_vehicles(index, start_at)  # it joins the others where they are (lockstep)
+                    soak.start_vehicles(index, soak.clock_start(injector, start_at))
                     soak.faults["restarts"] += 1
             if start_at + margin < wall < end_at - margin and wall >= next_fault:
                 soak.fault(injector, now, restarts, unmutes)
