@@ -55,7 +55,7 @@ from gcs.adapters.foxglove_out import FoxgloveOptions
 from gcs.adapters.mavlink_io import HeadingCommand, MavlinkCommander
 from gcs.adapters.recording import Recorder
 from gcs.adapters.zenoh_io import ZenohIO
-from gcs.adapters.zenoh_session import ZenohSettings
+from gcs.adapters.zenoh_session import ZenohSettings, listening_endpoints
 from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
 from gcs.core.kinematics import VehicleState
@@ -281,6 +281,10 @@ class Daemon:
         self._closed = False
         self._opened = False
         self.live: LiveMap | None = None
+        self.zenoh_listening: list[str] = []
+        """The endpoints the Zenoh session listens on, once open (a port of 0 read back)."""
+        self.mavlink_bound: dict[str, str] = {}
+        """Each vehicle's MAVLink connection as bound, once open (a port of 0 read back)."""
 
     # ------------------------------------------------------------- lifecycle
 
@@ -323,9 +327,14 @@ class Daemon:
                 self.frame, {v.id: v.sysid for v in self.scenario.vehicles}, self.options.mavlink,
                 signing_key=self.options.signing_key,
                 max_turn_rate_rad_s={v.id: v.max_turn_rate_rad_s for v in self.scenario.vehicles})
+        listen = list(self.options.zenoh.listen)
+        self.zenoh_listening = listening_endpoints(self.zenoh.session) if any(e.endswith(":0") for e in listen) \
+            else listen
+        self.mavlink_bound = self.commander.bound_connections() if self.commander is not None else {}
         log.info("daemon up: scenario %s, planner %s, zenoh %s listen %s connect %s, MAVLink %s",
-                 self.scenario.name, self.planner_name, self.options.zenoh.mode, list(self.options.zenoh.listen),
-                 list(self.options.zenoh.connect), sorted(set((self.options.mavlink or {}).values())) or "off")
+                 self.scenario.name, self.planner_name, self.options.zenoh.mode, self.zenoh_listening,
+                 list(self.options.zenoh.connect),
+                 ", ".join(f"{v} {c}" for v, c in self.mavlink_bound.items()) or "off")
 
     def close(self) -> None:
         """Stop the planner, close MAVLink and Zenoh and finish the recording (idempotent).

@@ -17,6 +17,7 @@ from collections.abc import Callable, Sequence
 import msgspec
 
 from gcs import __version__
+from gcs.cli_errors import OneLineParser, run_command, set_command
 from gcs.config import ScenarioError
 from gcs.scenarios import DEFAULT_SCENARIO, list_scenarios, load_scenario
 
@@ -51,12 +52,12 @@ def _add_scenario(sub: argparse._SubParsersAction) -> None:
         p = actions.add_parser(action, help=text)
         p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO,
                        help=f"shipped name or path to a .toml file (default: {DEFAULT_SCENARIO})")
-    parser.set_defaults(handler=_cmd_scenario)
+    set_command(parser, _cmd_scenario)
 
 
 SUBCOMMANDS: tuple[tuple[str, str], ...] = (
     ("demo", "gcs.demo:add_demo"), ("run", "gcs.daemon.cli:add_run"), ("status", "gcs.daemon.status_cli:add_status"),
-    ("record", "gcs.replay:add_record"), ("replay", "gcs.replay:add_replay"), ("router", "gcs.router:add_router"),
+    ("record", "gcs.record:add_record"), ("replay", "gcs.replay_cli:add_replay"), ("router", "gcs.router:add_router"),
     ("scenario", "gcs.cli:_add_scenario"), ("bench", "gcs.bench.cli:add_bench"))
 """Each subcommand and its registration function (``module:function``), in the order ``--help`` lists them.
 Registration modules are imported only when needed: ``gcs status`` (Docker's healthcheck) need not load SciPy."""
@@ -69,7 +70,7 @@ def _register(sub: argparse._SubParsersAction, target: str) -> None:
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """The argument parser with every implemented subcommand, or with ``command``'s alone."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="gcs",
         description="Ground station that steers fixed-wing UAVs to keep a ground target in sight.",
     )
@@ -98,18 +99,13 @@ def requested_command(argv: Sequence[str]) -> str | None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``gcs`` console script; returns the process exit code."""
+    """Entry point of the ``gcs`` console script; returns the process exit code (2 for bad input, with one
+    line on stderr naming it: :mod:`gcs.cli_errors`)."""
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(requested_command(argv))
     args = parser.parse_args(argv)
     logging.basicConfig(level=args.log_level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    try:
-        return args.handler(args)
-    except ScenarioError as exc:
-        print(f"gcs: scenario error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        return 130
+    return run_command(args, known=(ScenarioError,))
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,9 +1,10 @@
 """``gcs demo``: the daemon and the simulated vehicles on loopback, with a live line and a summary.
 
 The simulated vehicles run as a separate process (``sim-vehicles run``), the
-daemon in this one; they meet on free loopback ports: the daemon's Zenoh peer
-listens on ``tcp/127.0.0.1:<port>`` and the vehicles connect to it (no router),
-and the vehicles send MAVLink to the daemon's ``udpin:127.0.0.1:<port>``. The
+daemon in this one; they meet on loopback ports the system chooses: the
+daemon's Zenoh peer listens on ``tcp/127.0.0.1:0`` and the vehicles connect to
+the port it got (no router), and the vehicles send MAVLink to the port its
+``udpin:127.0.0.1:0`` got. The
 summary scores the daemon's track against the simulator's published truth,
 with the same quantities as ``gcs bench urban``: decision steps, steps seen by
 any UAV and by each, fused position RMSE, decision time.
@@ -24,15 +25,12 @@ from pathlib import Path
 
 import numpy as np
 
-from gcs.adapters.foxglove_out import FoxgloveMissing
-from gcs.adapters.ports import free_tcp_port, free_udp_port
 from gcs.app import Daemon
+from gcs.cli_errors import one_line, positive, set_command
 from gcs.daemon.records import PlanRecord, StepRecord
-from gcs.config import ScenarioError
 from gcs.daemon.cli import add_daemon_arguments, build_daemon
-from protocols.errors import ProtocolError
 
-__all__ = ["add_demo", "summarise"]
+__all__ = ["add_demo", "summarise", "check_demo"]
 
 log = logging.getLogger(__name__)
 
@@ -49,7 +47,7 @@ def add_demo(sub: argparse._SubParsersAction) -> None:
     parser.add_argument("--rate", type=float, default=10.0, help="simulation speed-up (default 10)")
     parser.add_argument("--json", type=Path, metavar="FILE",
                         help="write the summary: steps, seen_any, seen_per_uav, rmse_m, ...")
-    parser.set_defaults(handler=_cmd_demo)
+    set_command(parser, _cmd_demo, check_demo)
 
 
 def summarise(records: list[StepRecord], plans: list[PlanRecord], vehicles: list[str]) -> dict:
@@ -105,37 +103,38 @@ class _Progress:
             self.stream.write("\n")
 
 
-def _cmd_demo(args: argparse.Namespace) -> int:
-    mavlink_port, zenoh_port = free_udp_port(), free_tcp_port()
-    endpoint = f"tcp/127.0.0.1:{zenoh_port}"
-    args.mavlink, args.vehicle = f"udpin:127.0.0.1:{mavlink_port}", []
+def check_demo(args: argparse.Namespace) -> Daemon:
+    """``gcs demo``'s input, checked: the daemon it runs (not opened), on loopback ports the system chooses."""
+    positive(args.duration, "--duration")
+    positive(args.rate, "--rate")
+    args.mavlink, args.vehicle = "udpin:127.0.0.1:0", []
     args.signing_passphrase = args.signing_key_file = None
-    args.zenoh_mode, args.zenoh_listen, args.zenoh_connect = "peer", [endpoint], []
+    args.zenoh_mode, args.zenoh_listen, args.zenoh_connect = "peer", ["tcp/127.0.0.1:0"], []
     args.zenoh_default_listen = args.zenoh_default_connect = ()
     args.prefix = "gcs"
-    if not args.rate > 0:
-        log.error("--rate must be > 0, got %s", args.rate)
-        return 2
-    try:
-        daemon = build_daemon(args)
-    except (ScenarioError, ValueError, OSError, ProtocolError, FoxgloveMissing) as error:
-        log.error("%s", error)
-        return 2
+    return build_daemon(args)
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    daemon = check_demo(args)
     duration = args.duration if args.duration is not None else daemon.scenario.time.duration_s
     progress = _Progress(sys.stderr, duration)
     daemon.on_step, daemon.on_plan = progress, progress.planned
+    try:
+        daemon.open()  # before the vehicles start, and so that its ports and the live map's address are known
+    except (RuntimeError, OSError, ValueError) as error:
+        print(f"gcs demo: error: {one_line(error)}", file=sys.stderr)
+        daemon.close()
+        return 1
+    (endpoint,) = daemon.zenoh_listening
+    (mavlink,) = set(daemon.mavlink_bound.values())  # one port, shared by the vehicles
+    mavlink_port = mavlink.rsplit(":", 1)[1]
     log_file = Path(tempfile.gettempdir()) / f"gcs-demo-sim-vehicles-{mavlink_port}.log"
     command = [sys.executable, "-m", "sim_vehicles.cli", "--log-level", "WARNING", "run", "--scenario", args.scenario,
                "--rate", str(args.rate), "--duration", str(duration), "--seed", str(args.seed),
                "--mavlink", f"udpout:127.0.0.1:{mavlink_port}", "--zenoh-connect", endpoint]
-    try:
-        daemon.open()  # before the vehicles start, and so that the live map's address is known
-    except RuntimeError as error:  # zenoh could not open
-        log.error("%s", error)
-        daemon.close()
-        return 1
     print(f"demo: {daemon.scenario.name}, {len(daemon.scenario.vehicles)} UAVs, {duration:g} s at {args.rate:g}x; "
-          f"zenoh {endpoint}, MAVLink udpin:127.0.0.1:{mavlink_port}; simulator log {log_file}", flush=True)
+          f"zenoh {endpoint}, MAVLink {mavlink}; simulator log {log_file}", flush=True)
     live = daemon.live
     print(f"live map: {(live.url if live is not None else None) or 'off'}", flush=True)
     if live is not None and live.foxglove is not None:

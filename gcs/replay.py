@@ -1,7 +1,6 @@
-"""``gcs record`` and ``gcs replay``: MCAP recordings of the Zenoh traffic, and feeding them back.
+"""``gcs replay``'s work: a recording (``gcs record``, :mod:`gcs.record`; ``gcs run --record``) summarised,
+processed, or fed back (the command line is :mod:`gcs.replay_cli`).
 
-* ``gcs record -o FILE.mcap`` subscribes to everything under the prefix and
-  writes it (:mod:`gcs.adapters.recording`); SIGINT/SIGTERM finish the file.
 * ``gcs replay FILE --info`` summarises channels, counts, duration and vehicles.
 * ``gcs replay FILE [--rate R | --fast]`` republishes the recorded inputs
   (reports, nav, truth; liveliness as tokens) so that a running daemon consumes
@@ -20,14 +19,10 @@
 
 from __future__ import annotations
 
-import argparse
 import csv
 import functools
-import json
 import logging
 import math
-import queue
-import signal
 import threading
 import time
 from collections import Counter
@@ -37,13 +32,10 @@ from pathlib import Path
 import numpy as np
 import zenoh
 
-from gcs.adapters.foxglove_out import FoxgloveMissing, add_foxglove_arguments
-from gcs.adapters.recording import LIVELINESS_ENCODING, Recorded, Recorder, RecordingError, read_recording
-from gcs.adapters.web import add_http_argument
+from gcs.adapters.recording import LIVELINESS_ENCODING, Recorded, Recorder, read_recording
 from gcs.adapters.zenoh_io import Received
-from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, required_settings
-from gcs.config import Scenario, ScenarioError
-from gcs.daemon.cli import add_navigation_argument
+from gcs.adapters.zenoh_session import open_session
+from gcs.config import Scenario
 from gcs.core.tracker import plan, prediction
 from gcs.core.world import World
 from gcs.daemon.fusion import FusionDiverged, PlanMemory, fuse_step, plan_commands, track_message
@@ -51,15 +43,13 @@ from gcs.daemon.ingest import Ingest
 from gcs.daemon.navigation import navigator_for
 from gcs.daemon.registry import Registry
 from gcs.daemon.steps import StepAssembler
-from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
 from gcs.tracking import scenario_planner, subset_config, tracker_config
-from gcs.world_loader import build_world
 from protocols.codec import decode, encode
 from protocols.errors import ProtocolError
-from protocols.keys import DEFAULT_PREFIX, parse_key, plan_key, track_key, validate_prefix
+from protocols.keys import DEFAULT_PREFIX, parse_key, plan_key, track_key
 from protocols.messages import NavReport, PlanCommand, SensorReport, TargetTruth, TrackEstimate
 
-__all__ = ["add_record", "add_replay", "process", "summarise", "write_outputs", "truth_error", "INPUT_KINDS"]
+__all__ = ["process", "summarise", "write_outputs", "truth_error", "republish", "INPUT_KINDS"]
 
 log = logging.getLogger(__name__)
 
@@ -315,150 +305,3 @@ def republish(path: Path, settings, prefix: str, rate: float | None, stop: threa
             for publisher in publishers.values():
                 publisher.undeclare()
     return counts
-
-
-# ---------------------------------------------------------------------- CLI
-
-def _stop_on_signals(event: threading.Event) -> None:
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: event.set())
-
-
-def add_record(sub: argparse._SubParsersAction) -> None:
-    """Register ``gcs record``."""
-    parser = sub.add_parser("record", help="record the Zenoh traffic under a prefix to MCAP",
-                            description="Subscribe to everything under the prefix (reports, nav, tracks, plans, "
-                                        "truth, liveliness) and write the exact payloads to an MCAP file; Ctrl-C "
-                                        "or SIGTERM finishes the file.")
-    parser.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.mcap")
-    parser.add_argument("--duration", type=float, default=None, metavar="S", help="stop after S wall seconds")
-    add_zenoh_arguments(parser, listen=(), connect=(DEFAULT_ENDPOINT,))
-    parser.set_defaults(handler=_cmd_record)
-
-
-def _cmd_record(args: argparse.Namespace) -> int:
-    try:
-        settings = required_settings(args, "gcs record")
-    except ValueError as error:
-        log.error("%s", error)
-        return 2
-    validate_prefix(args.prefix)
-    stop = threading.Event()
-    _stop_on_signals(stop)
-    inbox: queue.Queue = queue.Queue()
-    deadline = None if args.duration is None else time.monotonic() + args.duration
-    try:
-        recorder = Recorder(args.output)
-    except OSError as error:
-        log.error("cannot write %s: %s", args.output, error)
-        return 2
-    try:
-        with open_session(settings) as session:
-            session.declare_subscriber(f"{args.prefix}/**", lambda s: inbox.put(
-                (str(s.key_expr), s.payload.to_bytes(), str(s.encoding), time.time_ns())))
-            session.liveliness().declare_subscriber(f"{args.prefix}/**", lambda s: inbox.put(
-                (str(s.key_expr), s.kind == zenoh.SampleKind.PUT, None, time.time_ns())), history=True)
-            log.info("recording %s/** to %s", args.prefix, args.output)
-            while not stop.is_set() and (deadline is None or time.monotonic() < deadline):
-                _drain(inbox, recorder, timeout=0.1)
-            _drain(inbox, recorder, timeout=0.0)
-    except RuntimeError as error:
-        log.error("%s", error)
-        return 1
-    finally:
-        recorder.finish()
-    print(f"recorded {recorder.messages} messages to {args.output}")
-    return 0
-
-
-def _drain(inbox: queue.Queue, recorder: Recorder, timeout: float) -> None:
-    try:
-        item = inbox.get(timeout=timeout) if timeout else inbox.get_nowait()
-    except queue.Empty:
-        return
-    while True:
-        key, payload, encoding, time_ns = item
-        if encoding is None:
-            recorder.write_liveliness(key, payload, time_ns)
-        else:
-            recorder.write(key, payload, encoding, time_ns)
-        try:
-            item = inbox.get_nowait()
-        except queue.Empty:
-            return
-
-
-def add_replay(sub: argparse._SubParsersAction) -> None:
-    """Register ``gcs replay``."""
-    parser = sub.add_parser("replay", help="summarise, republish or process a recording",
-                            description="Republish a recording's inputs to Zenoh for a running daemon, or process "
-                                        "them directly with the daemon's estimator (--process), or summarise them "
-                                        "(--info).")
-    parser.add_argument("file", type=Path, metavar="FILE.mcap")
-    mode = parser.add_mutually_exclusive_group()
-    mode.add_argument("--info", action="store_true", help="print channels, counts, duration and vehicles")
-    mode.add_argument("--process", action="store_true", help="run the estimator on the file, without Zenoh")
-    mode.add_argument("--rate", type=float, default=1.0, help="republish R times faster than recorded (default 1)")
-    mode.add_argument("--fast", action="store_true", help="republish as fast as possible")
-    parser.add_argument("--scenario", default=DEFAULT_SCENARIO, help="scenario of the recorded run (--process)")
-    parser.add_argument("--out", type=Path, metavar="TRACKS", help="--process: write tracks (.mcap or .csv)")
-    parser.add_argument("--plan", action="store_true",
-                        help="--process: also plan every step (every GA generation, no deadline); plans go to an "
-                             ".mcap --out")
-    parser.add_argument("--seed", type=int, default=0, help="--process --plan: the planner's seed (default 0)")
-    add_navigation_argument(parser)
-    parser.add_argument("--json", action="store_true", help="--info: print JSON")
-    parser.add_argument("--view", action="store_true",
-                        help="show the recording on the live map (play/pause, speed; --rate is the starting speed, "
-                             "--scenario draws the city) until Ctrl-C")
-    add_http_argument(parser, "the live map of --view")
-    add_foxglove_arguments(parser)
-    add_zenoh_arguments(parser, listen=(), connect=(DEFAULT_ENDPOINT,))
-    parser.set_defaults(handler=_cmd_replay)
-
-
-def _cmd_replay(args: argparse.Namespace) -> int:
-    try:
-        if args.view or args.foxglove_mcap is not None or args.foxglove is not None:
-            from gcs.replay_view import cmd_view
-
-            return cmd_view(args, _stop_on_signals)
-        if args.info:
-            info = summarise(args.file)
-            if args.json:
-                print(json.dumps(info, indent=2))
-            else:
-                print(f"{info['file']}: {info['messages']} messages over {info['duration_s']:.1f} s "
-                      f"(stamps span {info['stamp_span_s']:.1f} s); vehicles {', '.join(info['vehicles']) or '-'}")
-                for channel in info["channels"]:
-                    print(f"  {channel['messages']:>8}  {channel['key']}  [{channel['encoding']}]")
-            return 0
-        if args.process:
-            scenario = load_scenario(args.scenario)
-            world = build_world(scenario, scenario_base_dir(args.scenario)) if args.plan else None
-            tracks, plans, counters = process(args.file, scenario, args.prefix, world, args.seed, args.navigation)
-            if args.out is not None:
-                write_outputs(tracks, plans, args.out, args.prefix)
-            print(f"{len(tracks)} track estimates" + (f" and {len(plans)} plan commands" if args.plan else "")
-                  + f" from {args.file}" + (f" -> {args.out}" if args.out else "") + "; "
-                  + ", ".join(f"{k} {v}" for k, v in sorted(counters.items())))
-            rmse, scored = truth_error(args.file, tracks, round(scenario.time.step_s * NS_PER_S))
-            if rmse is not None:
-                print(f"RMSE against the recorded truth {rmse:.2f} m over {scored} tracks "
-                      f"(--navigation {args.navigation})")
-            return 0
-        validate_prefix(args.prefix)
-        settings = required_settings(args, "republishing")
-        if not args.fast and not args.rate > 0:
-            raise ValueError(f"--rate must be > 0, got {args.rate}")
-        stop = threading.Event()
-        _stop_on_signals(stop)
-        counts = republish(args.file, settings, args.prefix, None if args.fast else args.rate, stop)
-        print("republished " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
-        return 0
-    except (RecordingError, ScenarioError, ValueError, OSError, FoxgloveMissing) as error:
-        log.error("%s", error)
-        return 2
-    except RuntimeError as error:
-        log.error("%s", error)
-        return 1

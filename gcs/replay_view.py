@@ -224,15 +224,8 @@ def to_foxglove(path: Path, scenario: Scenario, world: World, out: Path, every_s
 
 
 def cmd_view(args: argparse.Namespace, stop_on_signals: Callable[[threading.Event], None]) -> int:
-    """``gcs replay FILE --view`` and ``--foxglove-mcap OUT`` (called by :mod:`gcs.replay`'s command)."""
-    if args.info or args.process or args.fast:
-        log.error("--view and --foxglove-mcap cannot be combined with --info, --process or --fast")
-        return 2
-    if args.foxglove is not None and not args.view:
-        log.error("--foxglove serves a replay live: it needs --view")
-        return 2
-    if not args.file.is_file():
-        raise ValueError(f"{args.file}: no such file")
+    """``gcs replay FILE --view`` and ``--foxglove-mcap OUT`` (called by :mod:`gcs.replay_cli`'s command once it
+    has checked the options)."""
     foxglove = foxglove_options(args)
     scenario = load_scenario(args.scenario)
     world = build_world(scenario, scenario_base_dir(args.scenario))
@@ -241,9 +234,6 @@ def cmd_view(args: argparse.Namespace, stop_on_signals: Callable[[threading.Even
         print(f"wrote {args.foxglove_mcap}: {counts['foxglove_messages']} map messages from "
               + ", ".join(f"{k} {v}" for k, v in sorted(counts.items()) if k != "foxglove_messages"))
         return 0
-    if args.http is None and foxglove is None:
-        log.error("--view needs --http ADDRESS (or --foxglove ADDRESS)")
-        return 2
     stop = threading.Event()
     stop_on_signals(stop)
 

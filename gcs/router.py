@@ -12,12 +12,15 @@ from __future__ import annotations
 import argparse
 import logging
 import signal
+import sys
 import threading
 from dataclasses import replace
 
-from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, required_settings
+from gcs.adapters.zenoh_session import (DEFAULT_ENDPOINT, add_zenoh_arguments, listening_endpoints, open_session,
+                                        required_settings)
+from gcs.cli_errors import UsageError, one_line, set_command
 
-__all__ = ["add_router"]
+__all__ = ["add_router", "check_router"]
 
 log = logging.getLogger(__name__)
 
@@ -26,27 +29,34 @@ def add_router(sub: argparse._SubParsersAction) -> None:
     """Register ``gcs router``."""
     parser = sub.add_parser("router", help="a Zenoh router for clients (no zenohd needed)",
                             description="Open a Zenoh session in router mode and route until Ctrl-C or SIGTERM. "
-                                        "--zenoh-mode is ignored (always router).")
+                                        "--zenoh-mode is ignored (always router). A listening port of 0 lets the "
+                                        "system choose one; the first line printed says which.")
     add_zenoh_arguments(parser, listen=(DEFAULT_ENDPOINT,), connect=())
-    parser.set_defaults(handler=_cmd_router)
+    set_command(parser, _cmd_router, check_router)
+
+
+def check_router(args: argparse.Namespace):
+    """``gcs router``'s input, checked: its zenoh settings (router mode)."""
+    try:
+        return replace(required_settings(args, "a router"), mode="router")
+    except ValueError as error:
+        raise UsageError(error) from None
 
 
 def _cmd_router(args: argparse.Namespace) -> int:
-    try:
-        settings = replace(required_settings(args, "a router"), mode="router")
-    except ValueError as error:
-        log.error("%s", error)
-        return 2
+    settings = check_router(args)
     stop = threading.Event()
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: stop.set())
     try:
-        with open_session(settings):
-            print(f"router listening on {', '.join(settings.listen) or 'nothing'}"
+        with open_session(settings) as session:
+            listening = listening_endpoints(session) if any(e.endswith(":0") for e in settings.listen) \
+                else list(settings.listen)
+            print(f"router listening on {', '.join(listening) or 'nothing'}"
                   + (f", connected to {', '.join(settings.connect)}" if settings.connect else ""), flush=True)
             while not stop.wait(0.2):
                 pass
     except RuntimeError as error:  # e.g. the port is taken
-        log.error("%s", error)
+        print(f"gcs router: error: {one_line(error)}", file=sys.stderr)
         return 1
     return 0

@@ -11,6 +11,8 @@ import logging
 import sys
 from collections.abc import Callable, Sequence
 
+from gcs.cli_errors import OneLineParser, run_command
+from gcs.config import ScenarioError
 from sim_vehicles import __version__
 from sim_vehicles.run_command import add_run
 
@@ -20,7 +22,7 @@ SUBCOMMANDS: tuple[Callable[[argparse._SubParsersAction], None], ...] = (add_run
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every implemented subcommand."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="sim-vehicles",
         description="Simulated fixed-wing UAVs and the ground target they watch, on MAVLink and Zenoh.",
         epilog=None if SUBCOMMANDS else "No subcommands are implemented yet.",
@@ -35,15 +37,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``sim-vehicles`` console script; returns the exit code."""
+    """Entry point of the ``sim-vehicles`` console script; returns the exit code (2 for bad input, with one line
+    on stderr naming it: :mod:`gcs.cli_errors`)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     logging.basicConfig(level=args.log_level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    handler = getattr(args, "handler", None)
-    if handler is None:
+    if getattr(args, "handler", None) is None:
         parser.print_help()
         return 2
-    return handler(args)
+    return run_command(args, known=(ScenarioError,))
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -5,18 +5,20 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import sys
 import time
 from pathlib import Path
 
 from gcs.adapters.mavlink_cli import add_mavlink_arguments, connections_from_arguments, signing_key_from_arguments
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, settings_from_arguments
-from gcs.config import ScenarioError
+from gcs.cli_errors import UsageError, one_line, positive, set_command, writable_file
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
 from gcs.world_loader import build_world
+from protocols.errors import ProtocolError
 from protocols.keys import validate_prefix
 from sim_vehicles.runner import DEFAULT_MAVLINK, Runner, RunOptions, install_signal_handlers
 
-__all__ = ["add_run"]
+__all__ = ["add_run", "check_run"]
 
 log = logging.getLogger(__name__)
 
@@ -48,51 +50,74 @@ def add_run(sub: argparse._SubParsersAction) -> None:
                         help="start the simulation clock at this Unix time (seconds), e.g. to keep vehicles flown "
                              "by several processes on one clock; a time already past joins that clock (a restarted "
                              "vehicle process: the scene is advanced to it first, --duration counts from zero)")
+    parser.add_argument("--lockstep", action="store_true",
+                        help="keep one clock with the other simulated vehicles under the prefix (other processes): "
+                             "hold while more than one report ahead of the slowest, so that a machine that cannot "
+                             "keep the rate slows the run down as a whole instead of letting the processes drift "
+                             "apart (needs Zenoh)")
     parser.add_argument("--json", type=Path, metavar="FILE", help="write the closing summary as JSON")
-    parser.set_defaults(handler=_cmd_run)
+    set_command(parser, _cmd_run, check_run)
 
 
 def _options(args: argparse.Namespace, vehicle_ids: list[str]) -> RunOptions:
-    mavlink = connections_from_arguments(args, vehicle_ids)
-    key = signing_key_from_arguments(args)
-    zenoh = settings_from_arguments(args)
-    validate_prefix(args.prefix)
+    try:
+        validate_prefix(args.prefix)
+    except ProtocolError as error:
+        raise UsageError(f"--prefix: {error}") from None
+    try:
+        mavlink = connections_from_arguments(args, vehicle_ids)
+        key = signing_key_from_arguments(args)
+        zenoh = settings_from_arguments(args)
+    except ValueError as error:
+        raise UsageError(error) from None
+    if args.lockstep and zenoh is None:
+        raise UsageError("--lockstep keeps the clock with the other vehicles over zenoh: not with --zenoh-mode none")
+    if args.start_at is not None and not abs(args.start_at) < 1e11:
+        raise UsageError(f"--start-at is a Unix time in seconds, got {args.start_at:g}")
     epoch = args.epoch_ns if args.epoch_ns is not None else (time.time_ns() // 1_000_000_000) * 1_000_000_000
     return RunOptions(rate=args.rate, duration_s=args.duration, seed=args.seed, epoch_ns=epoch, mavlink=mavlink,
                       signing_key=key, zenoh=zenoh, prefix=args.prefix,
                       only=None if args.only is None else tuple(args.only), wait_for_subscriber_s=args.wait_for_gcs,
-                      start_at_ns=None if args.start_at is None else round(args.start_at * 1e9))
+                      start_at_ns=None if args.start_at is None else round(args.start_at * 1e9),
+                      lockstep=args.lockstep)
+
+
+def check_run(args: argparse.Namespace) -> Runner:
+    """``sim-vehicles run``'s input, checked: the runner it describes (nothing opened)."""
+    scenario = load_scenario(args.scenario)
+    positive(args.rate, "--rate")
+    positive(args.duration, "--duration")
+    if not 0.0 <= args.wait_for_gcs < float("inf"):
+        raise UsageError(f"--wait-for-gcs must be a number of seconds >= 0, got {args.wait_for_gcs:g}")
+    writable_file(args.json, "--json")
+    known = [v.id for v in scenario.vehicles]
+    unknown = sorted(set(args.only or ()) - set(known))
+    if unknown:
+        raise UsageError(f"--only {', '.join(unknown)}: not in the scenario, whose vehicles are {', '.join(known)}")
+    flown = [v for v in known if args.only is None or v in args.only]
+    options = _options(args, flown)
+    base_dir = scenario_base_dir(args.scenario)
+    return Runner(scenario, build_world(scenario, base_dir), options, base_dir=base_dir)
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    try:
-        scenario = load_scenario(args.scenario)
-        if not args.rate > 0:
-            raise ValueError(f"--rate must be > 0, got {args.rate}")
-        if args.duration is not None and not args.duration > 0:
-            raise ValueError(f"--duration must be > 0, got {args.duration}")
-        flown = [v.id for v in scenario.vehicles if args.only is None or v.id in args.only]
-        options = _options(args, flown)
-        base_dir = scenario_base_dir(args.scenario)
-        world = build_world(scenario, base_dir)
-        runner = Runner(scenario, world, options, base_dir=base_dir)
-    except (ScenarioError, ValueError, OSError) as error:
-        log.error("%s", error)
-        return 2
+    runner = check_run(args)
+    options = runner.options
     install_signal_handlers(runner)
-    log.info("%s: %d vehicles at %gx real time%s", scenario.name, len(scenario.vehicles), options.rate,
+    log.info("%s: %d vehicles at %gx real time%s", runner.scenario.name, len(runner.vehicles), options.rate,
              "" if options.duration_s is None else f" for {options.duration_s:g} s")
     try:
         summary = runner.run()
-    except RuntimeError as error:  # e.g. a zenoh client with no router
-        log.error("%s", error)
+    except (RuntimeError, OSError, ValueError) as error:  # e.g. a zenoh client with no router, a port in use
+        print(f"sim-vehicles run: error: {one_line(error)}", file=sys.stderr)
         return 1
     for line in summary.lines():
         print(line)
     if args.json is not None:
         args.json.write_text(json.dumps({
             "simulated_s": summary.simulated_s, "wall_s": summary.wall_s, "steps": summary.steps,
-            "late_steps": summary.late_steps, "reports": dict(summary.reports),
-            "detections": dict(summary.detections), "nav_reports": dict(summary.nav_reports),
-            "modes": summary.modes, "mavlink": dict(summary.mavlink)}, indent=2))
+            "late_steps": summary.late_steps, "held_steps": summary.held_steps, "held_s": summary.held_s,
+            "reports": dict(summary.reports), "detections": dict(summary.detections),
+            "nav_reports": dict(summary.nav_reports), "modes": summary.modes, "mavlink": dict(summary.mavlink)},
+            indent=2))
     return 0

@@ -15,7 +15,11 @@ Each physics step of simulation time ``dt`` the runner
 So ``--rate R`` scales every timer consistently: at R = 10 a vehicle sends ten
 heartbeats per wall-clock second and 300 s of flight take 30 s. When the
 machine cannot keep up, the runner does not skip steps; it runs late and counts
-the steps that started behind schedule (``late_steps`` in the summary).
+the steps that started behind schedule (``late_steps`` in the summary). With
+``lockstep`` (:mod:`sim_vehicles.lockstep`) it also holds each step while it is
+more than one report period ahead of the slowest other vehicle under the
+prefix, so that the processes of one run keep one clock (``held_steps``,
+``held_s``).
 
 Wire stamps are simulation time (``epoch_ns + elapsed``), so a daemon that
 orders data by stamp sees the same data at any rate.
@@ -40,6 +44,7 @@ from protocols.errors import ProtocolError
 from protocols.keys import alive_key, nav_key, report_key, truth_key
 from protocols.messages import NavReport, SensorReport, TargetTruth
 from sim_vehicles.autopilot import SimAutopilot
+from sim_vehicles.lockstep import PeerClock
 from sim_vehicles.mavlink_endpoint import MavlinkEndpoints
 from sim_vehicles.scene import Scene
 
@@ -49,6 +54,9 @@ log = logging.getLogger(__name__)
 
 DEFAULT_MAVLINK = "udpout:127.0.0.1:14550"
 """Where every vehicle sends unless told otherwise: one GCS port, demultiplexed by sysid."""
+NS_PER_S = 1_000_000_000
+HOLD_POLL_S = 0.001
+"""How often a held step looks at the other vehicles' reports again (wall seconds)."""
 
 
 @dataclass(frozen=True)
@@ -78,9 +86,12 @@ class RunOptions:
     start_at_ns : int or None
         Start the simulation clock at this Unix time (ns), after the waits above, so
         that vehicles flown by several processes keep one clock. A time already past
-        joins a run in flight (a vehicle process restarted after a crash): the scene
-        is first advanced, publishing nothing, to the clock's time, so that the target
-        is where the other processes have it; ``duration_s`` still counts from zero.
+        joins a run in flight (a vehicle process restarted after a crash): the target
+        is first moved, publishing nothing, to the clock's time (with ``lockstep``, to
+        the median of the others' newest reports, when some are heard), so that it
+        is where the other processes have it; the vehicles start afresh from their
+        start points, and their liveliness tokens are declared once the scene has
+        joined. ``duration_s`` still counts from zero.
     wait_for_subscriber_s : float
         Before the clock starts, wait up to this long (wall time) for subscribers
         to every key (a ground station), so that the first reports are not
@@ -98,6 +109,7 @@ class RunOptions:
     only: tuple[str, ...] | None = None
     wait_for_subscriber_s: float = 0.0
     start_at_ns: int | None = None
+    lockstep: bool = False
 
 
 @dataclass
@@ -108,6 +120,8 @@ class RunSummary:
     wall_s: float = 0.0
     steps: int = 0
     late_steps: int = 0
+    held_steps: int = 0
+    held_s: float = 0.0
     reports: Counter = field(default_factory=Counter)
     detections: Counter = field(default_factory=Counter)
     nav_reports: Counter = field(default_factory=Counter)
@@ -118,7 +132,8 @@ class RunSummary:
     def lines(self) -> list[str]:
         """Human-readable summary."""
         out = [f"simulated {self.simulated_s:.1f} s in {self.wall_s:.1f} s of wall time "
-               f"({self.steps} steps, {self.late_steps} started late)"]
+               f"({self.steps} steps, {self.late_steps} started late"
+               + (f", {self.held_steps} held {self.held_s:.1f} s for the other vehicles)" if self.held_steps else ")")]
         for vehicle_id, mode in self.modes.items():
             out.append(f"  {vehicle_id}: mode {mode}, {self.reports[vehicle_id]} reports "
                        f"({self.detections[vehicle_id]} detections), {self.nav_reports[vehicle_id]} nav reports")
@@ -161,6 +176,8 @@ class Runner:
         self.session = None
         self.publishers: dict[tuple[str, str], object] = {}
         self.tokens: list = []
+        self.peers: PeerClock | None = None
+        self._report_period_ns = round(NS_PER_S / scenario.simulation.report_rate_hz)
 
     # ------------------------------------------------------------- lifecycle
 
@@ -184,13 +201,22 @@ class Runner:
                     self.session, report_key(vehicle.id, prefix), SensorReport)
                 self.publishers[(vehicle.id, "nav")] = declare_publisher(
                     self.session, nav_key(vehicle.id, prefix), NavReport)
-                self.tokens.append(self.session.liveliness().declare_token(alive_key(vehicle.id, prefix)))
             target = self.scenario.target.id
             if self.publishes_truth:
                 self.publishers[(target, "truth")] = declare_publisher(self.session, truth_key(target, prefix),
                                                                        TargetTruth)
+            if self.options.lockstep:
+                wall_period_s = self._report_period_ns / NS_PER_S / self.options.rate
+                self.peers = PeerClock(self.session, prefix, [v.id for v in self.vehicles], wall_period_s,
+                                       self.clock)
             log.info("Zenoh: %s session, prefix %r, %d vehicles", self.options.zenoh.mode, prefix, len(self.vehicles))
             self._wait_for_subscriber()
+
+    def _declare_tokens(self) -> None:
+        """The vehicles' liveliness tokens: from now on a ground station waits for their reports."""
+        if self.session is not None:
+            for vehicle in self.vehicles:
+                self.tokens.append(self.session.liveliness().declare_token(alive_key(vehicle.id, self.options.prefix)))
 
     def _wait_for_subscriber(self) -> None:
         publishers = list(self.publishers.values())
@@ -209,6 +235,9 @@ class Runner:
         for token in self.tokens:
             token.undeclare()
         self.tokens.clear()
+        if self.peers is not None:
+            self.peers.close()
+            self.peers = None
         for publisher in self.publishers.values():
             publisher.undeclare()
         self.publishers.clear()
@@ -247,12 +276,16 @@ class Runner:
         if ahead_s is not None and ahead_s <= 0:  # the clock started already: join it where it is now
             skipped = self._join(dt, (heartbeat, telemetry, reports, navs, progress))
             wall_start = self.clock() - (time.time_ns() - self.options.start_at_ns) / 1e9
+            self._declare_tokens()
         else:
+            self._declare_tokens()
             if ahead_s is not None:
                 self.stop_event.wait(ahead_s)
             wall_start = self.clock()
         steps_total = None if self.options.duration_s is None else round(self.options.duration_s / dt) - skipped
         while not self.stop_event.is_set() and (steps_total is None or self.summary.steps < steps_total):
+            if self.peers is not None:
+                self._keep_step()
             self._receive()
             now = scene.elapsed_s
             if heartbeat.due(now):
@@ -290,21 +323,65 @@ class Runner:
 
     def _join(self, dt: float, timers: tuple[_Timer, ...]) -> int:
         """Join a run whose clock started before now (``start_at_ns`` in the past, e.g. a vehicle process
-        restarted after a crash): advance the scene, publishing nothing, to the shared clock's time, so
-        that the target is where the other processes have it; the timers then fire from the next period."""
-        behind_s = (time.time_ns() - self.options.start_at_ns) / 1e9 * self.options.rate
-        if behind_s <= 0:
-            return 0
-        steps = math.ceil(behind_s / dt)
-        for done in range(steps):
-            if self.stop_event.is_set():
-                return done
-            self.scene.advance(dt, {})
+        restarted after a crash): move the target, publishing nothing, to the shared clock's time (with
+        lockstep, to the median of the others' newest reports when some are heard), taking the time the move
+        itself takes into account, so that it is where the other processes have it; the timers then fire from
+        the next period. Returns the physics steps skipped."""
+        dt_ns = round(dt * NS_PER_S)
+        if self.peers is not None:
+            self._wait_for_peers()
+
+        def goal_ns() -> int:
+            """The shared clock's time now; with lockstep and other vehicles heard, one physics step past
+            the median of their newest reports, so that the first report is for a step that the vehicles at
+            or behind the median have not reported for yet (still open at a ground station); lockstep then
+            holds it until the slowest is within a report."""
+            middle = self.peers.middle_ns() if self.peers is not None else None
+            if middle is not None:
+                return middle - self.scene.epoch_ns + dt_ns
+            return round((time.time_ns() - self.options.start_at_ns) * self.options.rate)
+
+        steps = 0
+        while self.scene.elapsed_ns + dt_ns <= (goal := goal_ns()):
+            for _ in range(100):  # the goal moves on while the target is moved: look again every 100 steps
+                if self.stop_event.is_set():
+                    return steps
+                if self.scene.elapsed_ns + dt_ns > goal:
+                    break
+                self.scene.skip_target(dt)
+                steps += 1
+            if self.peers is not None:
+                self.peers.poll()
         elapsed = self.scene.elapsed_s
         for timer in timers:
             timer.count = math.ceil(elapsed / timer.period_s - 1e-9)
-        log.info("joined the run at t = %.1f s (the scene advanced %d steps without publishing)", elapsed, steps)
+        log.info("joined the run at t = %.1f s (the target moved %d steps without publishing)", elapsed, steps)
         return steps
+
+    def _wait_for_peers(self) -> None:
+        """Before joining: up to two report periods (at least 0.5 s) of wall time for the report of every
+        other vehicle whose token is up."""
+        deadline = self.clock() + max(0.5, 2.0 * self._report_period_ns / NS_PER_S / self.options.rate)
+        while self.clock() < deadline and not self.stop_event.is_set():
+            self.peers.poll()
+            if self.peers.alive and self.peers.alive <= self.peers.newest_ns.keys():
+                return
+            self.stop_event.wait(0.01)
+
+    def _keep_step(self) -> None:
+        """Lockstep: hold this step while the scene is more than one report period ahead of the slowest other
+        vehicle (see :mod:`sim_vehicles.lockstep`)."""
+        peers, stamp = self.peers, self.scene.stamp_ns
+        peers.poll()
+        if not peers.ahead(stamp, self._report_period_ns):
+            return
+        self.summary.held_steps += 1
+        start = self.clock()
+        while not self.stop_event.wait(HOLD_POLL_S):
+            peers.poll()
+            if not peers.ahead(stamp, self._report_period_ns):
+                break
+        self.summary.held_s += self.clock() - start
 
     def _receive(self) -> None:
         if self.endpoints is None:

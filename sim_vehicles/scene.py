@@ -150,6 +150,15 @@ class Scene:
         self.target = self.target_model.step(self.target, dt, self.rng_target)
         self.elapsed_ns += round(dt * NS_PER_S)
 
+    def skip_target(self, dt: float) -> None:
+        """Move only the target ``dt`` seconds (its draws are those :meth:`advance` makes): a process joining a
+        run in flight brings the target to the others' time; its vehicles start afresh from there."""
+        self.target = self.target_model.step(self.target, dt, self.rng_target)
+        self.elapsed_ns += round(dt * NS_PER_S)
+        for vehicle in self.vehicles.values():
+            vehicle.last_nav_ns = self.elapsed_ns  # the first INS increment covers flight, not the skip
+            vehicle.ins_distance_m = vehicle.ins_turn_rad = 0.0
+
     @property
     def target_xyz(self) -> np.ndarray:
         """Target truth, ENU metres (on the ground, z = 0)."""

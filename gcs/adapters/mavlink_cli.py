@@ -5,16 +5,19 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from gcs.adapters.mavlink_wire import normalise_connection, read_signing_key, signing_key_from_passphrase
+from gcs.adapters.mavlink_wire import check_connection, read_signing_key, signing_key_from_passphrase
 
 __all__ = ["add_mavlink_arguments", "connections_from_arguments", "signing_key_from_arguments"]
 
 
 def _vehicle_connection(text: str) -> tuple[str, str]:
     vehicle_id, sep, connection = text.partition("=")
-    if not sep or not vehicle_id or not connection:
+    if not sep or not vehicle_id or not connection.strip():
         raise argparse.ArgumentTypeError(f"expected ID=CONNECTION, got {text!r}")
-    return vehicle_id, normalise_connection(connection)
+    try:
+        return vehicle_id, check_connection(connection)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 def add_mavlink_arguments(parser: argparse.ArgumentParser, default: str, every: str) -> None:
@@ -34,10 +37,14 @@ def add_mavlink_arguments(parser: argparse.ArgumentParser, default: str, every: 
 
 
 def connections_from_arguments(args: argparse.Namespace, vehicle_ids: list[str]) -> dict[str, str] | None:
-    """Each vehicle's connection string, or None when MAVLink is off; ValueError naming a bad vehicle."""
+    """Each vehicle's connection string, or None when MAVLink is off; ValueError naming a bad connection or
+    vehicle."""
     if args.mavlink.lower() == "none" and not args.vehicle:
         return None
-    default = None if args.mavlink.lower() == "none" else normalise_connection(args.mavlink)
+    try:
+        default = None if args.mavlink.lower() == "none" else check_connection(args.mavlink)
+    except ValueError as error:
+        raise ValueError(f"--mavlink: {error}") from None
     overrides = dict(args.vehicle)
     unknown = sorted(set(overrides) - set(vehicle_ids))
     if unknown:
@@ -49,9 +56,16 @@ def connections_from_arguments(args: argparse.Namespace, vehicle_ids: list[str])
 
 
 def signing_key_from_arguments(args: argparse.Namespace) -> bytes | None:
-    """The signing key the options give, if any."""
+    """The signing key the options give, if any; ValueError naming the option when it cannot be had."""
     if args.signing_passphrase is not None:
-        return signing_key_from_passphrase(args.signing_passphrase)
+        try:
+            return signing_key_from_passphrase(args.signing_passphrase)
+        except ValueError as error:
+            raise ValueError(f"--signing-passphrase: {error}") from None
     if args.signing_key_file is not None:
-        return read_signing_key(args.signing_key_file)
+        try:
+            return read_signing_key(args.signing_key_file)
+        except (OSError, ValueError) as error:
+            raise ValueError(f"--signing-key-file {args.signing_key_file}: {getattr(error, 'strerror', None) or error}"
+                             ) from None
     return None

@@ -387,6 +387,17 @@ class _Link:
         self.next_heartbeat_s = -math.inf
         self.decode_error = sys.modules[type(self.conn.mav).__module__].MAVError  # the connection's dialect's
 
+    def bound(self) -> str:
+        """The connection string with the port the system bound where it listens (``udpin:127.0.0.1:0`` read
+        back), else as given."""
+        scheme, _, _ = self.connection.partition(":")
+        sock = {"udpin": "port", "udp": "port", "tcpin": "listen"}.get(scheme)
+        sock = getattr(self.conn, sock, None) if sock else None
+        if sock is None:
+            return self.connection
+        host, port = sock.getsockname()[:2]
+        return f"{scheme}:{host}:{port}"
+
     def has_destination(self) -> bool:
         """False for a ``udpin`` link that has not heard anyone yet (pymavlink sends to whom it heard)."""
         if not getattr(self.conn, "udp_server", False):
@@ -403,7 +414,8 @@ class MavlinkCommander:
         The scenario's ENU frame; its origin is home (MAVLink altitudes are relative to it).
     roster : dict of vehicle id -> sysid
     connections : dict of vehicle id -> pymavlink connection string
-        Vehicles with equal strings share one connection.
+        Vehicles with equal strings share one connection (``udpin:127.0.0.1:0`` too: one port the system
+        chooses, :meth:`bound_connections` says which).
     signing_key : bytes or None
         32-byte MAVLink 2 signing key: sign outgoing, reject unsigned incoming.
     carrot_rate_hz : float
@@ -454,6 +466,10 @@ class MavlinkCommander:
     def link(self, vehicle_id: str) -> VehicleLink:
         """The vehicle's MAVLink state (KeyError for a vehicle not in the roster)."""
         return self._vehicles[vehicle_id]
+
+    def bound_connections(self) -> dict[str, str]:
+        """Each vehicle's connection as bound (a listening port of 0 replaced by the one the system chose)."""
+        return {vid: link.bound() for vid, link in self._link_of.items()}
 
     def alive(self, vehicle_id: str, now_s: float, timeout_s: float = 5.0) -> bool:
         """Whether the vehicle sent a HEARTBEAT within ``timeout_s`` of ``now_s``."""
@@ -507,6 +523,7 @@ class MavlinkCommander:
             return
         if outcome != "heartbeat":
             return
+        self._count("heartbeats", vehicle)
         if not was_up:
             self._count("link_up", vehicle)
             self._up.add(vehicle_id)

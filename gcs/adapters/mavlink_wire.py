@@ -18,6 +18,7 @@ from __future__ import annotations
 import hashlib
 import math
 import os
+import socket
 import sys
 from pathlib import Path
 
@@ -39,6 +40,7 @@ __all__ = [
     "mavutil",
     "ned_yaw_from_enu_heading",
     "normalise_connection",
+    "check_connection",
     "open_connection",
     "read_signing_key",
     "signing_key_from_passphrase",
@@ -72,6 +74,43 @@ def normalise_connection(connection: str) -> str:
     for scheme, replacement in _MAVSDK_SCHEMES.items():
         if text.startswith(scheme):
             return replacement + text[len(scheme):]
+    return text
+
+
+_NETWORK_SCHEMES = {"udpin": True, "udp": True, "udpout": False, "udpbcast": False, "tcp": False, "tcpin": True}
+"""pymavlink's network schemes, and whether each listens (a port of 0 lets the system choose one)."""
+CONNECTION_FORMS = "udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, tcpin:HOST:PORT or a serial device"
+
+
+def check_connection(connection: str) -> str:
+    """The normalised connection string if pymavlink can open it, else ValueError saying what is wrong and
+    which forms are meant: a network scheme needs ``HOST:PORT`` with a port in 1-65535 (0 too where it
+    listens, and there a host that resolves now); anything else is a serial device, which must exist."""
+    text = normalise_connection(connection)
+    scheme, sep, rest = text.partition(":")
+    if not sep:
+        if not os.path.exists(text.split(",")[0]):
+            raise ValueError(f"MAVLink connection {connection!r}: no such serial device; expected {CONNECTION_FORMS}")
+        return text
+    if scheme not in _NETWORK_SCHEMES:
+        raise ValueError(f"MAVLink connection {connection!r}: unknown scheme {scheme!r}; expected {CONNECTION_FORMS}")
+    host, sep, port_text = rest.rpartition(":")
+    if not sep or not host:
+        raise ValueError(f"MAVLink connection {connection!r}: expected {scheme}:HOST:PORT")
+    try:
+        port = int(port_text)
+    except ValueError:
+        raise ValueError(f"MAVLink connection {connection!r}: port {port_text!r} is not a number; "
+                         f"expected {scheme}:HOST:PORT") from None
+    listens = _NETWORK_SCHEMES[scheme]
+    if not (0 if listens else 1) <= port <= 65535:
+        raise ValueError(f"MAVLink connection {connection!r}: port {port} is outside {0 if listens else 1}-65535")
+    if listens:  # the address to bind must be this machine's now; a peer's name may resolve later (containers)
+        try:
+            socket.getaddrinfo(host, port, socket.AF_INET)
+        except (OSError, UnicodeError) as error:
+            raise ValueError(f"MAVLink connection {connection!r}: host {host!r} does not resolve ({error}); give "
+                             "an address of this machine to listen on, e.g. 127.0.0.1 or 0.0.0.0") from None
     return text
 
 

@@ -13,6 +13,8 @@ loses at most the last chunk; :meth:`Recorder.finish` writes the summary.
 Reading (:func:`read_recording`): records are read in file order (the order
 they were received) with a streaming reader, so a file without a summary (its
 writer was killed) is recovered up to its last complete chunk, with a warning.
+A file that does not begin with MCAP's magic bytes (empty, or not MCAP at all)
+raises :class:`RecordingError` before anything is read.
 A schema this build does not speak, or a corrupt record, raises
 :class:`RecordingError` naming the channel and the byte offset; nothing is
 skipped silently.
@@ -41,10 +43,13 @@ from mcap.writer import CompressionType, Writer
 from protocols.codec import json_schema, parse_encoding
 from protocols.errors import ProtocolError
 
-__all__ = ["CHUNK_BYTES", "LIVELINESS_ENCODING", "Recorded", "Recorder", "RecordingError", "read_recording"]
+__all__ = ["CHUNK_BYTES", "LIVELINESS_ENCODING", "MCAP_MAGIC", "Recorded", "Recorder", "RecordingError",
+           "read_recording", "check_mcap"]
 
 log = logging.getLogger(__name__)
 
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+"""The bytes every MCAP file begins with."""
 CHUNK_BYTES = 64 * 1024
 """Chunk size: at most this much is lost when the writer is killed."""
 LIVELINESS_ENCODING = "gcs/liveliness"
@@ -176,6 +181,7 @@ def read_recording(path: str | Path, warn: Callable[[str], None] = log.warning) 
     most of ``gcs replay --process``'s time otherwise.
     """
     path = Path(path)
+    check_mcap(path)
     schemas: dict[int, Schema] = {}
     channels: dict[int, Channel] = {}
     with open(path, "rb") as raw:
@@ -220,6 +226,17 @@ def read_recording(path: str | Path, warn: Callable[[str], None] = log.warning) 
                     footer = True
         if not footer:
             warn(f"{path}: no footer; recovered {count} messages")
+
+
+def check_mcap(path: Path) -> None:
+    """RecordingError unless ``path`` begins with MCAP's magic bytes (OSError when it cannot be read)."""
+    with open(path, "rb") as raw:
+        head = raw.read(len(MCAP_MAGIC))
+    if not head:
+        raise RecordingError(f"{path}: the file is empty: nothing was recorded in it")
+    if head != MCAP_MAGIC:
+        raise RecordingError(f"{path}: not an MCAP recording (it does not begin with MCAP's magic bytes); give a "
+                             "file written by gcs record or gcs run --record")
 
 
 _MESSAGE_HEADER = struct.Struct("<HIQQ")  # channel id, sequence, log time, publish time

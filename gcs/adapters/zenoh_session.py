@@ -19,11 +19,18 @@ everything zenoh can be told passes through: user/password authentication
 explicit options (``--zenoh-mode``, ``--zenoh-listen``, ``--zenoh-connect``)
 then override the file's mode and endpoints, and the file's values are used
 where they are not given; multicast scouting stays off whatever the file says.
+
+**Port 0.** A listening endpoint may leave the port to the system
+(``tcp/127.0.0.1:0``): the session is then opened with Zenoh's admin space
+readable, and :func:`listening_endpoints` reads back the endpoints it bound,
+so that tests and ``gcs demo`` never guess a free port.
 """
 
 from __future__ import annotations
 
 import json
+import re
+import socket
 import time
 from pathlib import Path
 from collections.abc import Sequence
@@ -35,7 +42,8 @@ from protocols.codec import encode, encoding_for
 from protocols.messages import Message
 
 __all__ = ["DEFAULT_ENDPOINT", "ZenohSettings", "open_session", "declare_publisher", "publish", "add_zenoh_arguments",
-           "settings_from_arguments", "required_settings", "query", "load_config_file"]
+           "settings_from_arguments", "required_settings", "query", "load_config_file", "listening_endpoints",
+           "check_endpoint", "clean_error"]
 
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 """Where the daemon listens and the vehicles connect unless told otherwise."""
@@ -74,7 +82,51 @@ class ZenohSettings:
         config.insert_json5("scouting/delay", "0")
         config.insert_json5("listen/endpoints", json.dumps(list(self.listen)))
         config.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
+        if any(endpoint.endswith(":0") for endpoint in self.listen):  # for listening_endpoints()
+            config.insert_json5("adminspace/enabled", "true")
         return config
+
+
+_HOST_PORT_PROTOCOLS = ("tcp", "udp", "tls", "quic", "ws")
+_OTHER_PROTOCOLS = ("unixsock-stream", "unixpipe", "serial", "vsock")
+ENDPOINT_FORM = "PROTOCOL/HOST:PORT, e.g. tcp/127.0.0.1:7447"
+
+
+def check_endpoint(endpoint: str, listen: bool) -> str:
+    """``endpoint`` if zenoh can use it (``tcp/127.0.0.1:7447``; a port of 0 where it listens), else
+    ValueError saying what is wrong: the form, the protocol, the port's range, a host to listen on that does
+    not resolve."""
+    text = endpoint.strip()
+    protocol, sep, rest = text.partition("/")
+    address = re.split(r"[?#]", rest, maxsplit=1)[0]
+    if not sep or not address:
+        raise ValueError(f"zenoh endpoint {endpoint!r}: expected {ENDPOINT_FORM}")
+    if protocol in _OTHER_PROTOCOLS:
+        return text
+    if protocol not in _HOST_PORT_PROTOCOLS:
+        raise ValueError(f"zenoh endpoint {endpoint!r}: unknown protocol {protocol!r}; expected one of "
+                         f"{', '.join(_HOST_PORT_PROTOCOLS + _OTHER_PROTOCOLS)}")
+    host, sep, port_text = address.rpartition(":")
+    host = host.strip("[]")
+    if not sep or not host or not port_text.isdigit():
+        raise ValueError(f"zenoh endpoint {endpoint!r}: expected {protocol}/HOST:PORT")
+    port, lowest = int(port_text), 0 if listen else 1
+    if not lowest <= port <= 65535:
+        raise ValueError(f"zenoh endpoint {endpoint!r}: port {port} is outside {lowest}-65535")
+    if listen:  # an address to bind must be this machine's now; a router's name may resolve later (containers)
+        try:
+            socket.getaddrinfo(host, port)
+        except (OSError, UnicodeError) as error:
+            raise ValueError(f"zenoh endpoint {endpoint!r}: host {host!r} does not resolve ({error}); give an "
+                             "address of this machine to listen on, e.g. 127.0.0.1 or 0.0.0.0") from None
+    return text
+
+
+def clean_error(error: object) -> str:
+    """A zenoh error message without the Rust source locations and wrappers it carries."""
+    text = re.sub(r"Json5Err\(Message \{ msg: \"(.*?)\", location: .*?\}\) \}\)", r"\1", str(error))
+    text = re.sub(r" at /\S+?:\d+\.?", "", text)
+    return " ".join(text.split())
 
 
 def load_config_file(path: str) -> zenoh.Config:
@@ -98,8 +150,33 @@ def open_session(settings: ZenohSettings) -> zenoh.Session:
     try:
         return zenoh.open(settings.config())
     except zenoh.ZError as error:
+        hint = (f"; is a router listening on {', '.join(settings.connect)} (gcs router, zenohd)?"
+                if settings.mode == "client" else "")
         raise RuntimeError(f"cannot open a zenoh {settings.mode} session (listen {list(settings.listen)}, "
-                           f"connect {list(settings.connect)}): {error}") from error
+                           f"connect {list(settings.connect)}): {clean_error(error)}{hint}") from error
+
+
+def listening_endpoints(session: zenoh.Session, timeout_s: float = 5.0) -> list[str]:
+    """The endpoints ``session`` listens on, with the ports the system bound (``tcp/127.0.0.1:0`` read back).
+
+    Read from the session's own entry in Zenoh's admin space, which
+    :meth:`ZenohSettings.config` makes readable when a listening port is 0;
+    RuntimeError when the entry does not answer within ``timeout_s``.
+    """
+    selector = f"@/{session.info.zid()}/*"
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        for reply in session.get(selector, timeout=max(0.1, min(1.0, deadline - time.monotonic()))):
+            if reply.ok is None:
+                continue
+            try:
+                entry = json.loads(reply.ok.payload.to_bytes())
+            except ValueError:
+                continue  # another kind of entry (the link-state graph)
+            if isinstance(entry, dict) and "locators" in entry:
+                return [str(locator) for locator in entry["locators"]]
+    raise RuntimeError("the zenoh session did not say where it listens (its admin space is not readable: "
+                       "listen on a port of 0 to read the port back)")
 
 
 def declare_publisher(session: zenoh.Session, key: str, message_type: type[Message]) -> zenoh.Publisher:
@@ -155,6 +232,11 @@ def settings_from_arguments(args) -> ZenohSettings | None:
             endpoints[side] = ()  # a client does not listen: the command's default is for a peer
         else:
             endpoints[side] = tuple(default)
+    for side, option in (("listen", "--zenoh-listen"), ("connect", "--zenoh-connect")):
+        try:
+            endpoints[side] = tuple(check_endpoint(e, side == "listen") for e in endpoints[side])
+        except ValueError as error:
+            raise ValueError(f"{option}: {error}") from None
     return ZenohSettings(mode=mode, listen=endpoints["listen"], connect=endpoints["connect"], config_file=path)
 
 
@@ -163,7 +245,7 @@ def required_settings(args, who: str) -> ZenohSettings:
     ("<who> needs zenoh") for ``--zenoh-mode none``, as for an unreadable configuration file."""
     settings = settings_from_arguments(args)
     if settings is None:
-        raise ValueError(f"{who} needs zenoh (--zenoh-mode peer, client or router)")
+        raise ValueError(f"{who} needs zenoh: --zenoh-mode peer or client, not none")
     return settings
 
 

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from gcs.bench import PLANNERS, SEARCH_VARIANTS
 from gcs.bench.urban_nav import NAVIGATION_MODES
+from gcs.cli_errors import UsageError, writable_file
 from gcs.niceness import niceness_argument
 
 DAEMON_NAVIGATION = ("auto", "skf", "reported")
@@ -34,20 +35,29 @@ def _wrote(paths) -> None:
         print(f"wrote {path}")
 
 
+def _check_outputs(args: argparse.Namespace) -> None:
+    """UsageError unless --json can be written and --plots DIR is a folder or can be made; the scenario loads."""
+    writable_file(getattr(args, "json", None), "--json")
+    plots = getattr(args, "plots", None)
+    if plots is not None and plots.exists() and not plots.is_dir():
+        raise UsageError(f"--plots {plots}: not a folder")
+    if getattr(args, "scenario", None) is not None:
+        from gcs.scenarios import load_scenario
+
+        load_scenario(args.scenario)
+
+
 def _outputs_checked(handler):
-    """Check --json's folder and make --plots DIR before the benchmark runs (not after an hour of it)."""
+    """Check --json and --plots DIR (made here) before the benchmark runs, not after an hour of it."""
 
     def checked(args: argparse.Namespace) -> int:
-        json_path, plots = getattr(args, "json", None), getattr(args, "plots", None)
-        if json_path is not None and not json_path.parent.is_dir():
-            print(f"gcs bench: --json {json_path}: no folder {json_path.parent}", file=sys.stderr)
-            return 2
+        _check_outputs(args)
+        plots = getattr(args, "plots", None)
         if plots is not None:
             try:
                 plots.mkdir(parents=True, exist_ok=True)
             except OSError as error:
-                print(f"gcs bench: --plots {plots}: {error}", file=sys.stderr)
-                return 2
+                raise UsageError(f"--plots {plots}: {error.strerror or error}") from None
         return handler(args)
 
     return checked
@@ -241,8 +251,10 @@ def _cmd_soak(args: argparse.Namespace) -> int:
                f"--rate {args.rate:g} --fault-every {args.fault_every:g} --seed {args.seed}")
     try:
         report = soak.run_soak(options, command=command, progress=_progress, workdir=args.workdir)
-    except (RuntimeError, ValueError) as error:
-        print(f"gcs bench soak: {error}", file=sys.stderr)
+    except ValueError as error:  # the options describe no soak (e.g. fewer vehicles than the scenario's)
+        raise UsageError(error) from None
+    except RuntimeError as error:
+        print(f"gcs bench soak: error: {error}", file=sys.stderr)
         return 1
     print(soak.format_report(report))
     if args.json:
@@ -281,6 +293,7 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     parser = sub.add_parser("bench", help="reproduce the papers' experiments and measure speed",
                             description="Benchmarks: each prints its table (progress on stderr) and can write --json, and "
                                 "--plots DIR: PNG plots and the tables in markdown.")
+    parser.set_defaults(check=_check_outputs)
     benches = parser.add_subparsers(dest="bench", required=True, metavar="BENCHMARK")
     est = benches.add_parser(
         "estimation",
@@ -459,3 +472,5 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     soak.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     soak.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
     soak.set_defaults(handler=_outputs_checked(_cmd_soak))
+    for bench in benches.choices.values():  # errors name the benchmark: "gcs bench soak: error: ..."
+        bench.set_defaults(command_prog=bench.prog)

@@ -51,7 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gcs.adapters.ports import LOCALHOST, free_tcp_port
+from gcs.adapters.ports import LOCALHOST
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.app import Daemon, DaemonOptions
 from gcs.daemon.records import PlanRecord, StepRecord
@@ -343,11 +343,11 @@ def _measure(scenario: Scenario, world: World, seconds: float, solve_steps: int,
              say: Callable[[str], None], profiler: cProfile.Profile | None, navigation: str = "auto",
              rates: Sequence[float] = (), load_niceness: int = LOAD_NICENESS) -> dict:
     """The rate search (orbit) and the GA's solve time for one scenario, against one load process."""
-    endpoint = f"tcp/{LOCALHOST}:{free_tcp_port()}"
     context = multiprocessing.get_context("spawn")
     ours, theirs = context.Pipe()
     fleet = Fleet.of(scenario, nav_per_round=runs_skf(navigation, scenario))
-    load = context.Process(target=publisher_main, args=(theirs, endpoint, fleet, load_niceness), daemon=True)
+    load = context.Process(target=publisher_main, args=(theirs, f"tcp/{LOCALHOST}:0", fleet, load_niceness),
+                           daemon=True)
     load.start()
     theirs.close()  # so that a dead load process reads as EOF here
     try:
@@ -357,6 +357,7 @@ def _measure(scenario: Scenario, world: World, seconds: float, solve_steps: int,
             ready = ours.recv()
         except EOFError:
             raise RuntimeError("the load process died while starting") from None
+        endpoint = ready["endpoint"]  # where the system let it listen
         count = len(scenario.vehicles)
         search = _Run(scenario, world, LATENCY_PLANNER, endpoint, ours, profiler, navigation)
         trials = search.run(_search(search, seconds, count / scenario.time.step_s, say, rates))

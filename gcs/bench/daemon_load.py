@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gcs.adapters.zenoh_session import ZenohSettings, declare_publisher, open_session
+from gcs.adapters.zenoh_session import ZenohSettings, declare_publisher, listening_endpoints, open_session
 from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
 from gcs.niceness import lower_priority
@@ -217,15 +217,17 @@ class Load:
 
 
 def publisher_main(conn, endpoint: str, fleet: Fleet, niceness: int = LOAD_NICENESS) -> None:
-    """The load process: listen on ``endpoint`` and obey ``(command, *args)`` from ``conn`` until ``stop``;
-    ``niceness`` below the priority it was started with (:data:`LOAD_NICENESS`)."""
+    """The load process: listen on ``endpoint`` (a port of 0: the one the system chooses, sent back in the
+    ready message's ``endpoint``) and obey ``(command, *args)`` from ``conn`` until ``stop``; ``niceness``
+    below the priority it was started with (:data:`LOAD_NICENESS`)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the benchmark process stops us through the pipe
     nice = lower_priority(niceness)
     session = open_session(ZenohSettings(mode="peer", listen=(endpoint,), connect=()))
     load = None
     try:
         load = Load(session, fleet)
-        conn.send({"ready": True, "nice": nice})
+        listening = listening_endpoints(session) if endpoint.endswith(":0") else [endpoint]
+        conn.send({"ready": True, "nice": nice, "endpoint": listening[0]})
         while True:
             command, *args = conn.recv()
             if command == "stop":

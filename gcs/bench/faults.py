@@ -1,8 +1,11 @@
 """Fault injection for ``gcs bench soak`` (and the fault tests): a mutable MAVLink relay, bad Zenoh samples.
 
 * :class:`UdpRelay` forwards UDP datagrams between one vehicle side and a
-  ground station's port on 127.0.0.1; ``muted`` drops everything both ways,
-  like a radio out of range, while Zenoh goes on.
+  ground station on 127.0.0.1; ``muted`` drops everything both ways, like a
+  radio out of range, while Zenoh goes on. Both of its ports are the ones the
+  system chose: the vehicles send to :attr:`UdpRelay.port`, the ground station
+  to :attr:`UdpRelay.ground_port` (``udpout``), and each side's address is
+  learnt from its datagrams.
 * :class:`Injector` puts deliberately bad samples under the daemon's keys, each
   kind meant for one rejection: random bytes (``malformed``), a wrong encoding
   (``encoding``), a copy of a sample already sent (``duplicate``), a report
@@ -39,18 +42,21 @@ INJECTIONS = ("malformed", "encoding", "duplicate", "late", "stale", "future", "
 
 
 class UdpRelay:
-    """A UDP relay between vehicles (they send to :attr:`port`) and a ground station's ``daemon_port``."""
+    """A UDP relay between vehicles (they send to :attr:`port`) and a ground station that sends to
+    :attr:`ground_port` (its MAVLink ``udpout:127.0.0.1:<ground_port>``); either side is heard before it is
+    sent to, as a radio link would (until then its datagrams for the other side are dropped)."""
 
-    def __init__(self, daemon_port: int) -> None:
-        self.daemon = (LOCALHOST, daemon_port)
+    def __init__(self) -> None:
         self.outer = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)  # the vehicles send here
         self.outer.bind((LOCALHOST, 0))
-        self.inner = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)  # and this talks to the ground station
+        self.inner = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)  # and the ground station here
         self.inner.bind((LOCALHOST, 0))
         for sock in (self.outer, self.inner):
             sock.settimeout(0.05)
         self.port = self.outer.getsockname()[1]
+        self.ground_port = self.inner.getsockname()[1]
         self.vehicles: tuple[str, int] | None = None
+        self.ground: tuple[str, int] | None = None
         self.muted = False
         self.dropped = 0
         self._stop = threading.Event()
@@ -69,14 +75,19 @@ class UdpRelay:
                 return
             if from_vehicles:
                 self.vehicles = address  # a restarted vehicle process sends from a new port
+            else:
+                self.ground = address
             if self.muted:
                 self.dropped += 1
                 continue
+            other = self.ground if from_vehicles else self.vehicles
+            if other is None:
+                continue  # the other side has not been heard yet: nowhere to send
             try:
                 if from_vehicles:
-                    self.inner.sendto(data, self.daemon)
-                elif self.vehicles is not None:
-                    self.outer.sendto(data, self.vehicles)
+                    self.inner.sendto(data, other)
+                else:
+                    self.outer.sendto(data, other)
             except OSError:  # nobody listening (yet): like a radio link, the datagram is gone
                 pass
 
@@ -100,6 +111,8 @@ class Injector:
     def __init__(self, session: zenoh.Session, prefix: str, rng: np.random.Generator, step_s: float) -> None:
         self.session, self.prefix, self.rng, self.step_s = session, prefix, rng, step_s
         self.latest: dict[str, tuple[str, bytes, str]] = {}
+        self.newest_ns: int | None = None
+        """The newest stamp of a vehicle's report seen (what the daemon's ``future`` check counts from)."""
         self.counts: Counter = Counter()
         self._lock = threading.Lock()
         self._ours: set[bytes] = set()  # what we put (the observer sees it too): never copied or aged again
@@ -118,6 +131,7 @@ class Injector:
             return None
         with self._lock:
             self.latest[key] = (key, payload, encoding)
+            self.newest_ns = report.stamp_ns if self.newest_ns is None else max(self.newest_ns, report.stamp_ns)
         return report.stamp_ns
 
     def _put(self, key: str, payload: bytes, encoding: str) -> None:
@@ -150,8 +164,9 @@ class Injector:
             self._put(key, *self._aged(report, -7.6 * self.step_s))
         elif kind == "stale":
             self._put(key, *self._aged(report, -30.0 * self.step_s))
-        elif kind == "future":
-            self._put(key, *self._aged(report, 120.0))
+        elif kind == "future":  # from the newest on the wire: a vehicle killed a while ago has an old latest
+            ahead_s = (self.newest_ns - report.stamp_ns) / NS_PER_S + 120.0
+            self._put(key, *self._aged(report, ahead_s))
         elif kind == "unknown_vehicle":
             stranger = msgspec.structs.replace(report, vehicle_id="intruder")
             self._put(report_key("intruder", self.prefix), *encode(stranger))

@@ -2,22 +2,29 @@
 
 Processes on 127.0.0.1, as in the field: a ``gcs router``; the daemon
 (``gcs run``, a Zenoh client of the router, MAVLink per vehicle group); the
-vehicles (``sim-vehicles run``, a few vehicles per process, clients of the
-router, all on one simulation clock) whose MAVLink goes through a
+vehicles (``sim-vehicles run --lockstep``, a few vehicles per process, clients
+of the router, all on one simulation clock, which a process that falls behind
+holds back for all: :mod:`sim_vehicles.lockstep`) whose MAVLink goes through a
 :class:`~gcs.bench.faults.UdpRelay` each; and this process, an **observer**
 that subscribes to everything the daemon consumes (through the same router,
 so it sees exactly what is on the wire) and injects faults at random
 (exponential gaps, mean ``fault_every_s`` of wall time):
 
-* ``kill``: SIGKILL a vehicle process; it is started again 1-4 s later and
-  joins the clock (``--start-at`` in the past);
+* ``kill``: SIGKILL a vehicle process (one whose vehicles are on the wire, and
+  never the last such: that kill is a burst of bad samples instead); it is
+  started again 1-4 s later and
+  joins the clock (``--start-at`` in the past: its target is moved to the
+  running vehicles' time before its vehicles report);
 * ``silence``: mute a process's MAVLink relay for 2-8 s;
 * ``inject``: a burst of bad samples (:data:`~gcs.bench.faults.INJECTIONS`).
 
 At the end the vehicles stop, the daemon drains, and the report compares the
 samples on the wire (**published**: the vehicles' and the injected ones) with
 what the daemon **received** (accepted, or rejected by a counted reason):
-``lost`` must be zero. **Crashes** are processes that died unasked (the
+``lost`` must be zero. The **late share** is the vehicles' reports the daemon
+took in after their decision step had closed (``rejected.late``, the reports
+injected late on purpose taken off), out of the vehicles' reports it accepted.
+**Crashes** are processes that died unasked (the
 daemon, the router, a vehicle not killed on purpose) and planner restarts.
 **Memory** is the daemon's resident set (and its planner process's) at 10%
 of the simulated duration and at the end.
@@ -34,29 +41,27 @@ import threading
 import time
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
 import zenoh
 
-from gcs.adapters.ports import LOCALHOST, free_tcp_port, free_udp_port
+from gcs.adapters.ports import LOCALHOST
 from gcs.adapters.zenoh_session import ZenohSettings, open_session, query
 from gcs.bench.daemon import _load_average, machine_note
 from gcs.bench.faults import Injector, UdpRelay, every_kind
+from gcs.bench.soak_report import EPOCH_NS, POST_INGEST, build_report, format_report, received, write_json
 from gcs.bench.urban import with_vehicles
 from gcs.scenarios import load_scenario
 from protocols.codec import decode
 from protocols.keys import navs_selector, reports_selector, status_key, truth_selector
 from protocols.messages import DaemonStatus
 
-__all__ = ["SoakOptions", "run_soak", "format_report", "scenario_file", "POST_INGEST"]
+__all__ = ["SoakOptions", "run_soak", "format_report", "write_json", "scenario_file", "POST_INGEST"]
 
 NS_PER_S = 1_000_000_000
-EPOCH_NS = 1_000_000 * NS_PER_S
-POST_INGEST = ("rejected.late", "rejected.diverged")
-"""Rejections of reports ingest had accepted (counted twice otherwise)."""
 
 
 @dataclass(frozen=True)
@@ -124,16 +129,16 @@ class _Soak:
         self.scenario = load_scenario(self.scenario_path)
         ids = [v.id for v in self.scenario.vehicles]
         self.groups = [ids[i::options.processes] for i in range(min(options.processes, len(ids)))]
-        self.router_endpoint = f"tcp/{LOCALHOST}:{free_tcp_port()}"
-        self.daemon_ports = [free_udp_port() for _ in self.groups]
+        self.router_endpoint = ""  # the router's, once it has said where it listens
         self.relays: list[UdpRelay] = []
         self.observed: Counter = Counter()
+        self.heard_s: dict[str, float] = {}
+        """Each vehicle's latest nav or report on the wire (monotonic wall seconds)."""
         self.crashes: Counter = Counter()
         self.faults: Counter = Counter()
         self.silence_s = 0.0
         self.processes: list[subprocess.Popen | None] = [None] * len(self.groups)
         self.killed: set[int] = set()
-        self.newest_stamp_ns = 0
         self._first = [str(kind) for kind in self.rng.permutation(["kill", "silence", "inject"])]
         self.others: list[subprocess.Popen] = []
         self._lock = threading.Lock()
@@ -149,14 +154,16 @@ class _Soak:
 
     def start_router(self) -> subprocess.Popen:
         router = self._spawn("router", [sys.executable, "-m", "gcs.cli", "router", "--zenoh-listen",
-                                        self.router_endpoint], stdout=subprocess.PIPE)
+                                        f"tcp/{LOCALHOST}:0"], stdout=subprocess.PIPE)
         ready, _, _ = select.select([router.stdout], [], [], 60.0)
-        if not ready or "router listening" not in router.stdout.readline():
+        line = router.stdout.readline() if ready else ""
+        if not line.startswith("router listening on tcp/"):
             raise RuntimeError(f"the router did not start (see {self.workdir / 'router.log'})")
+        self.router_endpoint = line.removeprefix("router listening on ").split(",")[0].strip()
         return router
 
     def start_daemon(self) -> subprocess.Popen:
-        vehicles = [f"{v}=udpin:{LOCALHOST}:{port}" for group, port in zip(self.groups, self.daemon_ports)
+        vehicles = [f"{v}=udpout:{LOCALHOST}:{relay.ground_port}" for group, relay in zip(self.groups, self.relays)
                     for v in group]
         argv = [sys.executable, "-m", "gcs.cli", "run", "--scenario", str(self.scenario_path), "--seed",
                 str(self.options.seed), "--zenoh-mode", "client", "--zenoh-connect", self.router_endpoint,
@@ -172,21 +179,22 @@ class _Soak:
             "--scenario", str(self.scenario_path), *only, "--seed", str(self.options.seed),
             "--rate", str(self.options.rate), "--duration", str(self.options.duration_s),
             "--epoch-ns", str(EPOCH_NS), "--start-at", repr(start_at),
-            "--mavlink", f"udpout:{LOCALHOST}:{self.relays[index].port}",
+            "--lockstep", "--mavlink", f"udpout:{LOCALHOST}:{self.relays[index].port}",
             "--zenoh-mode", "client", "--zenoh-connect", self.router_endpoint,
             "--json", str(self.workdir / f"vehicles{index}.json")])
         self.killed.discard(index)
 
     def simulation_lag(self) -> dict:
-        """From the vehicle processes that ran to the end: physics steps started late (the machine did not
-        keep the rate), out of all."""
-        late = steps = 0
+        """From the vehicle processes that ran to the end: physics steps started late (behind the wall
+        schedule: the machine did not give the process the CPU it needed, or lockstep held it for another),
+        steps held for the other vehicles and the wall seconds they were held, out of all steps."""
+        totals = Counter()
         for index in range(len(self.groups)):
             path = self.workdir / f"vehicles{index}.json"
             if path.exists():
                 summary = json.loads(path.read_text())
-                late, steps = late + summary["late_steps"], steps + summary["steps"]
-        return {"late_steps": late, "steps": steps}
+                totals.update({key: summary[key] for key in ("late_steps", "steps", "held_steps", "held_s")})
+        return {key: totals[key] for key in ("late_steps", "steps", "held_steps", "held_s")}
 
     # ------------------------------------------------------------- observer
 
@@ -196,19 +204,27 @@ class _Soak:
             kind = key.rsplit("/", 1)[-1] if "/vehicle/" in key else "truth"
             with self._lock:
                 self.observed[kind] += 1
-            stamp = injector.observe(key, sample.payload.to_bytes(), str(sample.encoding))
-            if stamp is not None and stamp > self.newest_stamp_ns:
-                self.newest_stamp_ns = stamp
+                if kind in ("report", "nav"):
+                    self.heard_s[key.split("/vehicle/", 1)[1].split("/", 1)[0]] = time.monotonic()
+            injector.observe(key, sample.payload.to_bytes(), str(sample.encoding))
         return on_sample
 
-    def clock_start(self, session: zenoh.Session, start_at: float) -> float:
-        """The ``--start-at`` that joins the vehicles where their data is now, not where the wall clock says
-        they should be (on a machine that cannot keep the rate they run behind it): the newest report the
-        daemon has taken in, so that the restarted vehicles' stamps are not older than their last ones there."""
-        status = self.status(session, 2.0)
-        stamps = [v.last_report_stamp_ns for v in status.vehicles if v.last_report_stamp_ns] if status else []
-        newest = max(stamps, default=self.newest_stamp_ns)
-        if newest <= EPOCH_NS:
+    def _flying(self, now: float) -> list[int]:
+        """The vehicle processes whose vehicles are on the wire (heard within the last second): a kill leaves
+        one of them flying, for the restarted processes to join (with every vehicle down, the daemon hears
+        nobody while a restarted process starts up, and its first stamps come a start-up's worth of
+        simulated time after the daemon's newest)."""
+        with self._lock:
+            return [i for i, group in enumerate(self.groups) if i not in self.killed
+                    and any(now - self.heard_s.get(v, -1e9) <= 1.0 for v in group)]
+
+    def clock_start(self, injector: Injector, start_at: float) -> float:
+        """The ``--start-at`` of a restarted vehicle process: where the vehicles' data is now (the newest
+        report on the wire), not where the wall clock says it should be, since a run the machine cannot keep
+        at its rate is behind that. With other vehicles running, lockstep joins it to them anyway; this is
+        for the process that restarts while every other is down too (no one to join)."""
+        newest = injector.newest_ns
+        if newest is None or newest <= EPOCH_NS:
             return start_at
         return time.time() - (newest - EPOCH_NS) / NS_PER_S / self.options.rate
 
@@ -223,9 +239,8 @@ class _Soak:
         """One fault: the first three are one of each kind (in a random order), then at random."""
         kind = self._first.pop() if self._first else self.rng.choice(["kill", "silence", "inject"],
                                                                        p=[0.25, 0.25, 0.5])
-        running = [i for i, p in enumerate(self.processes) if p is not None and p.poll() is None]
-        if kind == "kill" and running:
-            index = int(self.rng.choice(running))
+        if kind == "kill" and len(self._flying(now)) >= 2:
+            index = int(self.rng.choice(self._flying(now)))
             self.processes[index].kill()
             self.killed.add(index)
             self.faults["kills"] += 1
@@ -263,7 +278,7 @@ def run_soak(options: SoakOptions, command: str = "", progress: Callable[[str], 
         on_sample = soak.observe(injector)
         for selector in (reports_selector(), navs_selector(), truth_selector()):
             session.declare_subscriber(selector, on_sample)
-        soak.relays = [UdpRelay(port) for port in soak.daemon_ports]
+        soak.relays = [UdpRelay() for _ in soak.groups]
         daemon = soak.start_daemon()
         if soak.status(session, 90.0) is None:
             raise RuntimeError(f"the daemon did not answer (see {workdir / 'daemon.log'})")
@@ -298,7 +313,7 @@ def run_soak(options: SoakOptions, command: str = "", progress: Callable[[str], 
             for due, index in [item for item in restarts if item[0] <= now or closing]:
                 restarts.remove((due, index))
                 if not closing:
-                    soak.start_vehicles(index, soak.clock_start(session, start_at))
+                    soak.start_vehicles(index, soak.clock_start(injector, start_at))
                     soak.faults["restarts"] += 1
             if start_at + margin < wall < end_at - margin and wall >= next_fault:
                 soak.fault(injector, now, restarts, unmutes)
@@ -339,14 +354,8 @@ def run_soak(options: SoakOptions, command: str = "", progress: Callable[[str], 
     for name, code in exit_codes.items():
         if code != 0:
             soak.crashes[name] += 1
-    return _report(options, soak, status, injector, memory, baseline, end, exit_codes, command, note, load_start,
-                   time.monotonic() - started, workdir)
-
-
-def _received(counters: dict[str, int]) -> int:
-    """Samples the daemon took in: accepted, or rejected by ingest."""
-    return sum(v for k, v in counters.items() if k.startswith("accepted.")) + sum(
-        v for k, v in counters.items() if k.startswith("rejected.") and k not in POST_INGEST)
+    return build_report(options, soak, status, dict(injector.counts), memory, baseline, end, exit_codes, command,
+                        note, load_start, time.monotonic() - started, workdir)
 
 
 def _drain(soak: _Soak, session: zenoh.Session, say: Callable[[str], None], timeout_s: float = 60.0) -> DaemonStatus:
@@ -356,82 +365,9 @@ def _drain(soak: _Soak, session: zenoh.Session, say: Callable[[str], None], time
         status = soak.status(session)
         with soak._lock:
             observed = sum(soak.observed.values())
-        if status is not None and (_received(status.counters) >= observed or time.monotonic() > deadline):
+        if status is not None and (received(status.counters) >= observed or time.monotonic() > deadline):
             return status
         if time.monotonic() > deadline:
             raise RuntimeError("the daemon's status stopped answering")
-        say(f"draining: the daemon took in {_received(status.counters) if status else '?'} of {observed}")
+        say(f"draining: the daemon took in {received(status.counters) if status else '?'} of {observed}")
         time.sleep(0.5)
-
-
-def _report(options: SoakOptions, soak: _Soak, status: DaemonStatus, injector: Injector, memory, baseline, end,
-            exit_codes: dict, command: str, note: str, load_start: str, wall_s: float, workdir: Path) -> dict:
-    counters = dict(status.counters)
-    published = dict(soak.observed)
-    total = sum(published.values())
-    received = _received(counters)
-    dropped = {k.removeprefix("rejected."): v for k, v in sorted(counters.items()) if k.startswith("rejected.")}
-    crashes = {"daemon": soak.crashes["daemon"], "router": soak.crashes["router"],
-               "vehicle_processes": soak.crashes["vehicle_processes"],
-               "planner_restarts": counters.get("planner_restarts", 0)}
-    rss = [m for m in memory if m[1] is not None]
-    return {
-        "command": command, "machine": note, "load_average": {"start": load_start, "end": _load_average()},
-        "options": asdict(options), "wall_s": wall_s, "workdir": str(workdir),
-        "simulated_s": (status.last_track_stamp_ns - EPOCH_NS) / NS_PER_S if status.last_track_stamp_ns else 0.0,
-        "published": {**published, "injected": sum(injector.counts.values()), "total": total},
-        "received": received,
-        "accepted": {k.removeprefix("accepted."): v for k, v in sorted(counters.items()) if k.startswith("accepted.")},
-        "used_in_steps": counters.get("accepted.report", 0) - counters.get("rejected.late", 0),
-        "dropped": dropped,
-        "lost": total - received,
-        "crashes": crashes, "crashes_total": sum(crashes.values()), "exit_codes": exit_codes,
-        "errors": {k: v for k, v in counters.items() if k.startswith("errors.")},
-        "faults": {"kills": soak.faults["kills"], "restarts": soak.faults["restarts"],
-                   "silences": soak.faults["silences"], "silence_s": soak.silence_s,
-                   "injected": dict(injector.counts)},
-        "decisions": counters.get("decisions", 0),
-        "plans_superseded": counters.get("plans_superseded", 0),
-        "steps_fused_only": counters.get("steps_fused_only", 0),
-        "simulation": soak.simulation_lag(),
-        "memory": {"daemon_rss_mb_start": baseline[1] if baseline else None, "daemon_rss_mb_end": end[1],
-                   "daemon_rss_mb_max": max((m[1] for m in rss), default=None),
-                   "daemon_rss_growth_mb": (end[1] - baseline[1]) if baseline and end[1] and baseline[1] else None,
-                   "planner_rss_mb_start": baseline[2] if baseline else None, "planner_rss_mb_end": end[2],
-                   "samples": [list(m) for m in memory[:: max(1, len(memory) // 200)]]},
-        "counters": counters,
-    }
-
-
-def format_report(report: dict) -> str:
-    """A few lines: accounting, crashes, faults, memory."""
-    published, memory, faults = report["published"], report["memory"], report["faults"]
-    mb = (lambda v: "-" if v is None else f"{v:.1f}")
-    options = report["options"]
-    return "\n".join([
-        f"soak: {report['command'] or 'gcs bench soak'}",
-        f"machine: {report['machine']}; load average {report['load_average']['start']} at start, "
-        f"{report['load_average']['end']} at the end",
-        f"{options['vehicles']} vehicles in {options['processes']} processes, {report['simulated_s']:.0f} of "
-        f"{options['duration_s']:g} simulated s at {options['rate']:g}x in {report['wall_s']:.0f} s of wall time",
-        f"published on the wire: {published['total']:,} samples ({published.get('report', 0):,} reports, "
-        f"{published.get('nav', 0):,} nav, {published.get('truth', 0):,} truth; {published['injected']:,} injected)",
-        f"received by the daemon: {report['received']:,}; accepted {report['accepted']}; used in decision steps "
-        f"{report['used_in_steps']:,} reports; dropped by reason {report['dropped']}",
-        f"lost (published - received): {report['lost']}",
-        f"crashes: {report['crashes_total']} {report['crashes']}; contained errors {report['errors'] or 'none'}",
-        f"faults: {faults['kills']} vehicle processes killed ({faults['restarts']} restarted), "
-        f"{faults['silences']} MAVLink silences ({faults['silence_s']:.0f} s), injected {faults['injected']}",
-        f"daemon RSS: {mb(memory['daemon_rss_mb_start'])} MB at 10% -> {mb(memory['daemon_rss_mb_end'])} MB at the end "
-        f"(growth {mb(memory['daemon_rss_growth_mb'])} MB, max {mb(memory['daemon_rss_mb_max'])}); planner process "
-        f"{mb(memory['planner_rss_mb_start'])} -> {mb(memory['planner_rss_mb_end'])} MB",
-        f"decisions: {report['decisions']:,} planned ({report['steps_fused_only']:,} steps fused only, a newer one "
-        f"planned instead); "
-        f"simulation steps started late: {report['simulation']['late_steps']:,} of {report['simulation']['steps']:,} "
-        f"(the machine's share of the lateness)",
-    ])
-
-
-def write_json(report: dict, path: Path) -> None:
-    """The report as JSON."""
-    path.write_text(json.dumps(report, indent=2) + "\n")

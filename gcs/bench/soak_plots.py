@@ -29,10 +29,16 @@ def write_plots(report: dict, directory: Path) -> list[Path]:
     accounting = [[kind, count] for kind, count in published.items()]
     accounting += [["received by the daemon", report["received"]], ["lost", report["lost"]],
                    ["crashes", report["crashes_total"]]]
+    late = report["late"]
+    lateness = [["vehicles' reports accepted", late["of"]], ["late (after their step closed)", late["reports"]],
+                ["late share %", round(100.0 * late["share"], 3)],
+                ["late share with the injected %", round(100.0 * late["share_with_injected"], 3)],
+                ["achieved rate (x real time)", round(report["achieved_rate"], 2)]]
     rss = [["daemon", memory["daemon_rss_mb_start"], memory["daemon_rss_mb_end"], memory["daemon_rss_growth_mb"]],
            ["planner process", memory["planner_rss_mb_start"], memory["planner_rss_mb_end"], None]]
     write_markdown(directory, "soak.md", "gcs bench soak",
                    [("samples published and taken in", ["what", "count"], accounting),
+                    ("late reports", ["what", "value"], lateness),
                     ("resident memory", ["process", "start MB", "end MB", "growth MB"], rss)],
                    notes=[report["command"]], written=written)
     return written

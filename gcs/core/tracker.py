@@ -226,6 +226,8 @@ def iterated_update(uif: UnscentedInformationFilter, prior: GaussianEstimate, st
     posterior = prior
     for _ in range(MAX_RELINEARISATIONS + 1):
         contributions = [uif.contribution(about, sensor, z, xyz, covs) for sensor, z, xyz, covs in stacked]
+        if about is not prior:
+            contributions = [c.linearised_about(about, prior) for c in contributions]
         posterior = uif.update(prior, contributions)
         moved = posterior.mean[:2] - about.mean[:2]
         if moved @ np.linalg.solve(posterior.cov[:2, :2], moved) <= RELINEARISE_SIGMA**2:

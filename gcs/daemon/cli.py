@@ -6,13 +6,14 @@ from __future__ import annotations
 import argparse
 import logging
 import signal
+import sys
 from pathlib import Path
 
 from gcs.adapters.foxglove_out import FoxgloveMissing, add_foxglove_arguments, foxglove_options
 from gcs.adapters.mavlink_cli import add_mavlink_arguments, connections_from_arguments, signing_key_from_arguments
 from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, required_settings
-from gcs.config import ScenarioError
+from gcs.cli_errors import UsageError, one_line, set_command, writable_file
 from gcs.daemon.navigation import NAVIGATION_MODES
 from gcs.daemon.status_cli import add_status, format_status, query_status
 from gcs.daemon.planning import PLANNER_MODES, PLANNER_NICENESS
@@ -24,7 +25,7 @@ from protocols.errors import ProtocolError
 from protocols.keys import validate_prefix
 
 __all__ = ["add_run", "add_status", "query_status", "format_status", "DEFAULT_GCS_MAVLINK", "build_daemon",
-           "install_signal_handlers", "add_navigation_argument"]
+           "install_signal_handlers", "add_navigation_argument", "check_run", "run_daemon"]
 
 log = logging.getLogger(__name__)
 
@@ -74,25 +75,49 @@ def add_run(sub: argparse._SubParsersAction) -> None:
     add_daemon_arguments(parser)
     add_mavlink_arguments(parser, DEFAULT_GCS_MAVLINK, "every vehicle is reached through")
     add_zenoh_arguments(parser, listen=(DEFAULT_ENDPOINT,), connect=())
-    parser.set_defaults(handler=_cmd_run)
+    set_command(parser, _cmd_run, check_run)
 
 
 def build_daemon(args: argparse.Namespace, **kwargs):
-    """The daemon the parsed options describe (ValueError/ScenarioError/OSError on bad options)."""
+    """The daemon the parsed options describe, built but not opened: :class:`UsageError` naming the option for
+    bad input (:class:`~gcs.config.ScenarioError` for a scenario that does not load)."""
     from gcs.app import Daemon, DaemonOptions
 
     scenario = load_scenario(args.scenario)
-    validate_prefix(args.prefix)
-    zenoh = required_settings(args, "the daemon")
-    options = DaemonOptions(zenoh=zenoh, prefix=args.prefix,
-                            mavlink=connections_from_arguments(args, [v.id for v in scenario.vehicles]),
-                            signing_key=signing_key_from_arguments(args), seed=args.seed, planner=args.planner,
-                            record=args.record, planner_mode=args.planner_mode,
-                            planner_niceness=args.planner_niceness, http=args.http,
-                            foxglove=foxglove_options(args), accept_unlisted=args.accept_unlisted,
-                            navigation=args.navigation)
+    try:
+        validate_prefix(args.prefix)
+    except ProtocolError as error:
+        raise UsageError(f"--prefix: {error}") from None
+    writable_file(args.record, "--record")
+    try:
+        zenoh = required_settings(args, "the daemon")
+        mavlink = connections_from_arguments(args, [v.id for v in scenario.vehicles])
+        options = DaemonOptions(zenoh=zenoh, prefix=args.prefix, mavlink=mavlink,
+                                signing_key=signing_key_from_arguments(args), seed=args.seed, planner=args.planner,
+                                record=args.record, planner_mode=args.planner_mode,
+                                planner_niceness=args.planner_niceness, http=args.http,
+                                foxglove=foxglove_options(args), accept_unlisted=args.accept_unlisted,
+                                navigation=args.navigation)
+    except (ValueError, FoxgloveMissing) as error:
+        raise UsageError(error) from None
     base_dir = scenario_base_dir(args.scenario)
     return Daemon(scenario, build_world(scenario, base_dir), options, **kwargs)
+
+
+def check_run(args: argparse.Namespace):
+    """``gcs run``'s input, checked: the daemon it describes (not opened)."""
+    return build_daemon(args)
+
+
+def run_daemon(daemon, command: str, until=None) -> int:
+    """Run ``daemon`` (opening it first) until stopped: 0, or 1 with one line on stderr when what it must open
+    cannot be (a zenoh client without its router, a port another program holds, a file it cannot write)."""
+    try:
+        daemon.run(until=until)
+    except (RuntimeError, OSError, ValueError) as error:
+        print(f"{command}: error: {one_line(error)}", file=sys.stderr)
+        return 1
+    return 0
 
 
 def install_signal_handlers(stop) -> None:
@@ -102,16 +127,9 @@ def install_signal_handlers(stop) -> None:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    try:
-        daemon = build_daemon(args)
-    except (ScenarioError, ValueError, OSError, ProtocolError, FoxgloveMissing) as error:
-        log.error("%s", error)
-        return 2
+    daemon = check_run(args)
     install_signal_handlers(daemon.stop)
-    try:
-        daemon.run()
-    except RuntimeError as error:  # zenoh could not open (e.g. port in use, client without router)
-        log.error("%s", error)
-        return 1
-    log.info("daemon stopped after %d decisions", daemon.counters["decisions"])
-    return 0
+    status = run_daemon(daemon, "gcs run")
+    if status == 0:
+        log.info("daemon stopped after %d decisions", daemon.counters["decisions"])
+    return status

@@ -61,6 +61,9 @@ REORDER_WINDOW_NS = 10 * 1_000_000_000
 inside the window are remembered to recognise duplicates, so older ones cannot be checked and are stale."""
 MAX_RECENT = 4096
 """Stamps remembered per source and kind (10 s of a 400 Hz stream); bounds the memory a flood can take."""
+OFF_CLOCK_AFTER = 2
+"""Reports of a vehicle refused in a row for their stamps before it is taken off the clock: one may be a
+stray (a replayed or spoofed sample); a vehicle whose clock has gone wrong sends nothing else."""
 MAX_UNLISTED = 64
 """Vehicles outside the roster accepted with ``accept_unlisted`` (the rest are ``unknown_vehicle``)."""
 MAX_ABS_POSITION_M = 1_000_000.0
@@ -84,8 +87,10 @@ class Ingest:
         """Vehicles outside the roster accepted so far, in order of arrival (only with ``accept_unlisted``)."""
         self.counters: Counter = Counter()
         self.off_clock: set[str] = set()
-        """Vehicles whose latest report was rejected for its stamp (``future`` or ``stale``: a clock gone wrong):
-        the step assembler does not wait for them until one of their reports is accepted again."""
+        """Vehicles whose latest :data:`OFF_CLOCK_AFTER` reports were rejected for their stamps (``future`` or
+        ``stale``: a clock gone wrong): the step assembler does not wait for them until one of their reports
+        is accepted again."""
+        self._refused_in_a_row: Counter = Counter()
         self._stamps: dict[tuple[str, str], _Recent] = {}
         self._targets: set[str] = set()
         self._keys: dict[str, ParsedKey] = {}
@@ -157,6 +162,7 @@ class Ingest:
         recent.add(stamp)
         if parsed.kind == "report":
             self.off_clock.discard(source)
+            self._refused_in_a_row.pop(source, None)
         if self._newest_ns is None or stamp > self._newest_ns:
             self._newest_ns = stamp
         if parsed.kind != "truth" and source not in self.roster:
@@ -166,9 +172,12 @@ class Ingest:
         return message
 
     def _off_clock(self, kind: str, source: str) -> None:
-        """A report refused for its stamp: its vehicle's clock has gone wrong (taken back by an accepted one)."""
+        """A report refused for its stamp: after :data:`OFF_CLOCK_AFTER` in a row its vehicle's clock has gone
+        wrong (taken back by an accepted one)."""
         if kind == "report":
-            self.off_clock.add(source)
+            self._refused_in_a_row[source] += 1
+            if self._refused_in_a_row[source] >= OFF_CLOCK_AFTER:
+                self.off_clock.add(source)
 
     def _admit_unlisted(self, vehicle_id: str) -> bool:
         """With ``accept_unlisted``: True for a vehicle already admitted, or a new one while there is room."""

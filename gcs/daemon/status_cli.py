@@ -9,16 +9,18 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import sys
 
 import msgspec
 
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, query, required_settings
+from gcs.cli_errors import UsageError, one_line, positive, set_command
 from protocols.codec import decode
 from protocols.errors import ProtocolError
 from protocols.keys import status_key
 from protocols.messages import DaemonStatus
 
-__all__ = ["add_status", "query_status", "format_status"]
+__all__ = ["add_status", "query_status", "format_status", "check_status"]
 
 log = logging.getLogger(__name__)
 
@@ -30,7 +32,7 @@ def add_status(sub: argparse._SubParsersAction) -> None:
     add_zenoh_arguments(parser, listen=(), connect=(DEFAULT_ENDPOINT,))
     parser.add_argument("--timeout", type=float, default=3.0, help="seconds to wait for the daemon (default 3)")
     parser.add_argument("--json", action="store_true", help="print the status as JSON")
-    parser.set_defaults(handler=_cmd_status)
+    set_command(parser, _cmd_status, check_status)
 
 
 def query_status(settings, prefix: str, timeout_s: float) -> DaemonStatus | None:
@@ -53,19 +55,29 @@ def format_status(status: DaemonStatus) -> list[str]:
     return lines
 
 
-def _cmd_status(args: argparse.Namespace) -> int:
+def check_status(args: argparse.Namespace):
+    """``gcs status``'s input, checked: the zenoh settings to ask with."""
+    positive(args.timeout, "--timeout")
     try:
-        settings = required_settings(args, "gcs status")
+        status_key(args.prefix)
+    except ProtocolError as error:
+        raise UsageError(f"--prefix: {error}") from None
+    try:
+        return required_settings(args, "gcs status")
     except ValueError as error:
-        log.error("%s", error)
-        return 2
+        raise UsageError(error) from None
+
+
+def _cmd_status(args: argparse.Namespace) -> int:
+    settings = check_status(args)
     try:
         status = query_status(settings, args.prefix, args.timeout)
     except (RuntimeError, ProtocolError) as error:
-        log.error("%s", error)
+        print(f"gcs status: error: {one_line(error)}", file=sys.stderr)
         return 1
     if status is None:
-        log.error("no daemon answered on %s within %g s", status_key(args.prefix), args.timeout)
+        print(f"gcs status: error: no daemon answered on {status_key(args.prefix)} within {args.timeout:g} s "
+              f"(connect: {', '.join(settings.connect) or 'none'}); is gcs run up there?", file=sys.stderr)
         return 1
     if args.json:
         print(json.dumps(msgspec.to_builtins(status), indent=2))

@@ -19,7 +19,7 @@ never changes a result. Steps are released in index order, each once:
   whose clock runs ahead of the others (its reports come early) from cutting
   their wait short; the first step of a run always waits for the timeout;
 * or, earlier, when **complete**: every vehicle the daemon expects (those
-  alive, less those whose latest report ingest refused for its stamp: see
+  alive, less those whose latest two reports ingest refused for their stamps: see
   :attr:`gcs.daemon.ingest.Ingest.off_clock`) has a report in the step, or has already reported for step
   ``k + 1 + reorder_steps`` or later (it skipped the step and is not waited
   for), and the step follows the last released one directly (after a step

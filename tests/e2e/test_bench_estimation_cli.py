@@ -21,7 +21,7 @@ def test_bench_estimation_writes_the_documented_json_plots_and_table(tmp_path: P
     assert done.returncode == 0, done.stderr
     assert "RMSE/sqrt(PCRLB)" in done.stdout and "speed-up" in done.stdout
     report = json.loads(out.read_text())
-    for name in ("duif", "filterpy_ukf"):
+    for name in ("duif", "duif_eq13", "filterpy_ukf"):  # the filter, the paper's form of it, the oracle
         metrics = report["methods"][name]
         assert set(metrics) == {"rmse_m", "rmse_over_pcrlb", "nees", "us_per_step_median"}
         assert all(math.isfinite(v) and v > 0 for v in metrics.values())
@@ -30,7 +30,8 @@ def test_bench_estimation_writes_the_documented_json_plots_and_table(tmp_path: P
     assert_pngs(plots, ["estimation_rmse.png", "estimation_speed.png"])
     tables = read_tables(plots / "estimation.md")
     methods = {row["method"]: row for row in tables["3 vehicles"]}
-    assert set(methods) == {"duif", "filterpy_ukf"}
+    assert set(methods) == {"duif", "duif_eq13", "filterpy_ukf"}
+    assert "duif: the filter as the daemon runs it (second_order=True, the default)" in done.stdout
     for name, row in methods.items():
         metrics = report["methods"][name]
         for column, key in (("RMSE m", "rmse_m"), ("RMSE / sqrt(PCRLB)", "rmse_over_pcrlb"), ("NEES", "nees"),

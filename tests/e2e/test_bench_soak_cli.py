@@ -39,7 +39,16 @@ def test_a_short_soak_loses_nothing_crashes_nothing_and_reports_memory(tmp_path:
     memory = report["memory"]
     assert memory["daemon_rss_mb_start"] > 0 and memory["daemon_rss_mb_end"] > 0 and memory["samples"]
     assert report["used_in_steps"] > 0 and report["decisions"] > 0
+    late = report["late"]  # the vehicles keep one clock through kills and restarts (lockstep)
+    assert late["injected"] == faults["injected"].get("late", 0)
+    assert late["reports"] == max(0, dropped.get("late", 0) - late["injected"])
+    assert late["of"] == accepted["report"] - late["injected"] and late["share"] < 0.01, late
+    assert f"late: {late['share']:.2%} of the vehicles' reports" in done.stdout
+    simulation = report["simulation"]
+    assert simulation["held_steps"] <= simulation["steps"]  # of the processes that ran to the end
     assert_pngs(tmp_path / "plots", ["soak_memory.png"])
     tables = read_tables(tmp_path / "plots" / "soak.md")
     counts = {row["what"]: int(row["count"]) for row in tables["samples published and taken in"]}
+    assert {row["what"]: row["value"] for row in tables["late reports"]}["late (after their step closed)"] == \
+        str(late["reports"])
     assert counts["total"] == published["total"] and counts["lost"] == 0 and counts["crashes"] == 0

@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from gcs.adapters.zenoh_session import ZenohSettings, open_session
+from gcs.adapters.zenoh_session import ZenohSettings, listening_endpoints, open_session
 from gcs.bench.urban import run_closed_loop
 from gcs.daemon.cli import query_status
 from gcs.scenarios import load_scenario
@@ -25,7 +25,7 @@ from protocols.codec import decode
 from protocols.keys import reports_selector, tracks_selector, truth_selector
 from protocols.messages import SensorReport, TargetTruth, TrackEstimate
 from tests.e2e.processes import script, stop
-from tests.loopback import free_tcp_port, free_udp_port
+from tests.loopback import ANY_PORT_ENDPOINT, ANY_UDP, Lines, daemon_up
 
 DURATION_S = 120
 RATE = 1.0
@@ -35,15 +35,18 @@ SEED = 0
 
 
 def test_daemon_with_three_vehicle_processes_tracks_like_the_in_process_loop(tmp_path) -> None:
-    endpoint, mavlink = f"tcp/127.0.0.1:{free_tcp_port()}", free_udp_port()
-    observer = f"tcp/127.0.0.1:{free_tcp_port()}"  # peers do not forward: the vehicles connect to both
     daemon = subprocess.Popen(
-        [script("gcs"), "run", "--seed", str(SEED), "--mavlink", f"udpin:127.0.0.1:{mavlink}",
-         "--zenoh-listen", endpoint, "--http", "none"], stdout=subprocess.PIPE, stderr=open(tmp_path / "daemon.log", "w"), text=True)
+        [script("gcs"), "run", "--seed", str(SEED), "--mavlink", ANY_UDP, "--zenoh-listen", ANY_PORT_ENDPOINT,
+         "--http", "none"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    daemon_log = Lines(daemon.stderr)
     inbox: queue.Queue = queue.Queue()
     vehicles: list[subprocess.Popen] = []
     try:
-        with open_session(ZenohSettings(listen=(observer,), connect=(endpoint,))) as session:
+        endpoint, ports = daemon_up(daemon_log)  # where the system let it listen
+        mavlink = ports["uav1"]
+        # peers do not forward: the vehicles connect to the observer too
+        with open_session(ZenohSettings(listen=(ANY_PORT_ENDPOINT,), connect=(endpoint,))) as session:
+            (observer,) = listening_endpoints(session)
             for selector in (reports_selector(), truth_selector(), tracks_selector()):
                 session.declare_subscriber(selector, lambda s: inbox.put((s.payload.to_bytes(), str(s.encoding))))
             assert query_status(ZenohSettings(connect=(endpoint,)), "gcs", 30.0) is not None  # daemon up first
@@ -65,7 +68,7 @@ def test_daemon_with_three_vehicle_processes_tracks_like_the_in_process_loop(tmp
         for process in vehicles:
             stop(process)
         code = stop(daemon)
-    assert code == 0, (tmp_path / "daemon.log").read_text()[-3000:]
+    assert code == 0, daemon_log.rest()[-3000:]
 
     seen: dict[int, bool] = {}
     truth: dict[int, tuple[float, float]] = {}

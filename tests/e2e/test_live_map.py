@@ -187,8 +187,8 @@ def test_replay_view_plays_a_recording_on_the_page_with_pause_and_speed(tmp_path
             assert playing["mode"] == "replay" and playing["play_button"] == "pause" and playing["buildings"] == 400
             browser.evaluate("document.getElementById('play').click()")
             paused = _wait_state(browser, lambda s: s["play_button"] == "play", "the replay paused")
-            time.sleep(1.0)
-            still = _state(browser)
+            # five more snapshots reached the page while paused (a second of the server's ticks): nothing moved
+            still = _wait_state(browser, lambda s: s["snapshots"] >= paused["snapshots"] + 5, "snapshots while paused")
             assert max(_moved(paused, still).values()) == 0.0 and still["track"]["seq"] == paused["track"]["seq"]
             browser.evaluate("const s = document.getElementById('speed'); s.value = '50'; "
                              "s.dispatchEvent(new Event('change')); document.getElementById('play').click()")

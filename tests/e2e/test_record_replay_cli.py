@@ -13,8 +13,9 @@ from mcap.reader import make_reader
 from gcs.adapters.recording import read_recording
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.daemon.cli import query_status
-from tests.e2e.processes import script
-from tests.loopback import free_tcp_port, free_udp_port
+from gcs.record import NO_PEER_WARN_S
+from tests.e2e.processes import script, stop
+from tests.loopback import ANY_PORT_ENDPOINT, ANY_UDP, Lines, daemon_up, silent_port
 
 
 def _tracks(path) -> list[bytes]:
@@ -58,37 +59,35 @@ def test_processing_a_recorded_demo_reproduces_the_daemons_tracks_bit_for_bit(tm
 
 
 def test_record_finishes_on_sigint_and_replay_feeds_a_running_daemon(tmp_path) -> None:
-    vehicles_endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
+    """The README's flow without a daemon: the recorder listens where the vehicles connect."""
     recording = tmp_path / "vehicles.mcap"
-    # the vehicles listen and wait (up to 60 s) for a subscriber before their clock starts: nothing is lost
-    vehicles = subprocess.Popen([script("sim-vehicles"), "run", "--duration", "15", "--rate", "10", "--mavlink",
-                                 "none", "--zenoh-listen", vehicles_endpoint, "--zenoh-connect", vehicles_endpoint,
-                                 "--wait-for-gcs", "60"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    recorder = subprocess.Popen([script("gcs"), "record", "-o", str(recording), "--zenoh-connect", vehicles_endpoint],
+    recorder = subprocess.Popen([script("gcs"), "record", "-o", str(recording), "--zenoh-listen", ANY_PORT_ENDPOINT],
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        vehicles.communicate(timeout=120)
+        out = Lines(recorder.stdout)
+        vehicles_endpoint = out.wait_for(r"recording gcs/\*\* to .*; listening on (tcp/127\.0\.0\.1:\d+)$").group(1)
+        # the vehicles wait (up to 60 s) for a subscriber before their clock starts: nothing is lost
+        flown = subprocess.run([script("sim-vehicles"), "run", "--duration", "15", "--rate", "10", "--mavlink", "none",
+                                "--zenoh-connect", vehicles_endpoint, "--wait-for-gcs", "60"],
+                               capture_output=True, text=True, timeout=120)
+        recorder.send_signal(signal.SIGINT)
+        recorder.wait(timeout=30)
+        stdout, stderr = out.rest(), recorder.stderr.read()
     finally:
-        if vehicles.poll() is None:
-            vehicles.kill()
-            vehicles.communicate()
-    flown = vehicles
-    recorder.send_signal(signal.SIGINT)
-    stdout, stderr = recorder.communicate(timeout=30)
-    assert flown.returncode == 0
+        stop(recorder)
+    assert flown.returncode == 0, flown.stderr
     assert recorder.returncode == 0, stderr
-    assert "recorded" in stdout
+    assert "recorded" in stdout and "no zenoh peer" not in stderr
     with open(recording, "rb") as stream:  # finished: the summary is there
         summary = make_reader(stream).get_summary()
     assert summary is not None and summary.statistics.message_count > 0
     reports = sum(1 for r in read_recording(recording) if r.key.endswith("/report"))
     assert reports == 45  # 3 vehicles x 15 s at 1 Hz
 
-    daemon_endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
-    daemon = subprocess.Popen([script("gcs"), "run", "--zenoh-listen", daemon_endpoint, "--mavlink",
-                               f"udpin:127.0.0.1:{free_udp_port()}", "--http", "none"], stdout=subprocess.PIPE,
-                              stderr=subprocess.PIPE, text=True)
+    daemon = subprocess.Popen([script("gcs"), "run", "--zenoh-listen", ANY_PORT_ENDPOINT, "--mavlink", ANY_UDP,
+                               "--http", "none"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     try:
+        daemon_endpoint, _ = daemon_up(Lines(daemon.stderr))
         assert query_status(ZenohSettings(connect=(daemon_endpoint,)), "gcs", 30.0) is not None
         replayed = subprocess.run([script("gcs"), "replay", str(recording), "--fast", "--zenoh-connect",
                                    daemon_endpoint], capture_output=True, text=True, timeout=60)
@@ -99,9 +98,26 @@ def test_record_finishes_on_sigint_and_replay_feeds_a_running_daemon(tmp_path) -
                 break
             time.sleep(0.2)
     finally:
-        daemon.send_signal(signal.SIGINT)
-        daemon.communicate(timeout=30)
+        stop(daemon, timeout=30)
     assert replayed.returncode == 0, replayed.stderr
     assert "report 45" in replayed.stdout
     assert status.counters["accepted.report"] == 45
     assert not any(k.startswith("rejected.") for k in status.counters), status.counters
+
+
+def test_a_recorder_with_nobody_to_record_says_so_and_fails_unless_empty_is_allowed(tmp_path) -> None:
+    """Its default endpoint is the daemon's; with nobody there it warns, naming the endpoint and the fix, and an
+    empty recording is exit status 1 (0 with --allow-empty)."""
+    with silent_port() as port:  # bound, never listened on: where a daemon would be
+        endpoint = f"tcp/127.0.0.1:{port}"
+        runs = {allow: subprocess.run([script("gcs"), "record", "-o", str(tmp_path / f"empty{allow}.mcap"),
+                                       "--zenoh-connect", endpoint, "--duration", str(NO_PEER_WARN_S + 1.0),
+                                       *(["--allow-empty"] if allow else [])],
+                                      capture_output=True, text=True, timeout=60) for allow in (False, True)}
+    for allow, done in runs.items():
+        assert done.returncode == (0 if allow else 1), done.stderr
+        assert "recorded 0 messages" in done.stdout and "Traceback" not in done.stderr
+        assert f"no zenoh peer or router reached after {NO_PEER_WARN_S:g} s (connecting to {endpoint})" in done.stderr
+        assert "--zenoh-listen tcp/127.0.0.1:7447, where sim-vehicles run connects" in done.stderr
+        assert ("--allow-empty accepts an empty recording" in done.stderr) is not allow
+        assert list(read_recording(tmp_path / f"empty{allow}.mcap")) == []  # a valid, finished, empty file

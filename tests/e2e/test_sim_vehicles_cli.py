@@ -4,19 +4,22 @@ from __future__ import annotations
 
 import json
 import signal
+import socket
 import subprocess
+from contextlib import ExitStack
 
 from gcs.adapters.mavlink_wire import GCS_SYSID, open_connection
 from tests.e2e.processes import script
-from tests.loopback import free_udp_port
+from tests.loopback import silent_port
 
 
 def test_timed_run_loiters_and_writes_its_summary(tmp_path) -> None:
     out = tmp_path / "summary.json"
-    done = subprocess.run(
-        [script("sim-vehicles"), "run", "--duration", "20", "--rate", "20", "--seed", "4", "--zenoh-mode", "none",
-         "--mavlink", f"udpout:127.0.0.1:{free_udp_port()}", "--json", str(out)],
-        capture_output=True, text=True, timeout=120)
+    with silent_port(socket.SOCK_DGRAM) as port:  # the vehicles send to it; nobody reads
+        done = subprocess.run(
+            [script("sim-vehicles"), "run", "--duration", "20", "--rate", "20", "--seed", "4", "--zenoh-mode", "none",
+             "--mavlink", f"udpout:127.0.0.1:{port}", "--json", str(out)],
+            capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert "simulated 20.0 s" in done.stdout
     summary = json.loads(out.read_text())
@@ -27,11 +30,13 @@ def test_timed_run_loiters_and_writes_its_summary(tmp_path) -> None:
 
 
 def test_sigint_stops_the_vehicles_cleanly_with_a_summary() -> None:
-    port = free_udp_port()
-    gcs = open_connection(f"udpin:127.0.0.1:{port}", source_system=GCS_SYSID)
+    gcs = open_connection("udpin:127.0.0.1:0", source_system=GCS_SYSID)
+    port = gcs.port.getsockname()[1]
+    nobody = ExitStack()
+    zenoh_port = nobody.enter_context(silent_port())  # a peer that connects nowhere, and retries
     process = subprocess.Popen(
         [script("sim-vehicles"), "run", "--rate", "5", "--zenoh-mode", "peer", "--zenoh-connect",
-         f"tcp/127.0.0.1:{free_udp_port()}", "--mavlink", f"udpout:127.0.0.1:{port}"],
+         f"tcp/127.0.0.1:{zenoh_port}", "--mavlink", f"udpout:127.0.0.1:{port}"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         assert gcs.recv_match(type="HEARTBEAT", blocking=True, timeout=30) is not None
@@ -42,5 +47,6 @@ def test_sigint_stops_the_vehicles_cleanly_with_a_summary() -> None:
             process.kill()
             process.communicate()
         gcs.close()
+        nobody.close()
     assert process.returncode == 0, stderr
     assert "simulated" in stdout and "uav3: mode LOITER" in stdout

@@ -12,7 +12,7 @@ from tests.integration.mavproxy_harness import MavProxy
 
 @pytest.fixture
 def mavproxy(tmp_path: Path) -> Iterator[MavProxy]:
-    """A started MAVProxy listening on ``udpin:127.0.0.1:<free port>`` (``.master_port``).
+    """A started MAVProxy listening on ``udpin:127.0.0.1:<port>``, the system's choice (``.master_port``).
 
     Its logs and transcript (``mavproxy.out``) stay in the test's ``tmp_path`` for a post-mortem;
     it is stopped (SIGINT, then SIGKILL) when the test ends, pass or fail.

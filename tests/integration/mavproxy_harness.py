@@ -61,7 +61,7 @@ from typing import TypeVar
 
 import pexpect
 
-from tests.loopback import LOCALHOST, free_udp_port
+from tests.loopback import LOCALHOST
 
 __all__ = ["DEFAULT_MODULES", "MavProxy"]
 
@@ -69,6 +69,26 @@ DEFAULT_MODULES = ("mode", "arm", "param", "cmdlong")
 """The console modules a test needs: ``mode``/``guided``, ``arm``, parameters and ``long``."""
 
 _READY = r"Waiting for heartbeat from "
+
+
+def _bound_udp_port(pid: int) -> int:
+    """The one UDP port process ``pid`` has bound to 127.0.0.1 (its master socket; its ``udpout`` sockets are
+    not bound to an address), from /proc: the socket inodes of its open files, looked up in its net/udp."""
+    inodes = set()
+    for fd in os.listdir(f"/proc/{pid}/fd"):
+        try:
+            target = os.readlink(f"/proc/{pid}/fd/{fd}")
+        except OSError:
+            continue  # closed meanwhile
+        if target.startswith("socket:["):
+            inodes.add(target[len("socket:["):-1])
+    with open(f"/proc/{pid}/net/udp") as table:
+        rows = [line.split() for line in table.readlines()[1:]]
+    ports = {int(row[1].split(":")[1], 16) for row in rows if row[9] in inodes and row[1].startswith("0100007F:")}
+    if len(ports) != 1:
+        raise RuntimeError(f"MAVProxy (pid {pid}) has bound {sorted(ports) or 'no'} UDP ports on 127.0.0.1, "
+                           "expected its master's one")
+    return ports.pop()
 # A prompt MAVProxy writes when the mode changes starts a line or follows another prompt; the
 # repeat that input() writes after each command may land mid-line (see the module docstring).
 _PROMPT = re.compile(r"(?:^|(?<=> ))([A-Za-z0-9_()]+)> ", re.MULTILINE)
@@ -95,7 +115,7 @@ class MavProxy:
 
     Use it as a context manager (or call :meth:`start` and :meth:`close`)::
 
-        with MavProxy() as proxy:                  # a free port, a temporary folder
+        with MavProxy() as proxy:                  # a port the system chooses, a temporary folder
             start_vehicle(f"udpout:127.0.0.1:{proxy.master_port}")
             proxy.wait_for_vehicle(7)
             proxy.wait_for_mode("LOITER")
@@ -113,7 +133,9 @@ class MavProxy:
     def __init__(self, master_port: int | None = None, *, outs: Sequence[str] = (),
                  modules: Sequence[str] = DEFAULT_MODULES, extra_args: Sequence[str] = (),
                  workdir: str | Path | None = None, timeout: float = 10.0) -> None:
-        self.master_port = free_udp_port() if master_port is None else master_port
+        self.master_port = 0 if master_port is None else master_port
+        """The port MAVProxy listens on for the vehicle: 0 until :meth:`start` has read back the one the system
+        chose, when none was given."""
         self.timeout = timeout
         self._own_workdir = workdir is None
         self.workdir = Path(tempfile.mkdtemp(prefix="mavproxy-")) if workdir is None else Path(workdir)
@@ -156,6 +178,8 @@ class MavProxy:
         self._reader.start()
         try:
             self.expect(_READY, timeout)
+            if self.master_port == 0:
+                self.master_port = _bound_udp_port(self._child.pid)
         except BaseException:
             self.close()
             raise

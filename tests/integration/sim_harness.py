@@ -43,10 +43,12 @@ def running_vehicles(options: RunOptions) -> Iterator[Runner]:
 
 
 class GroundStation:
-    """A minimal pymavlink GCS on ``udpin:127.0.0.1:<port>`` (sysid 255)."""
+    """A minimal pymavlink GCS on ``udpin:127.0.0.1:<port>`` (sysid 255); ``port`` 0 (the default) lets the
+    system choose it, read back as :attr:`port`."""
 
-    def __init__(self, port: int, signing_key: bytes | None = None) -> None:
+    def __init__(self, port: int = 0, signing_key: bytes | None = None) -> None:
         self.conn = open_connection(f"udpin:127.0.0.1:{port}", source_system=GCS_SYSID, source_component=190)
+        self.port: int = self.conn.port.getsockname()[1]
         if signing_key is not None:
             self.conn.setup_signing(signing_key, sign_outgoing=True)
 
@@ -95,9 +97,11 @@ def angle_error_deg(a: float, b: float) -> float:
     return abs((a - b + 180.0) % 360.0 - 180.0)
 
 
-def options(port: int, **changes) -> RunOptions:
-    """Every vehicle to ``udpout:127.0.0.1:<port>``, no zenoh, 10x real time."""
-    base = RunOptions(rate=10.0, seed=1, mavlink={v.id: f"udpout:127.0.0.1:{port}" for v in SCENARIO.vehicles})
+def options(port: int | dict[str, int], **changes) -> RunOptions:
+    """Every vehicle to ``udpout:127.0.0.1:<port>`` (or each to its own port: ``{vehicle: port}``), no zenoh,
+    10x real time."""
+    ports = port if isinstance(port, dict) else {v.id: port for v in SCENARIO.vehicles}
+    base = RunOptions(rate=10.0, seed=1, mavlink={v: f"udpout:127.0.0.1:{p}" for v, p in ports.items()})
     return replace(base, **changes)
 
 

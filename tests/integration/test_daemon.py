@@ -17,16 +17,17 @@ from protocols.codec import decode, encode
 from protocols.keys import report_key, track_key
 from protocols.messages import SensorReport, TrackEstimate
 from tests.integration.sim_harness import SCENARIO, WORLD, options, running_vehicles, wait_until
-from tests.loopback import free_tcp_port, free_udp_port
+from tests.loopback import ANY_PORT_ENDPOINT, ANY_UDP, daemon_ports
 
 RATE = 5.0
 EPOCH_NS = 1_000_000_000_000
 
 
 def test_daemon_tracks_answers_rejects_bad_input_and_replans_around_a_lost_vehicle() -> None:
-    endpoint, port = f"tcp/127.0.0.1:{free_tcp_port()}", free_udp_port()
-    daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=ZenohSettings(listen=(endpoint,), connect=()),
-                                                   mavlink={v.id: f"udpin:127.0.0.1:{port}" for v in SCENARIO.vehicles}))
+    daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=ZenohSettings(listen=(ANY_PORT_ENDPOINT,), connect=()),
+                                                   mavlink={v.id: ANY_UDP for v in SCENARIO.vehicles}))
+    daemon.open()  # the ports the system chose are known from here on
+    endpoint, port = daemon_ports(daemon)
     thread = threading.Thread(target=daemon.run, name="daemon", daemon=True)
     thread.start()
     vehicles = ZenohSettings(connect=(endpoint,))

@@ -16,7 +16,7 @@ from gcs.adapters.web.server import LiveMapServer
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.app import Daemon, DaemonOptions
 from tests.integration.sim_harness import SCENARIO, WORLD, options, running_vehicles, wait_until
-from tests.loopback import free_tcp_port, free_udp_port
+from tests.loopback import ANY_PORT_ENDPOINT, ANY_UDP, daemon_ports
 
 RATE = 5.0
 EPOCH_NS = 1_000_000_000_000
@@ -28,11 +28,11 @@ def _get(url: str) -> dict:
 
 
 def test_the_map_shows_the_daemons_vehicles_track_plans_and_counters_then_goes_away_with_it() -> None:
-    endpoint, port = f"tcp/127.0.0.1:{free_tcp_port()}", free_udp_port()
     daemon = Daemon(SCENARIO, WORLD, DaemonOptions(
-        zenoh=ZenohSettings(listen=(endpoint,), connect=()), http=("127.0.0.1", 0),
-        mavlink={v.id: f"udpin:127.0.0.1:{port}" for v in SCENARIO.vehicles}))
+        zenoh=ZenohSettings(listen=(ANY_PORT_ENDPOINT,), connect=()), http=("127.0.0.1", 0),
+        mavlink={v.id: ANY_UDP for v in SCENARIO.vehicles}))
     daemon.open()
+    endpoint, port = daemon_ports(daemon)
     assert daemon.live is not None
     url = daemon.live.url
     thread = threading.Thread(target=daemon.run, name="daemon", daemon=True)
@@ -69,8 +69,8 @@ def test_the_map_shows_the_daemons_vehicles_track_plans_and_counters_then_goes_a
 
 def test_a_busy_address_leaves_the_daemon_running_without_a_map() -> None:
     busy = LiveMapServer(("127.0.0.1", 0), b"{}")
-    daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=ZenohSettings(listen=(f"tcp/127.0.0.1:{free_tcp_port()}",),
-                                                                       connect=()), http=("127.0.0.1", busy.port)))
+    daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=ZenohSettings(listen=(ANY_PORT_ENDPOINT,), connect=()),
+                                                   http=("127.0.0.1", busy.port)))
     try:
         daemon.run(until=lambda: daemon.counters["errors.live_map_open"] > 0 and time.sleep(0.2) is None)
     finally:

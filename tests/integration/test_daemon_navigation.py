@@ -20,7 +20,7 @@ from gcs.world_loader import build_world
 from protocols.codec import encode
 from sim_vehicles.runner import Runner, RunOptions
 from tests.integration.sim_harness import wait_until
-from tests.loopback import free_tcp_port, free_udp_port
+from tests.loopback import ANY_PORT_ENDPOINT, ANY_UDP, daemon_ports
 
 SCENARIO = load_scenario("wang2012_gps_denied")
 WORLD = build_world(SCENARIO)
@@ -43,17 +43,18 @@ def _no_fix_runs(records, vehicle: str) -> list[tuple[int, int]]:
 
 
 def test_the_daemon_navigates_through_a_gps_denied_strip_and_replay_reproduces_its_tracks(tmp_path) -> None:
-    endpoint, port = f"tcp/127.0.0.1:{free_tcp_port()}", free_udp_port()
     recording = tmp_path / "run.mcap"
     daemon = Daemon(SCENARIO, WORLD, DaemonOptions(
-        zenoh=ZenohSettings(listen=(endpoint,), connect=()), record=recording,
-        mavlink={v.id: f"udpin:127.0.0.1:{port}" for v in SCENARIO.vehicles}))
+        zenoh=ZenohSettings(listen=(ANY_PORT_ENDPOINT,), connect=()), record=recording,
+        mavlink={v.id: ANY_UDP for v in SCENARIO.vehicles}))
     assert daemon.options.navigation == "auto" and daemon.navigator is not None  # the default, on GPS-denied zones
+    daemon.open()
+    endpoint, ports = daemon_ports(daemon)
     thread = threading.Thread(target=daemon.run, name="daemon", daemon=True)
     thread.start()
     runner = Runner(SCENARIO, WORLD, RunOptions(
         rate=RATE, seed=3, duration_s=DURATION_S, epoch_ns=EPOCH_NS, wait_for_subscriber_s=5,
-        mavlink={v.id: f"udpout:127.0.0.1:{port}" for v in SCENARIO.vehicles},
+        mavlink={v.id: f"udpout:127.0.0.1:{ports[v.id]}" for v in SCENARIO.vehicles},
         zenoh=ZenohSettings(connect=(endpoint,))))
     vehicles = threading.Thread(target=runner.run, name="sim-vehicles", daemon=True)
     try:

@@ -14,7 +14,7 @@ from gcs.adapters.mavlink_wire import ARDUPLANE_MODES, GCS_SYSID, mavlink, sign_
 from gcs.core.geometry import LocalFrame, wrap_angle
 from sim_vehicles.mavlink_endpoint import SIGNING_EPOCH_S
 from tests.integration.sim_harness import SCENARIO, GroundStation, options, running_vehicles
-from tests.loopback import free_udp_port
+
 
 GUIDED, LOITER = ARDUPLANE_MODES["GUIDED"], ARDUPLANE_MODES["LOITER"]
 FRAME = LocalFrame(SCENARIO.origin.lat_deg, SCENARIO.origin.lon_deg, SCENARIO.origin.height_m)
@@ -23,9 +23,17 @@ TURN_RATES = {v.id: v.max_turn_rate_rad_s for v in SCENARIO.vehicles}
 KEY = signing_key_from_passphrase("correct horse")
 
 
-def commander_on(port: int, roster: dict[str, int] = ROSTER, scheme: str = "udpin", **kwargs) -> MavlinkCommander:
+def commander_on(port: int = 0, roster: dict[str, int] = ROSTER, scheme: str = "udpin",
+                 **kwargs) -> MavlinkCommander:
+    """A commander whose vehicles share one link (``udpin`` on port 0: the one the system chooses)."""
     return MavlinkCommander(FRAME, roster, dict.fromkeys(roster, f"{scheme}:127.0.0.1:{port}"),
                             max_turn_rate_rad_s=TURN_RATES, **kwargs)
+
+
+def bound_port(commander: MavlinkCommander) -> int:
+    """The port the system chose for the commander's one link."""
+    (bound,) = set(commander.bound_connections().values())
+    return int(bound.rsplit(":", 1)[1])
 
 
 def pump(commander: MavlinkCommander, until: Callable[[], bool], timeout_s: float = 8.0) -> None:
@@ -53,10 +61,9 @@ def on_course(commander: MavlinkCommander, vehicle_id: str, heading: float, tole
 @pytest.fixture()
 def sim() -> Iterator[tuple[MavlinkCommander, object]]:
     """The commander on ``udpin`` with the three simulated vehicles (10x real time) sending to it."""
-    port = free_udp_port()
-    commander = commander_on(port)
+    commander = commander_on()
     try:
-        with running_vehicles(options(port)) as runner:
+        with running_vehicles(options(bound_port(commander))) as runner:
             pump(commander, lambda: all(commander.link(v).position_enu_m is not None for v in ROSTER))
             yield commander, runner
     finally:
@@ -129,10 +136,9 @@ def test_guided_change_heading_is_sent_once_per_change(sim) -> None:
 
 
 def test_signed_commander_flies_signed_vehicles() -> None:
-    port = free_udp_port()
-    commander = commander_on(port, signing_key=KEY)
+    commander = commander_on(signing_key=KEY)
     try:
-        with running_vehicles(options(port, signing_key=KEY)) as runner:
+        with running_vehicles(options(bound_port(commander), signing_key=KEY)) as runner:
             commander.command("uav3", HeadingCommand(0.0, 220.0, 25.0))
             pump(commander, lambda: on_course(commander, "uav3", 0.0))
             assert runner.autopilots["uav3"].mode == GUIDED  # the vehicles drop unsigned commands
@@ -148,8 +154,8 @@ def test_signed_commander_flies_signed_vehicles() -> None:
 class ScriptedVehicles:
     """A udpin socket the commander reaches by ``udpout``, speaking as vehicles the test scripts."""
 
-    def __init__(self, port: int, signing_key: bytes | None = None) -> None:
-        self.station = GroundStation(port, signing_key)  # receives (and with a key, checks signatures)
+    def __init__(self, signing_key: bytes | None = None) -> None:
+        self.station = GroundStation(0, signing_key)  # receives (and with a key, checks signatures)
         self.signing_key = signing_key
         self.encoders: dict[int, mavlink.MAVLink] = {}
 
@@ -191,9 +197,8 @@ def settle(commander: MavlinkCommander, now_s: float, until: Callable[[], bool],
 
 @pytest.fixture()
 def scripted() -> Iterator[tuple[MavlinkCommander, ScriptedVehicles]]:
-    port = free_udp_port()
-    peers = ScriptedVehicles(port)
-    commander = commander_on(port, {"uav1": 1, "uav2": 2}, scheme="udpout")
+    peers = ScriptedVehicles()
+    commander = commander_on(peers.station.port, {"uav1": 1, "uav2": 2}, scheme="udpout")
     try:
         peers.first_heartbeat = peers.hear(commander)
         yield commander, peers
@@ -203,7 +208,7 @@ def scripted() -> Iterator[tuple[MavlinkCommander, ScriptedVehicles]]:
 
 
 def test_writing_on_udpin_before_any_packet_is_counted_not_sent() -> None:
-    commander = commander_on(free_udp_port())
+    commander = commander_on()
     try:
         commander.service(0.0)
         commander.service(1.0)
@@ -278,9 +283,8 @@ def test_a_vehicle_that_disappears_and_returns_gets_its_heading_again(scripted, 
 
 
 def test_a_signing_commander_rejects_unsigned_vehicles_and_signs_what_it_sends() -> None:
-    port = free_udp_port()
-    signed_peers = ScriptedVehicles(port, signing_key=KEY)
-    commander = commander_on(port, {"uav1": 1, "uav2": 2}, scheme="udpout", signing_key=KEY)
+    signed_peers = ScriptedVehicles(signing_key=KEY)
+    commander = commander_on(signed_peers.station.port, {"uav1": 1, "uav2": 2}, scheme="udpout", signing_key=KEY)
     try:
         assert signed_peers.hear(commander).get_signed()  # the station drops unsigned messages
         unsigned = mavlink.MAVLink(signed_peers.station.conn, srcSystem=2, srcComponent=1)

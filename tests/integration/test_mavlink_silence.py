@@ -16,7 +16,7 @@ from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.app import Daemon, DaemonOptions
 from gcs.bench.faults import UdpRelay
 from tests.integration.sim_harness import SCENARIO, WORLD, options, running_vehicles
-from tests.loopback import free_tcp_port, free_udp_port
+from tests.loopback import ANY_PORT_ENDPOINT
 
 SILENCE_S = 10.0
 ROSTER = tuple(v.id for v in SCENARIO.vehicles)
@@ -32,13 +32,15 @@ def _wait(condition, timeout_s: float, what: str) -> float:
 
 
 def test_commands_stop_while_the_link_is_silent_and_resume_when_it_returns() -> None:
-    endpoint, port = f"tcp/127.0.0.1:{free_tcp_port()}", free_udp_port()
     with ExitStack() as stack:
-        relay = UdpRelay(port)
+        relay = UdpRelay()  # the daemon sends to its ground port, the vehicles to its port
         stack.callback(relay.close)
-        daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=ZenohSettings(listen=(endpoint,), connect=()),
-                                                       mavlink={v: f"udpin:127.0.0.1:{port}" for v in ROSTER},
+        daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=ZenohSettings(listen=(ANY_PORT_ENDPOINT,), connect=()),
+                                                       mavlink={v: f"udpout:127.0.0.1:{relay.ground_port}"
+                                                                for v in ROSTER},
                                                        planner="orbit", planner_mode="inline"))
+        daemon.open()
+        (endpoint,) = daemon.zenoh_listening
         thread = threading.Thread(target=daemon.run, name="daemon", daemon=True)
         thread.start()
         stack.callback(thread.join, 20)

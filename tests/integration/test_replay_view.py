@@ -31,10 +31,11 @@ class _Viewer:
         self.stop = threading.Event()
         self.opened = threading.Event()
         self.url = ""
+        self.live = None
         self.error: BaseException | None = None
 
         def on_open(live) -> None:
-            self.url = live.url
+            self.url, self.live = live.url, live
             self.opened.set()
 
         def run() -> None:
@@ -67,6 +68,14 @@ class _Viewer:
             time.sleep(0.05)
         pytest.fail(f"the replay never reached {what}")
 
+    def snapshots_later(self, count: int, timeout_s: float = 30.0) -> None:
+        """Wait until the map has published ``count`` more snapshots (the replay loop has ticked that often)."""
+        target = self.live.snapshots + count
+        deadline = time.monotonic() + timeout_s
+        while self.live.snapshots < target:
+            assert time.monotonic() < deadline, f"fewer than {count} snapshots in {timeout_s} s"
+            time.sleep(0.02)
+
     def close(self) -> None:
         self.stop.set()
         self.thread.join(10)
@@ -90,9 +99,9 @@ def test_the_recording_plays_pauses_changes_speed_and_restarts(recording: Path) 
 
         assert viewer.control({"action": "pause"})["playing"] is False
         viewer.wait(lambda s: s["replay"]["playing"] is False, "a snapshot after the pause")
-        time.sleep(0.5)  # the loop's next tick feeds up to the paused position, then nothing more
+        viewer.snapshots_later(1)  # a tick after the pause has fed up to the paused position, then nothing more
         paused = viewer.get("api/tracks")
-        time.sleep(1.0)  # 2 s of recording at speed 2, had it been playing
+        viewer.snapshots_later(5)  # five ticks more (a second of wall time, 2 s of recording had it played)
         assert viewer.get("api/tracks")["stamp_ns"] == paused["stamp_ns"]
         assert viewer.get("api/status")["replay"]["playing"] is False
 

@@ -19,7 +19,7 @@ from gcs.adapters.mavlink_wire import ARDUPLANE_MODES, mavlink, signing_key_from
 from sim_vehicles.runner import Runner
 from tests.integration.mavproxy_harness import DEFAULT_MODULES, MavProxy
 from tests.integration.sim_harness import GroundStation, options, running_vehicles
-from tests.loopback import free_udp_port
+
 
 PASSPHRASE = "correct-horse-battery"  # MAVProxy's `signing key` takes one word
 KEY = signing_key_from_passphrase(PASSPHRASE)
@@ -54,10 +54,9 @@ def _wait_for_autopilots(runner: Runner) -> None:
 
 
 def test_a_signed_vehicle_ignores_unsigned_and_wrongly_signed_commands() -> None:
-    port = free_udp_port()
-    station = GroundStation(port)
+    station = GroundStation()
     try:
-        with running_vehicles(options(port, signing_key=KEY)) as runner:
+        with running_vehicles(options(station.port, signing_key=KEY)) as runner:
             station.wait("HEARTBEAT", 1)
             _wait_for_autopilots(runner)
             handled = _record_mode_commands(runner, "uav1")

@@ -8,16 +8,15 @@ import pytest
 
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODES, mavlink, signing_key_from_passphrase
 from tests.integration.sim_harness import GroundStation, angle_error_deg, options, running_vehicles
-from tests.loopback import free_udp_port
+
 
 GUIDED, LOITER = ARDUPLANE_MODES["GUIDED"], ARDUPLANE_MODES["LOITER"]
 
 
 @pytest.fixture()
 def link():
-    port = free_udp_port()
-    gcs = GroundStation(port)
-    with running_vehicles(options(port)) as runner:
+    gcs = GroundStation()
+    with running_vehicles(options(gcs.port)) as runner:
         gcs.wait("HEARTBEAT")  # a udpin GCS learns where to send from the first packet
         yield gcs, runner
     gcs.close()
@@ -132,8 +131,8 @@ def test_speed_altitude_and_information_requests(link) -> None:
 
 def test_signed_vehicles_ignore_unsigned_commands_and_obey_signed_ones() -> None:
     key = signing_key_from_passphrase("correct horse")
-    port = free_udp_port()
-    unsigned = GroundStation(port)
+    unsigned = GroundStation()
+    port = unsigned.port
     try:
         with running_vehicles(options(port, signing_key=key)) as runner:
             unsigned.wait("HEARTBEAT", 1)

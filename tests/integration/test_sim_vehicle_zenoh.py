@@ -7,13 +7,13 @@ import time
 
 import zenoh
 
-from gcs.adapters.zenoh_session import ZenohSettings, open_session
+from gcs.adapters.zenoh_session import ZenohSettings, listening_endpoints, open_session
 from protocols.codec import decode
 from protocols.keys import alive_key, alive_selector, navs_selector, parse_key, reports_selector
 from protocols.messages import NavReport, SensorReport
 from tests.integration.sim_harness import SCENARIO, running_vehicles
 from sim_vehicles.runner import RunOptions
-from tests.loopback import free_tcp_port
+from tests.loopback import ANY_PORT_ENDPOINT
 
 RATE = 20.0
 EPOCH_NS = 1_700_000_000_000_000_000
@@ -30,13 +30,13 @@ def _collect(samples: queue.Queue, seconds: float) -> list:
 
 
 def test_reports_nav_and_liveliness_in_simulation_time() -> None:
-    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
-    vehicles_side = ZenohSettings(mode="peer", listen=(endpoint,), connect=())
-    options = RunOptions(rate=RATE, seed=3, epoch_ns=EPOCH_NS, zenoh=vehicles_side)
     ids = {v.id for v in SCENARIO.vehicles}
     samples: queue.Queue = queue.Queue()
     alive: queue.Queue = queue.Queue()
-    with open_session(ZenohSettings(mode="peer", connect=(endpoint,))) as session:
+    with open_session(ZenohSettings(mode="peer", listen=(ANY_PORT_ENDPOINT,), connect=())) as session:
+        (endpoint,) = listening_endpoints(session)  # the vehicles connect where the system let it listen
+        options = RunOptions(rate=RATE, seed=3, epoch_ns=EPOCH_NS,
+                             zenoh=ZenohSettings(mode="peer", connect=(endpoint,)))
         session.declare_subscriber(reports_selector(), lambda s: samples.put((str(s.key_expr), s.payload.to_bytes(),
                                                                              str(s.encoding))))
         session.declare_subscriber(navs_selector(), lambda s: samples.put((str(s.key_expr), s.payload.to_bytes(),

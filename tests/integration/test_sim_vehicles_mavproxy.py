@@ -26,7 +26,7 @@ from gcs.adapters.mavlink_wire import ARDUPLANE_MODES, mavlink, open_connection
 from sim_vehicles.runner import Runner
 from tests.integration.mavproxy_harness import MavProxy
 from tests.integration.sim_harness import SCENARIO, GroundStation, options, running_vehicles
-from tests.loopback import LOCALHOST, free_udp_port
+from tests.loopback import LOCALHOST
 
 GUIDED, LOITER, CIRCLE = ARDUPLANE_MODES["GUIDED"], ARDUPLANE_MODES["LOITER"], ARDUPLANE_MODES["CIRCLE"]
 RATE = 10.0
@@ -47,8 +47,9 @@ CLIENT_SYSID = 254
 class SecondGroundStation(GroundStation):
     """The harness's pymavlink ground station as sysid 254, listening on MAVProxy's ``--out`` port."""
 
-    def __init__(self, port: int) -> None:  # pylint: disable=super-init-not-called
-        self.conn = open_connection(f"udpin:{LOCALHOST}:{port}", source_system=CLIENT_SYSID, source_component=190)
+    def __init__(self) -> None:  # pylint: disable=super-init-not-called
+        self.conn = open_connection(f"udpin:{LOCALHOST}:0", source_system=CLIENT_SYSID, source_component=190)
+        self.port: int = self.conn.port.getsockname()[1]  # where MAVProxy's --out sends
 
 
 @pytest.fixture
@@ -151,10 +152,9 @@ def test_guided_lat_lon_alt_flies_vehicle_one_to_the_point(mavproxy: MavProxy, f
 
 
 def test_mavproxy_routes_a_second_ground_station_to_the_vehicles(tmp_path: Path) -> None:
-    out_port = free_udp_port()
-    client = SecondGroundStation(out_port)
+    client = SecondGroundStation()
     try:
-        with MavProxy(outs=[f"udpout:{LOCALHOST}:{out_port}"], workdir=tmp_path / "mavproxy") as proxy, \
+        with MavProxy(outs=[f"udpout:{LOCALHOST}:{client.port}"], workdir=tmp_path / "mavproxy") as proxy, \
                 running_vehicles(options(proxy.master_port, rate=RATE)) as runner:
             for sysid in SYSIDS:
                 beat = client.wait("HEARTBEAT", sysid, WAIT_S)

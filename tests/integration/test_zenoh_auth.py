@@ -19,11 +19,11 @@ from contextlib import ExitStack
 
 import pytest
 
-from gcs.adapters.zenoh_session import ZenohSettings, open_session
+from gcs.adapters.zenoh_session import ZenohSettings, listening_endpoints, open_session
 from gcs.app import Daemon, DaemonOptions
 from gcs.daemon.cli import query_status
 from tests.integration.sim_harness import SCENARIO, WORLD
-from tests.loopback import free_tcp_port
+from tests.loopback import ANY_PORT_ENDPOINT
 
 
 def _file(tmp_path, name: str, text: str) -> str:
@@ -69,10 +69,11 @@ def _put_until_received(session, inbox: queue.Queue, key: str, payload: bytes, t
 
 @pytest.mark.parametrize("listener_mode", ["router", "peer"])
 def test_only_sessions_with_the_right_credentials_get_through(credentials, listener_mode) -> None:
-    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
     inbox: queue.Queue = queue.Queue()
-    listening = ZenohSettings(mode=listener_mode, listen=(endpoint,), connect=(), config_file=credentials["router"])
+    listening = ZenohSettings(mode=listener_mode, listen=(ANY_PORT_ENDPOINT,), connect=(),
+                              config_file=credentials["router"])
     with open_session(listening) as listener:
+        (endpoint,) = listening_endpoints(listener)
         listener.declare_subscriber("auth/**", lambda sample: inbox.put(sample.payload.to_bytes()))
         with open_session(ZenohSettings(mode="client", connect=(endpoint,), config_file=credentials["right"])) as s:
             assert _put_until_received(s, inbox, "auth/test", b"client with credentials", 10.0)
@@ -88,10 +89,10 @@ def test_only_sessions_with_the_right_credentials_get_through(credentials, liste
 
 
 def test_a_daemon_behind_an_authenticated_router_answers_only_clients_with_credentials(credentials) -> None:
-    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
     with ExitStack() as stack:
-        stack.enter_context(open_session(ZenohSettings(mode="router", listen=(endpoint,), connect=(),
-                                                       config_file=credentials["router"])))
+        router = stack.enter_context(open_session(ZenohSettings(mode="router", listen=(ANY_PORT_ENDPOINT,),
+                                                                connect=(), config_file=credentials["router"])))
+        (endpoint,) = listening_endpoints(router)
         daemon = Daemon(SCENARIO, WORLD, DaemonOptions(
             zenoh=ZenohSettings(mode="client", connect=(endpoint,), config_file=credentials["right"]),
             planner="orbit", planner_mode="inline"))
@@ -128,9 +129,10 @@ def test_tls_settings_pass_through(tmp_path) -> None:
                        'listen_certificate: "%s" } } } }' % (tmp_path / "router.key", tmp_path / "router.pem"))
     client_tls = _file(tmp_path, "client.json5",
                        '{ transport: { link: { tls: { root_ca_certificate: "%s" } } } }' % (tmp_path / "ca.pem"))
-    endpoint = f"tls/127.0.0.1:{free_tcp_port()}"
     inbox: queue.Queue = queue.Queue()
-    with open_session(ZenohSettings(mode="router", listen=(endpoint,), connect=(), config_file=router_tls)) as router:
+    with open_session(ZenohSettings(mode="router", listen=("tls/127.0.0.1:0",), connect=(),
+                                    config_file=router_tls)) as router:
+        (endpoint,) = listening_endpoints(router)
         router.declare_subscriber("tls/**", lambda sample: inbox.put(sample.payload.to_bytes()))
         with open_session(ZenohSettings(mode="client", connect=(endpoint,), config_file=client_tls)) as client:
             assert _put_until_received(client, inbox, "tls/test", b"over TLS", 10.0)

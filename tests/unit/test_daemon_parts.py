@@ -228,13 +228,19 @@ def test_a_vehicle_whose_reports_are_refused_for_their_stamps_is_not_waited_for_
     ingest = _ingest()
     assert ingest.accept(_received(report_key("uav1"), _report("uav1", 100 * S))) is not None
     assert ingest.accept(_received(report_key("uav2"), _report("uav2", 500 * S))) is None  # minutes ahead
-    assert ingest.off_clock == {"uav2"}
+    assert ingest.off_clock == set()  # one stray sample (a spoofed or replayed one) says little
+    assert ingest.accept(_received(report_key("uav2"), _report("uav2", 501 * S, seq=2))) is None
+    assert ingest.off_clock == {"uav2"}  # two in a row: its clock has gone wrong
     assert ingest.accept(_received(report_key("uav1"), _report("uav1", 80 * S, seq=2))) is None  # stale
+    assert ingest.accept(_received(report_key("uav1"), _report("uav1", 81 * S, seq=3))) is None
     assert ingest.off_clock == {"uav1", "uav2"}
-    assert ingest.accept(_received(report_key("uav2"), _report("uav2", 101 * S, seq=2))) is not None
+    assert ingest.accept(_received(report_key("uav2"), _report("uav2", 101 * S, seq=3))) is not None
     assert ingest.off_clock == {"uav1"}
-    assert ingest.accept(_received(report_key("uav1"), _report("uav1", 100 * S, seq=3))) is None  # a duplicate
+    assert ingest.accept(_received(report_key("uav1"), _report("uav1", 100 * S, seq=4))) is None  # a duplicate
     assert ingest.off_clock == {"uav1"}  # says nothing about its clock
+    assert ingest.accept(_received(report_key("uav1"), _report("uav1", 102 * S, seq=5))) is not None
+    assert ingest.accept(_received(report_key("uav1"), _report("uav1", 500 * S, seq=6))) is None
+    assert ingest.off_clock == set()  # the count starts again after an accepted report
 
 
 def test_plan_commands_carry_the_heading_after_the_step_the_first_turn_rate_and_the_path() -> None:

@@ -106,7 +106,7 @@ def test_duif_agrees_with_a_covariance_form_ukf_on_the_same_data() -> None:
     """Oracle: FilterPy's stacked UKF (covariance form) on the same generated data."""
     data = generate_dataset(runs=3, steps=80, vehicles=3, seed=11)
     for run in range(3):
-        duif_means, duif_covs, _ = run_duif(data, run)
+        duif_means, duif_covs, _ = run_duif(data, run, second_order=False)  # eq. (12)-(13), the UKF's terms
         ukf_means, ukf_covs, _ = run_filterpy_ukf(data, run)
         sigma = np.sqrt(np.einsum("kii->ki", ukf_covs))
         # After the first steps (prior much wider than the measurements) they agree to a

@@ -40,6 +40,14 @@ form and evaluates eq. (15) with the matrix inversion lemma
 (:meth:`UnscentedInformationFilter.update`). Everything is batched over
 vehicles (and, for the planner, over candidates and the horizon).
 
+Conventions (:mod:`gcs.core.filters.estimate`, checked): time is integer
+nanoseconds, a float stamp is refused; the state layout is named by the
+estimate (``[x, y, vx, vy]`` for ``cv2d``); every method refuses arguments of
+the wrong type or shape with a message naming them. A contribution remembers
+the prior it was computed against, so ``update(contributions)`` needs no prior.
+``second_order=True`` (the default) is the filter the daemon runs;
+``second_order=False`` is eq. (12)-(13) as printed.
+
 Fusion (eq. 14-15). Each vehicle's ``(i_v, I_v)`` depends only on its own
 measurement and the shared prior (every node holds the fused estimate, the
 hierarchical structure of the paper's Fig. 1); the centre sums them:
@@ -51,21 +59,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
-from functools import cached_property
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg import lapack
 
+from gcs.core.filters.estimate import NS_PER_S, GaussianEstimate, NotPositiveDefinite, check_stamp_ns
 from gcs.core.filters.unscented import SigmaPointParameters
 from gcs.core.geometry import wrap_angle
 from gcs.core.models.motion import LinearMotionModel
 from gcs.core.models.sensor import SensorModel
 
-__all__ = ["GaussianEstimate", "InformationContribution", "UnscentedInformationFilter", "pseudo_measurement"]
+__all__ = ["GaussianEstimate", "InformationContribution", "UnscentedInformationFilter", "pseudo_measurement",
+           "NotPositiveDefinite", "NS_PER_S"]
 
-NS_PER_S = 1_000_000_000
 _EYE2 = np.eye(2)
 _SIGMA_DIRECTIONS = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
 """Sigma-point directions in the position plane: centre, +e1, +e2, -e1, -e2."""
@@ -76,81 +83,6 @@ def _per_axis(vehicle_cov: NDArray[np.float64], vehicle_xyz: NDArray[np.float64]
     return vehicle_cov.ndim == vehicle_xyz.ndim - 1
 
 
-class NotPositiveDefinite(ValueError):
-    """A covariance or information matrix lost positive definiteness."""
-
-
-def _cholesky(matrix: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Lower Cholesky factor; LAPACK directly for one matrix, numpy for a stack."""
-    if matrix.ndim == 2:
-        factor, info = lapack.dpotrf(matrix, lower=1, clean=1)
-        if info != 0:
-            raise NotPositiveDefinite(f"matrix is not positive definite (LAPACK dpotrf info={info})")
-        return factor
-    return np.linalg.cholesky(matrix)
-
-
-def _triangular_inverse(lower: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Inverse of a lower-triangular matrix (or a stack of them)."""
-    if lower.ndim == 2:
-        inverse, info = lapack.dtrtri(lower, lower=1)
-        if info != 0:
-            raise NotPositiveDefinite(f"singular triangular factor (LAPACK dtrtri info={info})")
-        return inverse
-    return np.linalg.inv(lower)
-
-
-@dataclass(frozen=True)
-class GaussianEstimate:
-    """A target estimate: mean (..., n), covariance (..., n, n), and its time (ns).
-
-    A leading axis may hold several estimates (the k+1..k+n predictions). The
-    factors of the position block are computed once, on first use.
-    """
-
-    mean: NDArray[np.float64]
-    cov: NDArray[np.float64]
-    stamp_ns: int
-
-    @cached_property
-    def _position_factors(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Closed-form lower Cholesky factor of the 2 x 2 position block and its inverse.
-
-        ``L = [[a, 0], [b, d]]`` with ``a = sqrt(P_xx)``, ``b = P_xy / a``,
-        ``d = sqrt(P_yy - b^2)``; ``L^-1 = [[1/a, 0], [-b/(a d), 1/d]]``.
-        """
-        cov = self.cov
-        if cov.ndim == 2:  # one estimate: plain floats beat array calls at this size
-            pxx, pxy, pyy = float(cov[0, 0]), float(cov[0, 1]), float(cov[1, 1])
-            if not pxx > 0.0:
-                raise NotPositiveDefinite(f"position variance is not positive: {pxx!r}")
-            a = math.sqrt(pxx)
-            b = pxy / a
-            rest = pyy - b * b
-            if not rest > 0.0:
-                raise NotPositiveDefinite("position covariance is not positive definite")
-            d = math.sqrt(rest)
-            return np.array([[a, 0.0], [b, d]]), np.array([[1.0 / a, 0.0], [-b / (a * d), 1.0 / d]])
-        factor = _cholesky(cov[..., :2, :2])
-        return factor, _triangular_inverse(factor)
-
-    @property
-    def position_cholesky(self) -> NDArray[np.float64]:
-        """Lower factor ``L_pp`` of the position block ``P_pp`` (the first two states)."""
-        return self._position_factors[0]
-
-    @property
-    def position_cholesky_inverse(self) -> NDArray[np.float64]:
-        """``L_pp^-1``."""
-        return self._position_factors[1]
-
-    @property
-    def information_matrix(self) -> NDArray[np.float64]:
-        """``Y = P^-1 = L^-T L^-1`` with ``P = L L^T`` (eq. 7)."""
-        inv = _triangular_inverse(_cholesky(self.cov))
-        return np.swapaxes(inv, -1, -2) @ inv
-
-
 @dataclass(frozen=True)
 class InformationContribution:
     """Information contributions of one or more measurements (eq. 13), position block.
@@ -159,10 +91,13 @@ class InformationContribution:
     :func:`pseudo_measurement`), so ``i`` and ``I`` are zero there too; only
     their position parts are stored: ``vector`` (..., 2) and ``matrix``
     (..., 2, 2). A leading axis holds one contribution per vehicle.
+    ``prior`` is the estimate they were computed against (set by
+    :meth:`UnscentedInformationFilter.contribution`): the one they may be fused into.
     """
 
     vector: NDArray[np.float64]
     matrix: NDArray[np.float64]
+    prior: GaussianEstimate | None = field(default=None, repr=False, compare=False)
 
     def total(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Sum over every leading axis: ``(sum i, sum I)``, the terms of eq. (14)."""
@@ -171,6 +106,19 @@ class InformationContribution:
         if self.vector.ndim == 2:
             return self.vector.sum(axis=0), self.matrix.sum(axis=0)
         return self.vector.reshape(-1, 2).sum(axis=0), self.matrix.reshape(-1, 2, 2).sum(axis=0)
+
+    def linearised_about(self, point: GaussianEstimate, prior: GaussianEstimate) -> "InformationContribution":
+        """This information, computed about ``point``, declared for fusion into ``prior``.
+
+        An iterated update (Bell and Cathey 1993) linearises eq. (12) about its own
+        posterior and fuses the result into the original prior; :meth:`UnscentedInformationFilter.update`
+        refuses that mix unless it is said. ValueError when these contributions were not computed
+        against ``point``.
+        """
+        if self.prior is not point:
+            raise ValueError("linearised_about(point, prior): the contributions were computed against another "
+                             "estimate than point")
+        return InformationContribution(self.vector, self.matrix, prior)
 
     def full(self, n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``(i, I)`` in the whole n-dimensional state: shapes (..., n) and (..., n, n)."""
@@ -240,17 +188,26 @@ class UnscentedInformationFilter:
     motion: LinearMotionModel
     sigma: SigmaPointParameters = SigmaPointParameters()
     second_order: bool = True
-    """Add the linearisation's second-order variance to ``R`` (see :meth:`noise_variance`);
-    False gives eq. (12)-(13) as printed."""
+    """Add the linearisation's second-order variance to ``R`` (see :meth:`noise_variance`). True, the
+    default, is the filter: the daemon, ``gcs replay --process`` and every bench's closed loop run it, and
+    it keeps a vehicle right above the target from throwing the track off (docs/benchmarks.md). False gives
+    eq. (12)-(13) as printed, for comparison with the paper (``gcs bench estimation`` reports both)."""
 
     def predict(self, estimate: GaussianEstimate, stamp_ns: int) -> GaussianEstimate:
-        """Predict to ``stamp_ns`` (eq. 9, 11, 16); the same stamp returns the estimate itself."""
+        """Predict to ``stamp_ns`` (integer nanoseconds; eq. 9, 11, 16); the same stamp returns the estimate
+        itself. TypeError for a float stamp or another type of estimate, ValueError for a stamp before the
+        estimate's or an estimate of another dimension than the motion model's."""
+        _check_estimate(estimate, "estimate")
+        stamp_ns = check_stamp_ns(stamp_ns)
         if stamp_ns == estimate.stamp_ns:
             return estimate
         if stamp_ns < estimate.stamp_ns:
             raise ValueError(f"cannot predict backwards from {estimate.stamp_ns} ns to {stamp_ns} ns")
+        if estimate.dim != self.motion.dim:
+            raise ValueError(f"the {self.motion.name} motion model predicts {self.motion.dim}-dimensional states, "
+                             f"the estimate is {estimate.layout.name} ({estimate.dim})")
         f, q = self.motion.matrices((stamp_ns - estimate.stamp_ns) / NS_PER_S)
-        return GaussianEstimate(f @ estimate.mean, f @ estimate.cov @ f.T + q, stamp_ns)
+        return GaussianEstimate.computed(f @ estimate.mean, f @ estimate.cov @ f.T + q, stamp_ns, estimate.layout)
 
     def contribution(
         self,
@@ -277,8 +234,12 @@ class UnscentedInformationFilter:
         respect to the vehicle are mutually orthogonal, so ``J_s J_s^T`` is diagonal
         and ``R`` gains ``s^2``, ``s^2 / rho_h^2`` and ``s^2 / rho^2``
         (:meth:`SensorModel.isotropic_vehicle_variance`).
+
+        The result remembers ``prior``: :meth:`update` fuses it into that estimate without being told
+        again. TypeError for a prior that is not a :class:`GaussianEstimate`, ValueError naming the
+        argument for shapes that do not fit (``z`` (..., sensor.dim), ``vehicle_xyz`` (..., 3)).
         """
-        vehicle_xyz = np.asarray(vehicle_xyz, dtype=np.float64)
+        z, vehicle_xyz, vehicle_cov = _checked_measurements(prior, sensor, z, vehicle_xyz, vehicle_cov)
         z_pred, h_pos = pseudo_measurement(prior, sensor, vehicle_xyz, self.sigma)
         r, coupled = self._noise(prior, sensor, z_pred, vehicle_xyz, vehicle_cov)
         if coupled is None:
@@ -288,7 +249,7 @@ class UnscentedInformationFilter:
             ht_rinv = np.linalg.solve(r_full, h_pos).swapaxes(-1, -2)  # (H^p)^T R^-1, R symmetric: (..., 2, m)
         nu = sensor.residual(z, z_pred)
         nu += h_pos @ prior.mean[:2]  # nu + H^p x^-  (eq. 12-13)
-        return InformationContribution((ht_rinv @ nu[..., None])[..., 0], ht_rinv @ h_pos)
+        return InformationContribution((ht_rinv @ nu[..., None])[..., 0], ht_rinv @ h_pos, prior)
 
     def noise_variance(self, prior: GaussianEstimate, sensor: SensorModel, z_pred: NDArray[np.float64],
                        vehicle_xyz: NDArray[np.float64], vehicle_cov: NDArray[np.float64] | None = None
@@ -332,8 +293,15 @@ class UnscentedInformationFilter:
         jac = sensor.vehicle_jacobian(prior.mean[:2], vehicle_xyz)  # (..., m, 3)
         return np.broadcast_to(r, z_pred.shape), jac @ vehicle_cov @ jac.swapaxes(-1, -2)
 
-    def update(self, prior: GaussianEstimate, contributions: Sequence[InformationContribution]) -> GaussianEstimate:
-        r"""Fuse contributions into the prior (eq. 14) and recover the state (eq. 15).
+    def update(self, prior: GaussianEstimate | InformationContribution | Sequence[InformationContribution],
+               contributions: InformationContribution | Sequence[InformationContribution] | None = None
+               ) -> GaussianEstimate:
+        r"""Fuse contributions into their prior (eq. 14) and recover the state (eq. 15).
+
+        ``update(contributions)`` fuses contributions made by :meth:`contribution` into the prior they
+        were computed against; ``update(prior, contributions)`` says the prior too, and ValueError is raised
+        when a contribution was computed against another estimate (an empty sequence returns ``prior``).
+        ``contributions`` may be one :class:`InformationContribution` or a sequence of them.
 
         Eq. (14) sums the information: ``y = y^- + E^T i``, ``Y = Y^- + E^T A E`` with
         ``i = sum_v i_v`` and ``A = sum_v I_v`` the position-block totals and
@@ -346,6 +314,7 @@ class UnscentedInformationFilter:
 
         so neither ``Y^-`` nor ``Y`` is ever inverted.
         """
+        prior, contributions = _fusion_inputs(prior, contributions)
         if not contributions:
             return prior
         i_total, a_total = contributions[0].total()
@@ -363,4 +332,75 @@ class UnscentedInformationFilter:
         cov = prior.cov - gain @ p_cols.T
         cov = 0.5 * (cov + cov.T)
         mean = prior.mean + cov[:, :2] @ (i_total - a_total @ prior.mean[:2])
-        return GaussianEstimate(mean, cov, prior.stamp_ns)
+        return GaussianEstimate.computed(mean, cov, prior.stamp_ns, prior.layout)
+
+
+def _check_estimate(estimate: object, name: str) -> None:
+    if not isinstance(estimate, GaussianEstimate):
+        raise TypeError(f"{name} must be a GaussianEstimate, got {type(estimate).__name__}")
+
+
+def _checked_measurements(prior: GaussianEstimate, sensor: SensorModel, z, vehicle_xyz, vehicle_cov
+                          ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None]:
+    """The arguments of :meth:`UnscentedInformationFilter.contribution` as float64 arrays, shapes checked."""
+    _check_estimate(prior, "prior")
+    if not isinstance(sensor, SensorModel):
+        raise TypeError(f"sensor must be a SensorModel, got {type(sensor).__name__}")
+    z = np.asarray(z, dtype=np.float64)
+    vehicle_xyz = np.asarray(vehicle_xyz, dtype=np.float64)
+    if z.ndim == 0 or z.shape[-1] != sensor.dim:
+        raise ValueError(f"z must have shape (..., {sensor.dim}) for a {sensor.dim}-component sensor, got {z.shape}")
+    if vehicle_xyz.ndim == 0 or vehicle_xyz.shape[-1] != 3:
+        raise ValueError(f"vehicle_xyz must have shape (..., 3) (ENU metres), got {vehicle_xyz.shape}")
+    if z.shape[:-1] != vehicle_xyz.shape[:-1]:  # (equal shapes, the usual case, need no more)
+        try:
+            np.broadcast_shapes(z.shape[:-1], vehicle_xyz.shape[:-1])
+        except ValueError:
+            raise ValueError(f"z {z.shape} and vehicle_xyz {vehicle_xyz.shape} do not broadcast: one vehicle "
+                             "position per measurement") from None
+    if vehicle_cov is not None:
+        vehicle_cov = np.asarray(vehicle_cov, dtype=np.float64)
+        if vehicle_cov.shape not in (vehicle_xyz.shape[:-1], vehicle_xyz.shape[:-1] + (3, 3)):
+            raise ValueError(f"vehicle_cov must have shape {vehicle_xyz.shape[:-1]} (per-axis variances) or "
+                             f"{vehicle_xyz.shape[:-1] + (3, 3)} (covariances), got {vehicle_cov.shape}")
+    return z, vehicle_xyz, vehicle_cov
+
+
+def _fusion_inputs(prior, contributions) -> tuple[GaussianEstimate, Sequence[InformationContribution]]:
+    """The prior and the contributions of :meth:`UnscentedInformationFilter.update`, in either call form."""
+    if contributions is None:
+        contributions, prior = prior, None
+    if type(contributions) is InformationContribution:
+        contributions = [contributions]
+    if type(contributions) is list and contributions:  # the usual calls, checked cheaply
+        common = contributions[0].prior if prior is None else prior
+        if isinstance(common, GaussianEstimate) and common.mean.ndim == 1 and all(
+                type(c) is InformationContribution and c.prior is common for c in contributions):
+            return common, contributions
+    if isinstance(contributions, InformationContribution):
+        contributions = [contributions]
+    if not isinstance(contributions, Sequence) or not all(isinstance(c, InformationContribution)
+                                                          for c in contributions):
+        raise TypeError("contributions must be InformationContribution(s) from contribution(), got "
+                        f"{type(contributions).__name__}")
+    if prior is None:
+        priors = {id(c.prior): c.prior for c in contributions}
+        if not contributions or None in priors.values():
+            raise ValueError("update(contributions) needs contributions made by contribution(), which know their "
+                             "prior; otherwise call update(prior, contributions)")
+        if len(priors) > 1:
+            raise ValueError("the contributions were computed against different priors; fuse each into its own")
+        prior = contributions[0].prior
+    _check_estimate(prior, "prior")
+    if prior.mean.ndim != 1:
+        raise ValueError(f"update fuses into one estimate; the prior has mean shape {prior.mean.shape}")
+    for index, c in enumerate(contributions):
+        if c.prior is not None and c.prior is not prior and not _same(c.prior, prior):
+            raise ValueError(f"contribution {index} was computed against another prior (stamp {c.prior.stamp_ns} "
+                             f"ns) than the one given (stamp {prior.stamp_ns} ns): predict, then contribute "
+                             "against that prediction")
+    return prior, contributions
+
+
+def _same(a: GaussianEstimate, b: GaussianEstimate) -> bool:
+    return a.stamp_ns == b.stamp_ns and np.array_equal(a.mean, b.mean) and np.array_equal(a.cov, b.cov)

@@ -1,0 +1,92 @@
+"""How the command lines (``gcs``, ``sim-vehicles``) report bad input: one line on stderr, exit status 2.
+
+A command checks what it was given before it starts anything (its ``check``
+function, registered beside its handler: :func:`set_command`), and raises
+:class:`UsageError` with a message that names the bad value and says what
+would be right. :func:`run_command` prints ``<prog>: error: <message>`` as one
+line and returns 2; argparse's own errors take the same form
+(:class:`OneLineParser`), without the usage block. What goes wrong later, once
+the input was good (a router that is not there, a port another program holds),
+is one clear line and status 1, printed by the command itself.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import NoReturn
+
+__all__ = ["UsageError", "OneLineParser", "one_line", "run_command", "set_command", "writable_file",
+           "existing_file", "positive"]
+
+
+class UsageError(Exception):
+    """Bad command-line input; the message names the value and the fix (printed as one line, status 2)."""
+
+
+def one_line(text: object) -> str:
+    """``text`` on one line: newlines and runs of spaces become single spaces."""
+    return " ".join(str(text).split())
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (``prog: error: message; see prog --help``), status 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {one_line(message)}; see {self.prog} --help\n")
+
+
+def set_command(parser: argparse.ArgumentParser, handler: Callable[[argparse.Namespace], int],
+                check: Callable[[argparse.Namespace], object] | None = None) -> None:
+    """Register a subcommand's ``handler`` and the ``check`` of its input (raising :class:`UsageError`), which
+    the handler calls first and tests call alone."""
+    parser.set_defaults(handler=handler, check=check, command_prog=parser.prog)
+
+
+def run_command(args: argparse.Namespace, known: tuple[type[BaseException], ...] = ()) -> int:
+    """Run the parsed command: :class:`UsageError` (and the ``known`` input errors, e.g. a scenario that does
+    not load) become one line on stderr and status 2; Ctrl-C is status 130."""
+    prog = getattr(args, "command_prog", None) or Path(sys.argv[0]).name
+    try:
+        return args.handler(args)
+    except (UsageError, *known) as error:
+        print(f"{prog}: error: {one_line(error)}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 130
+
+
+def writable_file(path: Path | None, option: str) -> Path | None:
+    """``path`` if a file can be written there (its folder exists and is writable), else UsageError naming
+    ``option``; None passes."""
+    if path is None:
+        return None
+    folder = path.parent if str(path.parent) else Path(".")
+    if path.is_dir():
+        raise UsageError(f"{option} {path}: is a folder; give a file name")
+    if not folder.is_dir():
+        raise UsageError(f"{option} {path}: no folder {folder}; create it or give another path")
+    if not os.access(folder, os.W_OK):
+        raise UsageError(f"{option} {path}: folder {folder} is not writable; give another path")
+    return path
+
+
+def existing_file(path: Path, option: str) -> Path:
+    """``path`` if it is a readable file, else UsageError naming ``option``."""
+    if not path.exists():
+        raise UsageError(f"{option} {path}: no such file")
+    if not path.is_file():
+        raise UsageError(f"{option} {path}: not a file")
+    if not os.access(path, os.R_OK):
+        raise UsageError(f"{option} {path}: not readable")
+    return path
+
+
+def positive(value: float | None, option: str) -> float | None:
+    """``value`` if it is a finite number > 0 (or None), else UsageError naming ``option``."""
+    if value is not None and not 0.0 < value < float("inf"):
+        raise UsageError(f"{option} must be a finite number > 0, got {value:g}")
+    return value

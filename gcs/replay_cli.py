@@ -1,0 +1,144 @@
+"""``gcs replay``'s command line: what to do with a recording (``--info``, ``--process``, ``--view``,
+republish), its input checked before anything is read (:func:`check_replay`). The work is in
+:mod:`gcs.replay` and :mod:`gcs.replay_view`."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import sys
+import threading
+from pathlib import Path
+
+from gcs.adapters.foxglove_out import FoxgloveMissing, add_foxglove_arguments, foxglove_options
+from gcs.adapters.recording import RecordingError, check_mcap
+from gcs.adapters.web import add_http_argument
+from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, ZenohSettings, add_zenoh_arguments, required_settings
+from gcs.cli_errors import UsageError, existing_file, one_line, positive, set_command, writable_file
+from gcs.daemon.cli import add_navigation_argument
+from gcs.replay import NS_PER_S, process, republish, summarise, truth_error, write_outputs
+from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
+from gcs.world_loader import build_world
+from protocols.errors import ProtocolError
+from protocols.keys import validate_prefix
+
+__all__ = ["add_replay", "check_replay"]
+
+
+def _stop_on_signals(event: threading.Event) -> None:
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: event.set())
+
+
+def add_replay(sub: argparse._SubParsersAction) -> None:
+    """Register ``gcs replay``."""
+    parser = sub.add_parser("replay", help="summarise, republish or process a recording",
+                            description="Republish a recording's inputs to Zenoh for a running daemon, or process "
+                                        "them directly with the daemon's estimator (--process), or summarise them "
+                                        "(--info).")
+    parser.add_argument("file", type=Path, metavar="FILE.mcap")
+    mode = parser.add_mutually_exclusive_group()
+    mode.add_argument("--info", action="store_true", help="print channels, counts, duration and vehicles")
+    mode.add_argument("--process", action="store_true", help="run the estimator on the file, without Zenoh")
+    mode.add_argument("--rate", type=float, default=1.0, help="republish R times faster than recorded (default 1)")
+    mode.add_argument("--fast", action="store_true", help="republish as fast as possible")
+    parser.add_argument("--scenario", default=DEFAULT_SCENARIO, help="scenario of the recorded run (--process)")
+    parser.add_argument("--out", type=Path, metavar="TRACKS", help="--process: write tracks (.mcap or .csv)")
+    parser.add_argument("--plan", action="store_true",
+                        help="--process: also plan every step (every GA generation, no deadline); plans go to an "
+                             ".mcap --out")
+    parser.add_argument("--seed", type=int, default=0, help="--process --plan: the planner's seed (default 0)")
+    add_navigation_argument(parser)
+    parser.add_argument("--json", action="store_true", help="--info: print JSON")
+    parser.add_argument("--view", action="store_true",
+                        help="show the recording on the live map (play/pause, speed; --rate is the starting speed, "
+                             "--scenario draws the city) until Ctrl-C")
+    add_http_argument(parser, "the live map of --view")
+    add_foxglove_arguments(parser)
+    add_zenoh_arguments(parser, listen=(), connect=(DEFAULT_ENDPOINT,))
+    set_command(parser, _cmd_replay, check_replay)
+
+
+def check_replay(args: argparse.Namespace) -> ZenohSettings | None:
+    """``gcs replay``'s input, checked: the file is an MCAP recording, the options fit together, the scenario
+    loads (:class:`~gcs.config.ScenarioError` otherwise); the zenoh settings when republishing, else None."""
+    existing_file(args.file, "FILE")
+    try:
+        check_mcap(args.file)
+    except RecordingError as error:
+        raise UsageError(error) from None
+    shown = args.view or args.foxglove_mcap is not None or args.foxglove is not None
+    if shown and (args.info or args.process or args.fast):
+        raise UsageError("--view and --foxglove-mcap cannot be combined with --info, --process or --fast")
+    if args.foxglove is not None and not args.view:
+        raise UsageError("--foxglove serves a replay live: add --view (or write a file with --foxglove-mcap)")
+    if args.view and args.http is None and args.foxglove is None:
+        raise UsageError("--view needs --http ADDRESS (or --foxglove ADDRESS)")
+    if not args.fast:
+        positive(args.rate, "--rate")
+    writable_file(args.out, "--out")
+    writable_file(args.foxglove_mcap, "--foxglove-mcap")
+    try:
+        validate_prefix(args.prefix)
+        foxglove_options(args)
+    except (ProtocolError, FoxgloveMissing, ValueError) as error:
+        raise UsageError(error) from None
+    if shown or args.process:
+        load_scenario(args.scenario)
+    if shown or args.info or args.process:
+        return None
+    try:
+        return required_settings(args, "republishing")
+    except ValueError as error:
+        raise UsageError(error) from None
+
+
+def _cmd_replay(args: argparse.Namespace) -> int:
+    settings = check_replay(args)
+    try:
+        if args.view or args.foxglove_mcap is not None or args.foxglove is not None:
+            from gcs.replay_view import cmd_view
+
+            return cmd_view(args, _stop_on_signals)
+        if args.info:
+            _print_info(summarise(args.file), args.json)
+            return 0
+        if args.process:
+            _process(args)
+            return 0
+        stop = threading.Event()
+        _stop_on_signals(stop)
+        counts = republish(args.file, settings, args.prefix, None if args.fast else args.rate, stop)
+        print("republished " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
+        return 0
+    except RecordingError as error:  # the file is corrupt further in: bad input found late
+        print(f"gcs replay: error: {one_line(error)}", file=sys.stderr)
+        return 2
+    except (RuntimeError, OSError) as error:
+        print(f"gcs replay: error: {one_line(error)}", file=sys.stderr)
+        return 1
+
+
+def _print_info(info: dict, as_json: bool) -> None:
+    if as_json:
+        print(json.dumps(info, indent=2))
+        return
+    print(f"{info['file']}: {info['messages']} messages over {info['duration_s']:.1f} s "
+          f"(stamps span {info['stamp_span_s']:.1f} s); vehicles {', '.join(info['vehicles']) or '-'}")
+    for channel in info["channels"]:
+        print(f"  {channel['messages']:>8}  {channel['key']}  [{channel['encoding']}]")
+
+
+def _process(args: argparse.Namespace) -> None:
+    scenario = load_scenario(args.scenario)
+    world = build_world(scenario, scenario_base_dir(args.scenario)) if args.plan else None
+    tracks, plans, counters = process(args.file, scenario, args.prefix, world, args.seed, args.navigation)
+    if args.out is not None:
+        write_outputs(tracks, plans, args.out, args.prefix)
+    print(f"{len(tracks)} track estimates" + (f" and {len(plans)} plan commands" if args.plan else "")
+          + f" from {args.file}" + (f" -> {args.out}" if args.out else "") + "; "
+          + ", ".join(f"{k} {v}" for k, v in sorted(counters.items())))
+    rmse, scored = truth_error(args.file, tracks, round(scenario.time.step_s * NS_PER_S))
+    if rmse is not None:
+        print(f"RMSE against the recorded truth {rmse:.2f} m over {scored} tracks (--navigation {args.navigation})")

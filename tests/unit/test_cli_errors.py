@@ -1,0 +1,188 @@
+"""Bad command-line input, for every command: one line on stderr naming the bad value and the fix, status 2.
+
+The table runs each command's entry point (``gcs.cli.main``, ``sim_vehicles.cli.main``) on an invocation
+that must be refused before anything starts, and checks the status and the one line. The Hypothesis test
+feeds random option lists to every parser and to each command's check of its input (what the command runs
+before it opens anything) and asserts that nothing escapes but a one-line refusal.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import gcs.cli
+import sim_vehicles.cli
+from gcs.adapters.recording import Recorder
+from gcs.cli_errors import run_command
+from gcs.config import ScenarioError
+
+WORK = Path("/nonexistent-gcs-test-folder")
+"""A folder that does not exist: files under it cannot be written or read."""
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory) -> dict[str, Path]:
+    """A real (empty, finished) recording, files that are not recordings, a bad scenario."""
+    folder = tmp_path_factory.mktemp("cli")
+    paths = {"recording": folder / "run.mcap", "junk": folder / "junk.mcap", "toml": folder / "s.mcap",
+             "empty": folder / "empty.mcap", "scenario": folder / "bad.toml", "folder": folder}
+    Recorder(paths["recording"]).finish()
+    paths["junk"].write_bytes(b"junk")
+    paths["toml"].write_text("[origin]\nlat_deg = 1.0\n")
+    paths["empty"].write_bytes(b"")
+    paths["scenario"].write_text("[origin]\nlat_deg = 1.0\n")
+    return paths
+
+
+def _refused(main, argv: list[str], capsys) -> tuple[int, list[str]]:
+    """Run an entry point; its status (argparse's exit included) and the non-empty lines it wrote to stderr."""
+    try:
+        code = main(argv)
+    except SystemExit as stop:
+        code = stop.code
+    err = capsys.readouterr().err
+    return code, [line for line in err.splitlines() if line.strip()]
+
+
+# (program, argv with {name} for the fixture's files, the command's prefix, what the line must say)
+TABLE = [
+    ("gcs", ["run", "--mavlink", "bogus:xyz"], "gcs run", "--mavlink: MAVLink connection 'bogus:xyz': unknown scheme"),
+    ("gcs", ["run", "--mavlink", "udpin:127.0.0.1:99999"], "gcs run", "port 99999 is outside 0-65535"),
+    ("gcs", ["run", "--mavlink", "udpin:no-such-host.invalid:14550"], "gcs run",
+     "host 'no-such-host.invalid' does not resolve"),
+    ("gcs", ["run", "--mavlink", "tcp:127.0.0.1"], "gcs run", "expected tcp:HOST:PORT"),
+    ("gcs", ["run", "--vehicle", "uav1=udpin:127.0.0.1:x"], "gcs run", "port 'x' is not a number"),
+    ("gcs", ["run", "--vehicle", "nobody=udpin:127.0.0.1:0"], "gcs run", "--vehicle names unknown vehicles ['nobody']"),
+    ("gcs", ["run", "--record", f"{WORK}/x.mcap"], "gcs run", f"--record {WORK}/x.mcap: no folder {WORK}"),
+    ("gcs", ["run", "--record", "{folder}"], "gcs run", "is a folder; give a file name"),
+    ("gcs", ["run", "--zenoh-listen", "bogus"], "gcs run", "--zenoh-listen: zenoh endpoint 'bogus': expected "
+                                                          "PROTOCOL/HOST:PORT"),
+    ("gcs", ["run", "--zenoh-listen", "tcp/127.0.0.1:99999"], "gcs run", "port 99999 is outside 0-65535"),
+    ("gcs", ["run", "--zenoh-connect", "tcp/127.0.0.1:0"], "gcs run", "port 0 is outside 1-65535"),
+    ("gcs", ["run", "--zenoh-listen", "tcp/no-such-host.invalid:7447"], "gcs run", "does not resolve"),
+    ("gcs", ["run", "--zenoh-mode", "client"], "gcs run", "needs at least one --zenoh-connect"),
+    ("gcs", ["run", "--zenoh-mode", "none"], "gcs run", "needs zenoh: --zenoh-mode peer or client, not none"),
+    ("gcs", ["run", "--zenoh-config", f"{WORK}/z.json5"], "gcs run", "no such file"),
+    ("gcs", ["run", "--scenario", "nosuch"], "gcs run", "unknown scenario 'nosuch'"),
+    ("gcs", ["run", "--scenario", "{scenario}"], "gcs run", "missing required field `lon_deg`"),
+    ("gcs", ["run", "--prefix", "a b"], "gcs run", "--prefix: invalid key prefix 'a b'"),
+    ("gcs", ["run", "--signing-key-file", f"{WORK}/key"], "gcs run", f"--signing-key-file {WORK}/key"),
+    ("gcs", ["run", "--planner", "nosuch"], "gcs run", "argument --planner: invalid choice: 'nosuch'"),
+    ("gcs", ["run", "--http", "nonsense"], "gcs run", "--http wants HOST:PORT"),
+    ("gcs", ["demo", "--duration", "-5"], "gcs demo", "--duration must be a finite number > 0, got -5"),
+    ("gcs", ["demo", "--rate", "nan"], "gcs demo", "--rate must be a finite number > 0, got nan"),
+    ("gcs", ["demo", "--scenario", "nosuch"], "gcs demo", "unknown scenario 'nosuch'"),
+    ("gcs", ["status", "--timeout", "0"], "gcs status", "--timeout must be a finite number > 0, got 0"),
+    ("gcs", ["status", "--zenoh-connect", "udp"], "gcs status", "zenoh endpoint 'udp': expected PROTOCOL/HOST:PORT"),
+    ("gcs", ["status", "--prefix", "/gcs"], "gcs status", "--prefix: invalid key prefix '/gcs'"),
+    ("gcs", ["record"], "gcs record", "the following arguments are required: -o/--output"),
+    ("gcs", ["record", "-o", f"{WORK}/x.mcap"], "gcs record", f"--output {WORK}/x.mcap: no folder {WORK}"),
+    ("gcs", ["record", "-o", "{folder}/x.mcap", "--duration", "-3"], "gcs record", "--duration must be"),
+    ("gcs", ["record", "-o", "{folder}/x.mcap", "--zenoh-mode", "none"], "gcs record", "gcs record needs zenoh"),
+    ("gcs", ["replay", f"{WORK}/x.mcap", "--info"], "gcs replay", f"FILE {WORK}/x.mcap: no such file"),
+    ("gcs", ["replay", "{junk}", "--info"], "gcs replay", "not an MCAP recording"),
+    ("gcs", ["replay", "{toml}", "--process"], "gcs replay", "not an MCAP recording"),
+    ("gcs", ["replay", "{empty}", "--info"], "gcs replay", "the file is empty"),
+    ("gcs", ["replay", "{folder}", "--info"], "gcs replay", "not a file"),
+    ("gcs", ["replay", "{recording}", "--rate", "0"], "gcs replay", "--rate must be a finite number > 0"),
+    ("gcs", ["replay", "{recording}", "--process", "--out", f"{WORK}/t.csv"], "gcs replay", "--out"),
+    ("gcs", ["replay", "{recording}", "--view", "--http", "none"], "gcs replay", "--view needs --http ADDRESS"),
+    ("gcs", ["replay", "{recording}", "--foxglove", "127.0.0.1:0"], "gcs replay", "--foxglove serves a replay live"),
+    ("gcs", ["replay", "{recording}", "--view", "--info", "--http", "127.0.0.1:0"], "gcs replay",
+     "cannot be combined with --info"),
+    ("gcs", ["replay", "{recording}", "--process", "--scenario", "nosuch"], "gcs replay", "unknown scenario"),
+    ("gcs", ["router", "--zenoh-listen", "tcp/127.0.0.1:99999"], "gcs router", "port 99999 is outside 0-65535"),
+    ("gcs", ["router", "--zenoh-mode", "none"], "gcs router", "a router needs zenoh"),
+    ("gcs", ["scenario", "check", "nosuch"], "gcs scenario", "unknown scenario 'nosuch'"),
+    ("gcs", ["scenario", "show", "{scenario}"], "gcs scenario", "missing required field `lon_deg`"),
+    ("gcs", ["bench", "estimation", "--json", f"{WORK}/x.json"], "gcs bench estimation", f"no folder {WORK}"),
+    ("gcs", ["bench", "estimation", "--runs", "0"], "gcs bench estimation", "argument --runs: must be >= 1"),
+    ("gcs", ["bench", "urban", "--scenario", "nosuch"], "gcs bench urban", "unknown scenario 'nosuch'"),
+    ("gcs", ["bench", "soak", "--vehicles", "2", "--workdir", "{folder}/soak"], "gcs bench soak",
+     "--vehicles must be at least the scenario's 3"),
+    ("gcs", ["bench", "soak", "--plots", "{recording}"], "gcs bench soak", "--plots"),
+    ("gcs", ["nosuch"], "gcs", "argument COMMAND: invalid choice: 'nosuch'"),
+    ("sim-vehicles", ["run", "--mavlink", "bogus:xyz"], "sim-vehicles run", "unknown scheme 'bogus'"),
+    ("sim-vehicles", ["run", "--mavlink", "udpin:127.0.0.1:99999"], "sim-vehicles run", "port 99999 is outside"),
+    ("sim-vehicles", ["run", "--zenoh-connect", "bogus"], "sim-vehicles run", "zenoh endpoint 'bogus'"),
+    ("sim-vehicles", ["run", "--rate", "0"], "sim-vehicles run", "--rate must be a finite number > 0, got 0"),
+    ("sim-vehicles", ["run", "--duration", "inf"], "sim-vehicles run", "--duration must be a finite number > 0"),
+    ("sim-vehicles", ["run", "--only", "nobody"], "sim-vehicles run", "--only nobody: not in the scenario"),
+    ("sim-vehicles", ["run", "--json", f"{WORK}/s.json"], "sim-vehicles run", f"--json {WORK}/s.json: no folder"),
+    ("sim-vehicles", ["run", "--lockstep", "--zenoh-mode", "none"], "sim-vehicles run", "not with --zenoh-mode none"),
+    ("sim-vehicles", ["run", "--wait-for-gcs", "-1"], "sim-vehicles run", "--wait-for-gcs must be"),
+    ("sim-vehicles", ["run", "--start-at", "1e20"], "sim-vehicles run", "--start-at is a Unix time in seconds"),
+    ("sim-vehicles", ["run", "--scenario", "nosuch"], "sim-vehicles run", "unknown scenario 'nosuch'"),
+]
+
+MAINS = {"gcs": gcs.cli.main, "sim-vehicles": sim_vehicles.cli.main}
+
+
+@pytest.mark.parametrize("program, argv, prefix, message", TABLE, ids=[" ".join(row[1]) for row in TABLE])
+def test_bad_input_is_one_line_naming_it_and_status_2(files, capsys, program, argv, prefix, message) -> None:
+    argv = [arg.format(**files) for arg in argv]
+    code, lines = _refused(MAINS[program], argv, capsys)
+    assert code == 2, lines
+    assert len(lines) == 1, lines
+    assert lines[0].startswith(f"{prefix}: error: ") and message.format(**files) in lines[0], lines[0]
+    assert "Traceback" not in lines[0]
+
+
+# ------------------------------------------------------------------ random input
+
+
+def _subparser(parser: argparse.ArgumentParser, path: list[str]) -> argparse.ArgumentParser:
+    for name in path:
+        action = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+        parser = action.choices[name]
+    return parser
+
+
+COMMANDS = [("gcs", ["run"]), ("gcs", ["demo"]), ("gcs", ["status"]), ("gcs", ["record"]), ("gcs", ["router"]),
+            ("gcs", ["replay"]), ("gcs", ["scenario", "check"]), ("gcs", ["bench", "soak"]),
+            ("gcs", ["bench", "urban"]), ("gcs", ["bench", "estimation"]), ("sim-vehicles", ["run"])]
+PARSERS = {"gcs": gcs.cli.build_parser, "sim-vehicles": sim_vehicles.cli.build_parser}
+NEVER = {"-h", "--help", "--version"}
+VALUES = ["", "0", "-1", "1", "2.5", "nan", "inf", "-inf", "1e400", "none", "bogus", "bogus:xyz", "a b", "uav1",
+          "udpin:127.0.0.1:0", "udpout:127.0.0.1:99999", "tcp:127.0.0.1", "udpin:no-such-host.invalid:1",
+          "tcp/127.0.0.1:0", "tcp/127.0.0.1:70000", "udp", "tls/x", "uav1=udpin:127.0.0.1:0", "nobody=udp:1",
+          str(WORK / "x"), "wang2012_urban", "nosuch", "127.0.0.1:0", "ga_k5", "orbit"]
+
+
+def _argv_strategy(program: str, path: list[str], files: dict[str, Path]):
+    parser = _subparser(PARSERS[program](), path)
+    options = [s for a in parser._actions for s in a.option_strings if s not in NEVER]
+    values = st.sampled_from(VALUES + [str(p) for p in files.values()]) | st.text(max_size=12)
+    option = st.tuples(st.sampled_from(options), values).map(list) if options else st.nothing()
+    positional = [str(files["recording"])] if path == ["replay"] else []
+    return st.lists(option | st.lists(values, max_size=1), max_size=5).map(
+        lambda parts: [*path, *positional, *[token for part in parts for token in part]])
+
+
+@pytest.mark.parametrize("program, path", COMMANDS, ids=[" ".join([p, *c]) for p, c in COMMANDS])
+def test_random_input_to_every_parser_and_check_is_refused_in_one_line_or_taken(files, capsys, program,
+                                                                                path) -> None:
+    @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+    @given(argv=_argv_strategy(program, path, files))
+    def check(argv: list[str]) -> None:
+        try:
+            args = PARSERS[program]().parse_args(argv)
+        except SystemExit as stop:
+            lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+            assert stop.code == 2 and len(lines) == 1 and ": error: " in lines[0], (argv, lines)
+            return
+        if getattr(args, "check", None) is None:
+            return  # nothing to check beyond the parser (a command that takes no input but its options)
+        args.handler = lambda parsed: (parsed.check(parsed), 0)[1]  # the command's checks, nothing started
+        code = run_command(args, known=(ScenarioError,))  # anything else escapes and fails the test
+        lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+        assert (code, lines) == (0, []) or (code == 2 and len(lines) == 1 and re.match(r"[\w -]+: error: ",
+                                                                                        lines[0])), (argv, lines)
+
+    check()
