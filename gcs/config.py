@@ -35,6 +35,7 @@ __all__ = [
     "GpsDeniedZone",
     "SimulationConfig",
     "Scenario",
+    "AUTOPILOT_PERSONALITIES",
     "validate_scenario",
 ]
 
@@ -44,6 +45,8 @@ Metres = Annotated[float, msgspec.Meta(ge=-1e7, le=1e7)]
 Radians = Annotated[float, msgspec.Meta(ge=-2 * math.pi, le=2 * math.pi)]
 Identifier = Annotated[str, msgspec.Meta(pattern=r"^[A-Za-z0-9_-]{1,64}$")]
 Point2 = tuple[Metres, Metres]
+AUTOPILOT_PERSONALITIES = ("ideal", "arduplane", "px4")
+"""How a simulated vehicle's autopilot behaves (``sim_vehicles.personalities``)."""
 
 
 class ScenarioError(ValueError):
@@ -151,6 +154,8 @@ class VehicleConfig(_Config):
     start_heading_rad: Radians = 0.0
     sensor: SensorConfig | None = None
     """Overrides the scenario's ``[sensor]`` for this vehicle when given."""
+    autopilot: str | None = None
+    """Overrides ``[simulation] autopilot`` for this vehicle when given."""
 
 
 class TargetConfig(_Config):
@@ -328,7 +333,9 @@ class SimulationConfig(_Config):
     nav_rate_hz: Annotated[float, msgspec.Meta(gt=0.0, le=1000.0)] = 5.0
     """NavReport rate per vehicle."""
     telemetry_rate_hz: Annotated[float, msgspec.Meta(gt=0.0, le=50.0)] = 4.0
-    """MAVLink position/attitude stream rate (HEARTBEAT and SYS_STATUS are 1 Hz)."""
+    """MAVLink position/attitude stream rate of the ``ideal`` autopilot (HEARTBEAT and SYS_STATUS are 1 Hz)."""
+    autopilot: str = "ideal"
+    """Autopilot personality of every simulated vehicle: one of ``AUTOPILOT_PERSONALITIES``."""
     wind_enu_mps: tuple[Annotated[float, msgspec.Meta(ge=-50.0, le=50.0)], Annotated[float, msgspec.Meta(ge=-50.0, le=50.0)]] = (0.0, 0.0)
     airframe: AirframeConfig = AirframeConfig()
     gps: GpsConfig = GpsConfig()
@@ -356,6 +363,10 @@ class Scenario(_Config, kw_only=True):
         """The sensor a vehicle carries: its own override, else the scenario's."""
         return vehicle.sensor if vehicle.sensor is not None else self.sensor
 
+    def autopilot_for(self, vehicle: VehicleConfig) -> str:
+        """The autopilot personality a simulated vehicle flies: its own, else ``[simulation] autopilot``."""
+        return vehicle.autopilot if vehicle.autopilot is not None else self.simulation.autopilot
+
 
 def _check_sensor(sensor: SensorConfig, path: str) -> list[str]:
     problems = []
@@ -364,13 +375,19 @@ def _check_sensor(sensor: SensorConfig, path: str) -> list[str]:
     return problems
 
 
+def _check_autopilot(name: str | None, path: str) -> list[str]:
+    if name is None or name in AUTOPILOT_PERSONALITIES:
+        return []
+    return [f"{path}: unknown autopilot {name!r}; expected one of: {', '.join(AUTOPILOT_PERSONALITIES)}"]
+
+
 def validate_scenario(scenario: Scenario) -> Scenario:
     """Check the rules a schema cannot express; raise ScenarioError naming every bad key.
 
     Rules: vehicle ids and MAVLink system ids are unique; every start point lies
     inside the city rectangle; building heights are ordered; airspace bands
     are ordered; a GeoJSON city names its file; sensors that measure range have
-    a range standard deviation.
+    a range standard deviation; autopilot personalities are known names.
     """
     problems: list[str] = []
     width, height = scenario.city.size_m
@@ -389,6 +406,8 @@ def validate_scenario(scenario: Scenario) -> Scenario:
             problems.append(f"{path}.start_enu_m: {vehicle.start_enu_m} is outside the city [0, {width}] x [0, {height}]")
         if vehicle.sensor is not None:
             problems += _check_sensor(vehicle.sensor, f"{path}.sensor")
+        problems += _check_autopilot(vehicle.autopilot, f"{path}.autopilot")
+    problems += _check_autopilot(scenario.simulation.autopilot, "$.simulation.autopilot")
     problems += _check_sensor(scenario.sensor, "$.sensor")
     tx, ty = scenario.target.start_enu_m
     if not (0.0 <= tx <= width and 0.0 <= ty <= height):

@@ -1,7 +1,10 @@
-"""The MAVLink face of one simulated fixed-wing: an ArduPlane-like command set and telemetry.
+"""The ``ideal`` autopilot personality: an ArduPlane-like command set that obeys every steering message.
 
 :class:`SimAutopilot` holds what a flight controller holds (mode, arming, the
-active guidance, home) and speaks the send/accept set of reference/mavlink.md:
+active guidance, home, stream rates) and speaks the send/accept set of
+reference/mavlink.md. It is also the base of the personalities that behave as
+the real autopilots do (:mod:`sim_vehicles.arduplane`, :mod:`sim_vehicles.px4`),
+which override the hooks named below.
 
 * **Accepts** ``MAV_CMD_DO_SET_MODE`` and legacy ``SET_MODE``;
   ``MAV_CMD_COMPONENT_ARM_DISARM``; ``SET_POSITION_TARGET_GLOBAL_INT`` in GUIDED
@@ -13,22 +16,21 @@ active guidance, home) and speaks the send/accept set of reference/mavlink.md:
   ``MAV_CMD_GUIDED_CHANGE_HEADING`` / ``_SPEED`` / ``_ALTITUDE`` (GUIDED only);
   ``MAV_CMD_DO_CHANGE_SPEED``; message requests (``MAV_CMD_REQUEST_MESSAGE``,
   ``REQUEST_AUTOPILOT_CAPABILITIES``, ``GET_HOME_POSITION``);
-  ``SET_MESSAGE_INTERVAL`` (acknowledged); ``PARAM_REQUEST_LIST`` /
+  ``SET_MESSAGE_INTERVAL`` and ``REQUEST_DATA_STREAM`` with ArduPilot's
+  semantics (:mod:`sim_vehicles.streams`; every stream starts at the scenario's
+  ``telemetry_rate_hz``); ``PARAM_REQUEST_LIST`` /
   ``_READ`` / ``PARAM_SET`` over a small parameter set; ``MISSION_REQUEST_LIST``
   (no mission: ``MISSION_COUNT`` 0). Every command gets a ``COMMAND_ACK``.
-* **Ignores** messages addressed to another system and GCS heartbeats (it
-  records when it last heard one).
+* **Ignores** messages addressed to another system and GCS heartbeats (noting the time).
 * **Sends** HEARTBEAT (fixed-wing, ArduPilot, so tools use ArduPlane's mode
   numbers), SYS_STATUS, GLOBAL_POSITION_INT, ATTITUDE, GPS_RAW_INT, VFR_HUD and,
   in GUIDED with a target, POSITION_TARGET_GLOBAL_INT.
 
 Modes: GUIDED (15) follows commands; LOITER (12) and CIRCLE (1) circle where
 the mode was entered; RTL (11) and AUTO (10, no mission) circle home; MANUAL,
-STABILIZE, FBWA, FBWB, CRUISE, TRAINING and ACRO hold the current heading
-(no pilot on the sticks). Entering GUIDED loiters at the current position until
+STABILIZE, FBWA, FBWB, CRUISE, TRAINING and ACRO hold the current heading. Entering GUIDED loiters at the current position until
 a command arrives, as ArduPlane does. The vehicle is airborne and armed from
-the start; a disarm request in flight is refused, as ArduPlane refuses it
-without the force code.
+the start; a disarm request in flight is refused.
 
 Altitudes in commands: frames GLOBAL (0) and GLOBAL_INT (5) are above mean sea
 level; GLOBAL_RELATIVE_ALT (3, 6) relative to home; terrain frames (10, 11) are
@@ -42,11 +44,12 @@ import math
 from collections import Counter
 from dataclasses import dataclass, field, replace
 
-import numpy as np
-
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODE_NAMES, ARDUPLANE_MODES, mavlink, ned_yaw_from_enu_heading
 from gcs.config import AirframeConfig
 from gcs.core.geometry import LocalFrame
+from sim_vehicles import telemetry_messages
+from sim_vehicles.streams import STREAMED_MESSAGES, MessageSchedule
+from sim_vehicles.autopilot_params import ParameterTable
 from sim_vehicles.truth.fixed_wing import AirframeState, Guidance
 from sim_vehicles.truth.gps import GpsReading
 
@@ -69,23 +72,8 @@ _MASK_X, _MASK_Y, _MASK_Z = 1, 2, 4
 _MASK_VX, _MASK_VY = 8, 16
 _MASK_YAW = 1024
 
-_SENSORS = (mavlink.MAV_SYS_STATUS_SENSOR_3D_GYRO | mavlink.MAV_SYS_STATUS_SENSOR_3D_ACCEL
-            | mavlink.MAV_SYS_STATUS_SENSOR_3D_MAG | mavlink.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
-            | mavlink.MAV_SYS_STATUS_SENSOR_DIFFERENTIAL_PRESSURE | mavlink.MAV_SYS_STATUS_SENSOR_GPS
-            | mavlink.MAV_SYS_STATUS_SENSOR_ANGULAR_RATE_CONTROL | mavlink.MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION
-            | mavlink.MAV_SYS_STATUS_SENSOR_YAW_POSITION | mavlink.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
-            | mavlink.MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL | mavlink.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS)
-
-_CAPABILITIES = (mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2 | mavlink.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
-                 | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
-                 | mavlink.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT)
-
-SOFTWARE_VERSION = (0, 1, 0)
-"""Reported in AUTOPILOT_VERSION.flight_sw_version (major, minor, patch), FIRMWARE_VERSION_TYPE_DEV."""
-
-
 @dataclass
-class SimAutopilot:
+class SimAutopilot(ParameterTable):
     """Mode, arming and guidance of one vehicle, driven by MAVLink messages.
 
     Parameters
@@ -100,7 +88,14 @@ class SimAutopilot:
         Initial commands (the scenario's speed and altitude).
     encoder : mavlink.MAVLink
         Builds the outgoing messages (``*_encode``); never sends.
+    telemetry_rate_hz : float
+        The rate every streamed message starts at (scenario ``[simulation]``), until a
+        GCS asks for another one.
     """
+
+    personality = "ideal"
+    """The name a scenario gives this behaviour (``autopilot = "ideal"``)."""
+    disarm_in_flight_result = mavlink.MAV_RESULT_DENIED
 
     sysid: int
     frame: LocalFrame
@@ -108,6 +103,7 @@ class SimAutopilot:
     cruise_airspeed_mps: float
     cruise_altitude_m: float
     encoder: mavlink.MAVLink
+    telemetry_rate_hz: float = 4.0
     mode: int = ARDUPLANE_MODES["LOITER"]
     armed: bool = True
     guidance: Guidance | None = None
@@ -125,6 +121,15 @@ class SimAutopilot:
             "AIRSPEED_MIN": float(self.airframe.min_airspeed_mps),
             "AIRSPEED_MAX": float(self.airframe.max_airspeed_mps),
         }
+        self.schedule = MessageSchedule(self.default_stream_rates())
+
+    def default_stream_rates(self) -> dict[int, float]:
+        """Rate (Hz) of each streamed message before any request: ``telemetry_rate_hz`` for all."""
+        return dict.fromkeys(STREAMED_MESSAGES, float(self.telemetry_rate_hz))
+
+    def update(self, now_s: float, state: AirframeState, wind_enu_mps: tuple[float, float]) -> None:
+        """Once per physics step, before the airframe moves: controllers that run in the autopilot's own loop
+        (none here: the truth model's guidance law steers)."""
 
     # ----------------------------------------------------------------- guidance
 
@@ -140,7 +145,7 @@ class SimAutopilot:
     def _hold(self, kind: str, state: AirframeState, **changes) -> Guidance:
         base = self.guidance or Guidance(kind="loiter", altitude_m=self.cruise_altitude_m,
                                          airspeed_mps=self.cruise_airspeed_mps, radius_m=self.airframe.loiter_radius_m)
-        return replace(base, kind=kind, max_turn_rate_rad_s=None, **changes)
+        return replace(base, kind=kind, max_turn_rate_rad_s=None, roll_command_rad=None, **changes)
 
     def _loiter_here(self, state: AirframeState) -> Guidance:
         point = (float(state.position_enu_m[0]), float(state.position_enu_m[1]))
@@ -227,7 +232,7 @@ class SimAutopilot:
             else:
                 result = self._set_mode(int(p[1]), state)
         elif command == mavlink.MAV_CMD_COMPONENT_ARM_DISARM:
-            result = mavlink.MAV_RESULT_ACCEPTED if p[0] == 1 else mavlink.MAV_RESULT_DENIED  # airborne: no disarm
+            result = mavlink.MAV_RESULT_ACCEPTED if p[0] == 1 else self.disarm_in_flight_result  # airborne
         elif command == mavlink.MAV_CMD_DO_REPOSITION:
             result = self._reposition(p, frame, state)
         elif command == mavlink.MAV_CMD_GUIDED_CHANGE_HEADING:
@@ -248,7 +253,7 @@ class SimAutopilot:
         elif command == mavlink.MAV_CMD_GET_HOME_POSITION:
             result, extra = mavlink.MAV_RESULT_ACCEPTED, [self.home_position(now_s)]
         elif command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:
-            result = mavlink.MAV_RESULT_ACCEPTED
+            result = self._set_message_interval(int(p[0]), float(p[1]), now_s)
         else:
             result = mavlink.MAV_RESULT_UNSUPPORTED
         return self._ack(msg, command, result) + extra
@@ -295,6 +300,13 @@ class SimAutopilot:
             self.guidance = replace(self.guidance, airspeed_mps=speed_mps)
         return mavlink.MAV_RESULT_ACCEPTED
 
+    def _set_message_interval(self, message_id: int, interval_us: float, now_s: float) -> int:
+        return self.schedule.ardupilot_message_interval(message_id, interval_us, now_s)
+
+    def _on_request_data_stream(self, msg, now_s: float, state: AirframeState) -> list:
+        self.schedule.ardupilot_data_stream(msg.req_stream_id, msg.req_message_rate, msg.start_stop, now_s)
+        return []  # ArduPilot sends no reply
+
     def _on_set_mode(self, msg, now_s: float, state: AirframeState) -> list:
         if msg.base_mode & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
             self._set_mode(int(msg.custom_mode), state)
@@ -339,29 +351,9 @@ class SimAutopilot:
     def _on_mission_request_list(self, msg, now_s: float, state: AirframeState) -> list:
         return [self.encoder.mission_count_encode(msg.get_srcSystem(), msg.get_srcComponent(), 0, msg.mission_type)]
 
-    def _param_value(self, name: str) -> object:
-        names = list(self.params)
-        return self.encoder.param_value_encode(name.encode("ascii"), self.params[name],
-                                               mavlink.MAV_PARAM_TYPE_REAL32, len(names), names.index(name))
-
-    def _on_param_request_list(self, msg, now_s: float, state: AirframeState) -> list:
-        return [self._param_value(name) for name in self.params]
-
-    def _on_param_request_read(self, msg, now_s: float, state: AirframeState) -> list:
-        names = list(self.params)
-        name = _param_name(msg.param_id)
-        if msg.param_index >= 0:
-            name = names[msg.param_index] if msg.param_index < len(names) else ""
-        return [self._param_value(name)] if name in self.params else []
-
-    def _on_param_set(self, msg, now_s: float, state: AirframeState) -> list:
-        name = _param_name(msg.param_id)
-        if name not in self.params or not math.isfinite(msg.param_value) or name == "SYSID_THISMAV":
-            return [self._param_value(name)] if name in self.params else []
-        self.params[name] = float(msg.param_value)
+    def _param_changed(self, name: str, value: float) -> None:
         if name == "AIRSPEED_CRUISE":
-            self._change_speed(float(msg.param_value))
-        return [self._param_value(name)]
+            self._change_speed(value)
 
     # ------------------------------------------------------------------ egress
 
@@ -383,74 +375,25 @@ class SimAutopilot:
                                              base, self.mode, status)
 
     def sys_status(self):
-        """SYS_STATUS with every simulated sensor present, enabled and healthy."""
-        return self.encoder.sys_status_encode(_SENSORS, _SENSORS, _SENSORS, 100, 12600, -1, -1, 0, 0, 0, 0, 0, 0)
+        """SYS_STATUS (every sensor healthy)."""
+        return telemetry_messages.sys_status(self.encoder)
 
     def autopilot_version(self):
-        """AUTOPILOT_VERSION: capabilities and this simulator's version."""
-        major, minor, patch = SOFTWARE_VERSION
-        version = (major << 24) | (minor << 16) | (patch << 8) | mavlink.FIRMWARE_VERSION_TYPE_DEV
-        return self.encoder.autopilot_version_encode(_CAPABILITIES, version, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8,
-                                                     0, 0, self.sysid)
+        """AUTOPILOT_VERSION."""
+        return telemetry_messages.autopilot_version(self.encoder, self.sysid)
 
     def home_position(self, now_s: float):
         """HOME_POSITION: the scenario origin at ground level."""
-        lat_e7, lon_e7 = _e7(self.frame.lat_deg), _e7(self.frame.lon_deg)
-        return self.encoder.home_position_encode(lat_e7, lon_e7, int(round(self.frame.height_m * 1000)),
-                                                 0.0, 0.0, 0.0, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0,
-                                                 int(now_s * 1e6))
+        return telemetry_messages.home_position(self.encoder, self.frame, now_s)
 
-    def telemetry(self, now_s: float, state: AirframeState, gps: GpsReading, wind_enu_mps: tuple[float, float]) -> list:
-        """The position/attitude stream: GLOBAL_POSITION_INT, ATTITUDE, GPS_RAW_INT, VFR_HUD (+ target echo)."""
-        boot_ms = int(now_s * 1000) & 0xFFFFFFFF
-        lat, lon, _ = self.frame.to_geodetic(state.position_enu_m)
-        altitude = float(state.position_enu_m[2])
-        msl_mm = int(round((self.frame.height_m + altitude) * 1000))
-        velocity = state.ground_velocity(wind_enu_mps)  # ENU
-        yaw = ned_yaw_from_enu_heading(state.heading_rad)
-        hdg_cdeg = int(round(math.degrees(yaw) * 100)) % 36000
-        ground_speed = math.hypot(velocity[0], velocity[1])
-        course_cdeg = int(round(math.degrees(ned_yaw_from_enu_heading(state.course_rad(wind_enu_mps))) * 100)) % 36000
-        messages = [
-            self.encoder.global_position_int_encode(
-                boot_ms, _e7(lat), _e7(lon), msl_mm, int(round(altitude * 1000)),
-                _cm(velocity[1]), _cm(velocity[0]), _cm(-velocity[2]), hdg_cdeg),
-            self.encoder.attitude_encode(
-                boot_ms, state.roll_rad, math.atan2(state.climb_rate_mps, state.airspeed_mps), yaw,
-                0.0, 0.0, -state.turn_rate_rad_s),
-            self._gps_raw(now_s, gps, ground_speed, course_cdeg),
-            self.encoder.vfr_hud_encode(
-                state.airspeed_mps, ground_speed, hdg_cdeg // 100, 50, self.frame.height_m + altitude,
-                state.climb_rate_mps),
-        ]
-        if self.mode == GUIDED and self.guided_target_enu_m is not None:
-            x, y, z = self.guided_target_enu_m
-            t_lat, t_lon, _ = self.frame.to_geodetic(np.array([x, y, z]))
-            messages.append(self.encoder.position_target_global_int_encode(
-                boot_ms, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, 0x0DF8, _e7(t_lat), _e7(t_lon), z,
-                0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
-        return messages
+    def echoed_target(self) -> tuple[float, float, float] | None:
+        """The guided target POSITION_TARGET_GLOBAL_INT echoes (ENU metres), or None for no echo."""
+        return self.guided_target_enu_m if self.mode == GUIDED else None
 
-    def _gps_raw(self, now_s: float, gps: GpsReading, ground_speed: float, course_cdeg: int):
-        usec = int(now_s * 1e6)
-        if gps.position_enu_m is None:
-            return self.encoder.gps_raw_int_encode(usec, gps.fix_type, 0, 0, 0, 65535, 65535, 65535, 65535, 0,
-                                                   0, 0, 0, 0, 0)
-        lat, lon, _ = self.frame.to_geodetic(gps.position_enu_m)
-        msl_mm = int(round((self.frame.height_m + float(gps.position_enu_m[2])) * 1000))
-        return self.encoder.gps_raw_int_encode(
-            usec, gps.fix_type, _e7(lat), _e7(lon), msl_mm, 121, 200, _cm(ground_speed), course_cdeg,
-            gps.satellites, msl_mm, int(gps.horizontal_std_m * 1000), int(gps.vertical_std_m * 1000), 0, 0)
-
-
-def _e7(degrees) -> int:
-    return int(round(float(degrees) * 1e7))
-
-
-def _cm(metres_per_s: float) -> int:
-    return int(max(min(round(metres_per_s * 100.0), 32767), -32768))
-
-
-def _param_name(raw) -> str:
-    text = raw.decode("ascii", errors="replace") if isinstance(raw, bytes) else str(raw)
-    return text.rstrip("\x00")
+    def streams(self, now_s: float, state: AirframeState, gps: GpsReading, wind_enu_mps: tuple[float, float]) -> list:
+        """The position/attitude messages due now by the stream schedule (:mod:`sim_vehicles.streams`)."""
+        target = self.echoed_target()
+        messages = (telemetry_messages.stream_message(self.encoder, self.frame, message_id, now_s, state, gps,
+                                                      wind_enu_mps, target)
+                    for message_id in self.schedule.due(now_s))
+        return [message for message in messages if message is not None]

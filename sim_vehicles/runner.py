@@ -3,13 +3,15 @@
 Each physics step of simulation time ``dt`` the runner
 
 1. hands every received MAVLink message to the vehicle it is addressed to
-   (:class:`~sim_vehicles.autopilot.SimAutopilot`) and sends the replies;
+   (its autopilot personality, :mod:`sim_vehicles.personalities`) and sends the replies;
 2. fires the timers that are due, all in simulation time (the first at time
    zero, so reports fall on whole decision steps): HEARTBEAT and
-   SYS_STATUS at 1 Hz, the position/attitude stream at ``telemetry_rate_hz``,
-   ``SensorReport`` (and the target's ``TargetTruth``) at ``report_rate_hz`` and
-   ``NavReport`` at ``nav_rate_hz`` (scenario ``[simulation]``);
-3. advances the scene under each autopilot's guidance;
+   SYS_STATUS at 1 Hz, the position/attitude messages each autopilot's stream
+   schedule has due (:mod:`sim_vehicles.streams`), ``SensorReport`` (and the
+   target's ``TargetTruth``) at ``report_rate_hz`` and ``NavReport`` at
+   ``nav_rate_hz`` (scenario ``[simulation]``);
+3. lets each autopilot run its own loop (:meth:`SimAutopilot.update`), then
+   advances the scene under each autopilot's guidance;
 4. sleeps until wall time catches up with ``elapsed / rate``.
 
 So ``--rate R`` scales every timer consistently: at R = 10 a vehicle sends ten
@@ -44,6 +46,7 @@ from protocols.errors import ProtocolError
 from protocols.keys import alive_key, nav_key, report_key, truth_key
 from protocols.messages import NavReport, SensorReport, TargetTruth
 from sim_vehicles.autopilot import SimAutopilot
+from sim_vehicles.personalities import make_autopilot
 from sim_vehicles.lockstep import PeerClock
 from sim_vehicles.mavlink_endpoint import MavlinkEndpoints
 from sim_vehicles.scene import Scene
@@ -188,8 +191,9 @@ class Runner:
             connections = {v.sysid: self.options.mavlink[v.id] for v in self.vehicles}
             self.endpoints = MavlinkEndpoints(connections, self.options.signing_key)
             for vehicle in self.vehicles:
-                autopilot = SimAutopilot(vehicle.sysid, self.scene.frame, sim.airframe, vehicle.speed_mps,
-                                         vehicle.altitude_m, self.endpoints.encoder(vehicle.sysid))
+                autopilot = make_autopilot(self.scenario.autopilot_for(vehicle), vehicle.sysid, self.scene.frame,
+                                           sim.airframe, vehicle.speed_mps, vehicle.altitude_m,
+                                           self.endpoints.encoder(vehicle.sysid), sim.telemetry_rate_hz)
                 autopilot.start(self.scene.vehicles[vehicle.id].state)
                 self.autopilots[vehicle.id] = autopilot
             log.info("MAVLink: %s", ", ".join(f"{by_sysid[s]} (sysid {s}) -> {c}" for s, c in connections.items()))
@@ -268,13 +272,13 @@ class Runner:
         sim = self.scenario.simulation
         dt = sim.physics_step_s
         scene = self.scene
-        heartbeat, telemetry = _Timer(1.0), _Timer(sim.telemetry_rate_hz)
+        heartbeat = _Timer(1.0)
         reports, navs = _Timer(sim.report_rate_hz), _Timer(sim.nav_rate_hz)
         progress = _Timer(1.0 / 30.0)
         skipped = 0
         ahead_s = None if self.options.start_at_ns is None else (self.options.start_at_ns - time.time_ns()) / 1e9
         if ahead_s is not None and ahead_s <= 0:  # the clock started already: join it where it is now
-            skipped = self._join(dt, (heartbeat, telemetry, reports, navs, progress))
+            skipped = self._join(dt, (heartbeat, reports, navs, progress))
             wall_start = self.clock() - (time.time_ns() - self.options.start_at_ns) / 1e9
             self._declare_tokens()
         else:
@@ -290,9 +294,8 @@ class Runner:
             now = scene.elapsed_s
             if heartbeat.due(now):
                 self._send_all(lambda vid, ap: [ap.heartbeat(), ap.sys_status()])
-            if telemetry.due(now):
-                self._send_all(lambda vid, ap: ap.telemetry(now, scene.vehicles[vid].state, scene.vehicles[vid].gps,
-                                                            scene.wind))
+            self._send_all(lambda vid, ap: ap.streams(now, scene.vehicles[vid].state, scene.vehicles[vid].gps,
+                                                      scene.wind))
             if reports.due(now):
                 for vehicle_id in scene.vehicles:
                     report = scene.sensor_report(vehicle_id)
@@ -308,6 +311,8 @@ class Runner:
                 log.info("t = %.0f s: %s", now, ", ".join(
                     f"{vid} {self.autopilots[vid].mode_name if vid in self.autopilots else 'loiter'} "
                     f"{self.summary.detections[vid]}/{self.summary.reports[vid]} seen" for vid in scene.vehicles))
+            for vid, ap in self.autopilots.items():
+                ap.update(now, scene.vehicles[vid].state, scene.wind)
             guidance = {vid: ap.guidance for vid, ap in self.autopilots.items() if ap.guidance is not None}
             scene.advance(dt, guidance)
             self.summary.steps += 1
@@ -355,6 +360,8 @@ class Runner:
         elapsed = self.scene.elapsed_s
         for timer in timers:
             timer.count = math.ceil(elapsed / timer.period_s - 1e-9)
+        for autopilot in self.autopilots.values():
+            autopilot.schedule.skip_to(elapsed)
         log.info("joined the run at t = %.1f s (the target moved %d steps without publishing)", elapsed, steps)
         return steps
 

@@ -17,7 +17,8 @@ it would in flight:
   (``omega_ff = s v_g / R`` on a loiter circle, so that the circle needs no course error),
   capped at ``omega_max = min(eta_max, g tan(phi_max) / V)``; the bank command
   is the coordinated-turn bank ``phi_c = atan(omega_c V / g)``, and the bank
-  follows it as a first-order lag, exactly discretised:
+  follows it as a first-order lag, exactly discretised (an autopilot with its own
+  lateral controller gives the bank demand ``phi_c`` itself, ``Guidance.roll_command_rad``):
   ``phi+ = phi_c + (phi - phi_c) exp(-dt / tau_phi)``. The heading then turns
   at ``psi_dot = g tan(phi) / V``.
 * **Airspeed** follows its command with time constant ``tau_V``; **altitude**
@@ -76,6 +77,11 @@ class Guidance:
     max_turn_rate_rad_s : float or None
         An extra turn-rate cap for this command (GUIDED_CHANGE_HEADING's lateral
         acceleration limit ``a`` gives ``a / V``); None for none.
+    roll_command_rad : float or None
+        A bank demand computed by the autopilot's own lateral controller (e.g.
+        ArduPlane's guided heading PID); when set it replaces the lateral loop
+        above (the bank still follows it with ``tau_phi``, capped at the bank
+        limit), and ``direction_rad`` is only what that controller aims at.
     """
 
     kind: Literal["course", "heading", "goto", "loiter"]
@@ -86,6 +92,7 @@ class Guidance:
     radius_m: float = 150.0
     clockwise: bool = True
     max_turn_rate_rad_s: float | None = None
+    roll_command_rad: float | None = None
 
 
 @dataclass(frozen=True)
@@ -169,13 +176,16 @@ class Airframe:
         cfg = self.config
         wind = self.wind_enu_mps
         airspeed = state.airspeed_mps
-        direction, is_heading, feedforward = self.desired_direction(state, guidance)
-        current = state.heading_rad if is_heading else state.course_rad(wind)
-        limit = self.turn_rate_limit(airspeed)
-        if guidance.max_turn_rate_rad_s is not None:
-            limit = min(limit, guidance.max_turn_rate_rad_s)
-        omega_c = min(max(feedforward + cfg.heading_gain_per_s * wrap_angle(direction - current), -limit), limit)
-        roll_c = math.atan(omega_c * airspeed / GRAVITY_MPS2)
+        if guidance.roll_command_rad is not None:
+            roll_c = min(max(guidance.roll_command_rad, -cfg.max_bank_rad), cfg.max_bank_rad)
+        else:
+            direction, is_heading, feedforward = self.desired_direction(state, guidance)
+            current = state.heading_rad if is_heading else state.course_rad(wind)
+            limit = self.turn_rate_limit(airspeed)
+            if guidance.max_turn_rate_rad_s is not None:
+                limit = min(limit, guidance.max_turn_rate_rad_s)
+            omega_c = min(max(feedforward + cfg.heading_gain_per_s * wrap_angle(direction - current), -limit), limit)
+            roll_c = math.atan(omega_c * airspeed / GRAVITY_MPS2)
         roll = roll_c + (state.roll_rad - roll_c) * math.exp(-dt / cfg.roll_time_constant_s)
         turn_rate = GRAVITY_MPS2 * math.tan(roll) / airspeed
         turn_rate = min(max(turn_rate, -self.max_turn_rate_rad_s), self.max_turn_rate_rad_s)
