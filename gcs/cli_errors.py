@@ -14,13 +14,14 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import NoReturn
 
 __all__ = ["UsageError", "OneLineParser", "one_line", "run_command", "set_command", "writable_file",
-           "existing_file", "positive"]
+           "existing_file", "positive", "stop_on_signals"]
 
 
 class UsageError(Exception):
@@ -90,3 +91,9 @@ def positive(value: float | None, option: str) -> float | None:
     if value is not None and not 0.0 < value < float("inf"):
         raise UsageError(f"{option} must be a finite number > 0, got {value:g}")
     return value
+
+
+def stop_on_signals(stop: Callable[[], None]) -> None:
+    """SIGINT and SIGTERM call ``stop()``: the command's loop returns and closes what it opened."""
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop())

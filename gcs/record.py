@@ -16,7 +16,6 @@ from __future__ import annotations
 import argparse
 import logging
 import queue
-import signal
 import sys
 import threading
 import time
@@ -27,7 +26,7 @@ import zenoh
 from gcs.adapters.recording import Recorder
 from gcs.adapters.zenoh_session import (DEFAULT_ENDPOINT, ZenohSettings, add_zenoh_arguments, listening_endpoints,
                                         open_session, required_settings)
-from gcs.cli_errors import UsageError, one_line, positive, set_command, writable_file
+from gcs.cli_errors import UsageError, one_line, positive, set_command, stop_on_signals, writable_file
 from protocols.errors import ProtocolError
 from protocols.keys import validate_prefix
 
@@ -135,8 +134,7 @@ def _drain(inbox: queue.Queue, recorder: Recorder, timeout: float) -> None:
 def _cmd_record(args: argparse.Namespace) -> int:
     settings = check_record(args)
     stop = threading.Event()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
+    stop_on_signals(stop.set)
     try:
         messages = record(settings, args.prefix, args.output, stop, args.duration,
                           announce=lambda line: print(line, flush=True))

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import signal
 import sys
 import threading
 from pathlib import Path
@@ -15,7 +14,7 @@ from gcs.adapters.foxglove_out import FoxgloveMissing, add_foxglove_arguments, f
 from gcs.adapters.recording import RecordingError, check_mcap
 from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, ZenohSettings, add_zenoh_arguments, required_settings
-from gcs.cli_errors import UsageError, existing_file, one_line, positive, set_command, writable_file
+from gcs.cli_errors import UsageError, existing_file, one_line, positive, set_command, stop_on_signals, writable_file
 from gcs.daemon.cli import add_navigation_argument
 from gcs.replay import NS_PER_S, process, republish, summarise, truth_error, write_outputs
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
@@ -24,11 +23,6 @@ from protocols.errors import ProtocolError
 from protocols.keys import validate_prefix
 
 __all__ = ["add_replay", "check_replay"]
-
-
-def _stop_on_signals(event: threading.Event) -> None:
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: event.set())
 
 
 def add_replay(sub: argparse._SubParsersAction) -> None:
@@ -100,7 +94,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
         if args.view or args.foxglove_mcap is not None or args.foxglove is not None:
             from gcs.replay_view import cmd_view
 
-            return cmd_view(args, _stop_on_signals)
+            return cmd_view(args)
         if args.info:
             _print_info(summarise(args.file), args.json)
             return 0
@@ -108,7 +102,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
             _process(args)
             return 0
         stop = threading.Event()
-        _stop_on_signals(stop)
+        stop_on_signals(stop.set)
         counts = republish(args.file, settings, args.prefix, None if args.fast else args.rate, stop)
         print("republished " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
         return 0

@@ -28,6 +28,7 @@ from mcap.reader import make_reader
 
 from gcs.adapters.foxglove_out import FoxgloveOptions, FoxgloveOut, foxglove_options
 from gcs.adapters.recording import LIVELINESS_ENCODING, read_recording
+from gcs.cli_errors import stop_on_signals
 from gcs.config import Scenario
 from gcs.core.world import World
 from gcs.daemon.live import LiveMap
@@ -223,7 +224,7 @@ def to_foxglove(path: Path, scenario: Scenario, world: World, out: Path, every_s
     return counts
 
 
-def cmd_view(args: argparse.Namespace, stop_on_signals: Callable[[threading.Event], None]) -> int:
+def cmd_view(args: argparse.Namespace) -> int:
     """``gcs replay FILE --view`` and ``--foxglove-mcap OUT`` (called by :mod:`gcs.replay_cli`'s command once it
     has checked the options)."""
     foxglove = foxglove_options(args)
@@ -235,7 +236,7 @@ def cmd_view(args: argparse.Namespace, stop_on_signals: Callable[[threading.Even
               + ", ".join(f"{k} {v}" for k, v in sorted(counts.items()) if k != "foxglove_messages"))
         return 0
     stop = threading.Event()
-    stop_on_signals(stop)
+    stop_on_signals(stop.set)
 
     def opened(live) -> None:
         print(f"live map: {live.url or 'off'} (replaying {args.file}; Ctrl-C to stop)", flush=True)

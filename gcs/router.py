@@ -11,14 +11,13 @@ from __future__ import annotations
 
 import argparse
 import logging
-import signal
 import sys
 import threading
 from dataclasses import replace
 
 from gcs.adapters.zenoh_session import (DEFAULT_ENDPOINT, add_zenoh_arguments, listening_endpoints, open_session,
                                         required_settings)
-from gcs.cli_errors import UsageError, one_line, set_command
+from gcs.cli_errors import UsageError, one_line, set_command, stop_on_signals
 
 __all__ = ["add_router", "check_router"]
 
@@ -46,8 +45,7 @@ def check_router(args: argparse.Namespace):
 def _cmd_router(args: argparse.Namespace) -> int:
     settings = check_router(args)
     stop = threading.Event()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
+    stop_on_signals(stop.set)
     try:
         with open_session(settings) as session:
             listening = listening_endpoints(session) if any(e.endswith(":0") for e in settings.listen) \

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import signal
 import sys
 from pathlib import Path
 
@@ -13,7 +12,7 @@ from gcs.adapters.foxglove_out import FoxgloveMissing, add_foxglove_arguments, f
 from gcs.adapters.mavlink_cli import add_mavlink_arguments, connections_from_arguments, signing_key_from_arguments
 from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, required_settings
-from gcs.cli_errors import UsageError, one_line, set_command, writable_file
+from gcs.cli_errors import UsageError, one_line, set_command, stop_on_signals, writable_file
 from gcs.daemon.navigation import NAVIGATION_MODES
 from gcs.daemon.status_cli import add_status, format_status, query_status
 from gcs.daemon.planning import PLANNER_MODES, PLANNER_NICENESS
@@ -25,7 +24,7 @@ from protocols.errors import ProtocolError
 from protocols.keys import validate_prefix
 
 __all__ = ["add_run", "add_status", "query_status", "format_status", "DEFAULT_GCS_MAVLINK", "build_daemon",
-           "install_signal_handlers", "add_navigation_argument", "check_run", "run_daemon"]
+           "add_navigation_argument", "check_run", "run_daemon"]
 
 log = logging.getLogger(__name__)
 
@@ -120,15 +119,9 @@ def run_daemon(daemon, command: str, until=None) -> int:
     return 0
 
 
-def install_signal_handlers(stop) -> None:
-    """SIGINT and SIGTERM call ``stop()``; the loop then returns and closes everything."""
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop())
-
-
 def _cmd_run(args: argparse.Namespace) -> int:
     daemon = check_run(args)
-    install_signal_handlers(daemon.stop)
+    stop_on_signals(daemon.stop)
     status = run_daemon(daemon, "gcs run")
     if status == 0:
         log.info("daemon stopped after %d decisions", daemon.counters["decisions"])
