@@ -16,6 +16,7 @@ are identical whatever ``workers`` or cluster.
 from __future__ import annotations
 
 import os
+import threading
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
@@ -44,7 +45,9 @@ class RunJob:
 
 
 @lru_cache(maxsize=8)
-def _scenario_and_world(scenario: str):
+def _scenario_and_world(scenario: str, thread: int):
+    """The scenario and its world, one per thread: the world's memos (its sight table) are filled as
+    runs ask, and are not made to be filled by two threads at once (a Dask worker runs jobs in threads)."""
     from gcs.scenarios import load_scenario
     from gcs.world_loader import build_world
 
@@ -53,10 +56,10 @@ def _scenario_and_world(scenario: str):
 
 
 def run_job(job: RunJob) -> RunRecord:
-    """Run one job (the world is built once per process and scenario)."""
+    """Run one job (the world is built once per thread and scenario)."""
     import time
 
-    scenario, world = _scenario_and_world(job.scenario)
+    scenario, world = _scenario_and_world(job.scenario, threading.get_ident())
     return run_closed_loop(scenario, world, job.planner, job.seed, duration_s=job.duration_s, motion=job.motion,
                            stall=job.stall, clock=time.perf_counter if job.timed else None)
 

@@ -128,6 +128,8 @@ def _inside_one(points: NDArray[np.float64], edges: NDArray[np.float64]) -> NDAr
 class SightTable:
     """Horizon tables of ground points on a lattice, memoised (see the module docstring).
 
+    The memo is filled as points are asked for; one thread at a time may ask (a table per thread otherwise).
+
     A table holds, per azimuth bin, ``1 / g(theta) = max_s (H - z_t) / s``
     (0: open sky): a vehicle at altitude ``h`` and horizontal distance ``D``
     along that azimuth sees the node iff ``D / g <= h - z_t`` (and is in range).
