@@ -27,10 +27,11 @@ outputs, always on the loop thread):
 4. apply the plans the planner has finished: publish each
    ``PlanCommand`` (heading ``psi + u T``, the heading at the end of the step,
    and the planned path) and keep the plan as the next warm start;
-5. steer every vehicle toward the end of its planned path from its latest
-   MAVLink position (:meth:`Daemon._steer`), and let the commander stream what
-   is due (GCS heartbeat, GUIDED requests, position-target carrots, ArduPilot
-   heading commands on change);
+5. steer every vehicle along its planned path from its latest MAVLink
+   telemetry, :data:`STEER_RATE_HZ` times a second of vehicle time
+   (:meth:`Daemon._steer`, :mod:`gcs.core.steering`), and let the commander send
+   what is due (GCS heartbeat, stream-rate requests, GUIDED requests, ArduPilot
+   heading commands on change, carrots to PX4);
 6. answer queries, publish ``DaemonStatus`` once a second.
 
 Stop with :meth:`Daemon.stop` (SIGINT/SIGTERM in the CLI): the loop returns and
@@ -52,6 +53,7 @@ import numpy as np
 
 from gcs import __version__
 from gcs.adapters.foxglove_out import FoxgloveOptions
+from gcs.adapters.mavlink_commands import DEFAULT_STREAM_RATE_HZ, Takeover
 from gcs.adapters.mavlink_io import HeadingCommand, MavlinkCommander
 from gcs.adapters.recording import Recorder
 from gcs.adapters.zenoh_io import ZenohIO
@@ -61,6 +63,7 @@ from gcs.core.geometry import LocalFrame
 from gcs.core.kinematics import VehicleState
 from gcs.core.filters.prediction import HorizonPrediction
 from gcs.core.filters.uif import GaussianEstimate
+from gcs.core.steering import SAMPLES_PER_STEP, PlannedPath, course_loop, follow
 from gcs.core.tracker import TrackerConfig, prediction
 from gcs.daemon.fusion import (FusionDiverged, PlanMemory, fuse_step, plan_commands, track_message,
                                with_observers)
@@ -70,7 +73,7 @@ from gcs.daemon.planning import PLANNER_NICENESS, Planner, PlanJob, PlanOutcome,
 from gcs.daemon.live import LiveMap
 from gcs.daemon.navigation import navigator_for
 from gcs.daemon.records import PlanRecord, StepRecord, StepScorer, keep_newest
-from gcs.daemon.registry import Registry, VehicleSnapshot
+from gcs.daemon.registry import LOST_AFTER_S, Registry, VehicleSnapshot
 from gcs.daemon.steps import ReadyStep, StepAssembler
 from gcs.tracking import observer_sensor_model, scenario_planner, subset_config, tracker_config
 from protocols.keys import parse_key
@@ -83,7 +86,8 @@ log = logging.getLogger(__name__)
 NS_PER_S = 1_000_000_000
 AUTOPILOT_NAMES = {3: "ArduPilot", 12: "PX4"}
 STEER_RATE_HZ = 4.0
-"""How often the headings toward the planned paths are recomputed (the carrot rate)."""
+"""How often, per second of vehicle time, the steering along the planned paths is recomputed (the carrot
+rate). Against vehicles simulated R times faster than real time it runs R times as often in wall time."""
 FREEZE_EVERY_S = 1.0
 """How often the loop hands what it has built so far to ``gc.freeze`` (see :meth:`Daemon.run`)."""
 FULL_COLLECT_EVERY_S = 600.0
@@ -168,6 +172,16 @@ class DaemonOptions:
         Accept reports from vehicles outside the scenario's roster (default: rejected as
         ``unknown_vehicle``); their detections are fused with the scenario's sensor model, and they
         are never planned for or commanded.
+    stream_rate_hz : float
+        The rate asked of every vehicle for GLOBAL_POSITION_INT and ATTITUDE (0: ask nothing;
+        :mod:`gcs.adapters.mavlink_commands`).
+    takeover : Takeover
+        The guard on switching a vehicle to GUIDED (armed, above an altitude) and the mode it is
+        given back in (:class:`~gcs.adapters.mavlink_commands.Takeover`).
+    handback_after_lost_s : float
+        After this many seconds (stamp time) with no vehicle seeing the target, every vehicle the
+        daemon took over is given back; it takes them again when the target is seen again. The
+        daemon gives them back when it stops, too.
     navigation : str
         Where a detection's vehicle position comes from (:data:`gcs.daemon.navigation.NAVIGATION_MODES`):
         ``skf`` runs feng2019's SKF on each roster vehicle's ``NavReport``s and fuses with its
@@ -192,23 +206,9 @@ class DaemonOptions:
     foxglove: FoxgloveOptions | None = None
     accept_unlisted: bool = False
     navigation: str = "auto"
-
-
-AIM_AHEAD_STEPS = 4
-"""How far along its plan a vehicle is steered toward: a point this many steps on. A plan of 10 s may
-turn half a circle, so its end can lie behind the vehicle; a few seconds on, the chord follows the arc."""
-
-
-@dataclass(frozen=True)
-class _Aim:
-    """Where a vehicle's plan takes it: its planned position :data:`AIM_AHEAD_STEPS` steps on (or the path's end),
-    and the plan's first heading."""
-
-    point_enu_m: np.ndarray
-    heading_rad: float
-    altitude_m: float
-    airspeed_mps: float
-    min_distance_m: float
+    stream_rate_hz: float = DEFAULT_STREAM_RATE_HZ
+    takeover: Takeover = Takeover()
+    handback_after_lost_s: float = 60.0
 
 
 @dataclass(frozen=True)
@@ -236,8 +236,13 @@ class _Loop:
     track_seq: int = 0
     plan_seq: int = 0
     last_track_stamp_ns: int | None = None
+    last_seen_ns: int | None = None
+    """Stamp of the newest decision step in which a vehicle saw the target."""
+    target_lost: bool = False
+    """No vehicle has seen the target for ``handback_after_lost_s``: the vehicles are given back."""
     step_times: list[tuple[float, int]] = field(default_factory=list)
-    aims: dict[str, _Aim] = field(default_factory=dict)
+    paths: dict[str, PlannedPath] = field(default_factory=dict)
+    """Each vehicle's newest planned path, which it is steered along."""
     data_rate: float = 1.0
     waiting: _Planning | None = None
     """The newest fused step's planning, until the planner is free to take it."""
@@ -256,6 +261,7 @@ class Daemon:
         self.frame = LocalFrame(scenario.origin.lat_deg, scenario.origin.lon_deg, scenario.origin.height_m)
         self.roster = [v.id for v in scenario.vehicles]
         self.vehicle_config = {v.id: v for v in scenario.vehicles}
+        self.course_loops = {v.id: course_loop(scenario.autopilot_for(v)) for v in scenario.vehicles}
         self.ingest = Ingest(set(self.roster), options.prefix, accept_unlisted=options.accept_unlisted)
         self.steps = StepAssembler(round(scenario.time.step_s * NS_PER_S), options.max_wait_s)
         self.navigator = navigator_for(options.navigation, scenario)
@@ -326,7 +332,8 @@ class Daemon:
             self.commander = MavlinkCommander(
                 self.frame, {v.id: v.sysid for v in self.scenario.vehicles}, self.options.mavlink,
                 signing_key=self.options.signing_key,
-                max_turn_rate_rad_s={v.id: v.max_turn_rate_rad_s for v in self.scenario.vehicles})
+                max_turn_rate_rad_s={v.id: v.max_turn_rate_rad_s for v in self.scenario.vehicles},
+                stream_rate_hz=self.options.stream_rate_hz, takeover=self.options.takeover)
         listen = list(self.options.zenoh.listen)
         self.zenoh_listening = listening_endpoints(self.zenoh.session) if any(e.endswith(":0") for e in listen) \
             else listen
@@ -343,6 +350,8 @@ class Daemon:
             self.planner.close()
         self.scorer.score(flush=True)
         if self.commander is not None and not self._closed:
+            self._let_go_all("the daemon stopped")
+            self.commander.service(self.clock())  # the hand-backs go out before the links close
             self.commander.close()
         self._closed = True
         if self.live is not None:
@@ -436,8 +445,8 @@ class Daemon:
         self._hand_over(now)
         if self.commander is not None:
             if now >= self._next_steer_s:
-                self._steer()
-                self._next_steer_s = now + 1.0 / STEER_RATE_HZ
+                self._steer(now)
+                self._next_steer_s = now + 1.0 / (STEER_RATE_HZ * self.loop.data_rate)
             self.commander.service(now)
         self.zenoh.answer_queries(status=lambda: self.status(now))
         if self.live is not None:
@@ -614,33 +623,64 @@ class Daemon:
     def _command(self, active: list[str], vehicles: VehicleState, config: TrackerConfig, controls: np.ndarray,
                  stamp_ns: int) -> None:
         dt = self.scenario.time.step_s
-        commands = plan_commands(vehicles, [self.vehicle_config[v] for v in active], controls, config.max_turn_rate,
-                                 dt, stamp_ns, self.loop.plan_seq + 1, self.planner_name)
+        configs = [self.vehicle_config[v] for v in active]
+        commands = plan_commands(vehicles, configs, controls, config.max_turn_rate, dt, stamp_ns,
+                                 self.loop.plan_seq + 1, self.planner_name)
         self.loop.plan_seq += len(commands)
-        for command in commands:
-            ahead = command.planned_path_enu_m[min(AIM_AHEAD_STEPS, len(command.planned_path_enu_m)) - 1]
-            self.loop.aims[command.vehicle_id] = _Aim(np.array(ahead), command.heading_rad,
-                                                      command.altitude_m, command.airspeed_mps,
-                                                      command.airspeed_mps * dt)
+        for slot, (command, cfg) in enumerate(zip(commands, configs)):
             self.zenoh.publish_plan(command)
+            if self.loop.target_lost:
+                continue
+            start = VehicleState(vehicles.xy[slot:slot + 1], vehicles.heading[slot:slot + 1],
+                                 np.array([cfg.speed_mps]), np.array([cfg.altitude_m]))
+            self.loop.paths[command.vehicle_id] = PlannedPath.from_plan(start, controls[slot], dt,
+                                                                        float(config.max_turn_rate[slot]))
 
-    def _steer(self) -> None:
-        """Turn each vehicle's aim into a heading command from its latest MAVLink position.
+    def _let_go_all(self, why: str) -> None:
+        """Stop steering every vehicle; those the daemon took over are given back (:meth:`MavlinkCommander.let_go`)."""
+        self.loop.paths.clear()
+        if self.commander is not None:
+            for vehicle_id in self.roster:
+                self.commander.let_go(vehicle_id, why)
 
-        The aim is the vehicle's planned position :data:`AIM_AHEAD_STEPS` steps on. Steering toward it
-        from where the vehicle is *now* (pure pursuit on the plan) absorbs the delay
-        between the reports a plan was made from and the moment the command is
-        flown; within one step's flight of the aim point, or without telemetry,
-        the plan's first heading (``psi + u T``) is commanded instead.
+    def _watch_target(self, ready: ReadyStep, seen: bool) -> None:
+        """Give the vehicles back after ``handback_after_lost_s`` without the target; steer again once seen."""
+        if seen:
+            self.loop.last_seen_ns = ready.stamp_ns
+            if self.loop.target_lost:
+                log.info("target seen again at step %d: steering the vehicles", ready.index)
+            self.loop.target_lost = False
+            return
+        last = self.loop.last_seen_ns
+        lost_s = None if last is None else (ready.stamp_ns - last) / NS_PER_S
+        if lost_s is not None and lost_s >= self.options.handback_after_lost_s and not self.loop.target_lost:
+            self.loop.target_lost = True
+            self.counters["target_lost"] += 1
+            log.warning("no vehicle has seen the target for %.0f s: handing the vehicles back", lost_s)
+            self._let_go_all(f"target lost for {lost_s:.0f} s")
+
+    def _steer(self, now: float) -> None:
+        """Steer each vehicle along its planned path from its latest MAVLink telemetry (:mod:`gcs.core.steering`).
+
+        The steering is the path follower's, encoded with the lead that makes the course loop of
+        the vehicle's autopilot (the one its scenario names) turn at the rate wanted: the course
+        an ArduPilot peer is told, and the direction of a PX4 peer's carrot. Following the path from where the vehicle
+        is *now* absorbs the delay between the reports a plan was made from and the moment it
+        is flown. Without telemetry the plan's course one step on is commanded.
         """
-        for vehicle_id, aim in self.loop.aims.items():
-            heading = aim.heading_rad
-            position = self.commander.link(vehicle_id).position_enu_m
-            if position is not None:
-                dx, dy = aim.point_enu_m[0] - position[0], aim.point_enu_m[1] - position[1]
-                if math.hypot(dx, dy) > aim.min_distance_m:
-                    heading = math.atan2(dy, dx)
-            self.commander.command(vehicle_id, HeadingCommand(heading, aim.altitude_m, aim.airspeed_mps))
+        period = 1.0 / STEER_RATE_HZ
+        for vehicle_id, path in self.loop.paths.items():
+            link = self.commander.link(vehicle_id)
+            course, speed = link.course_rad(), link.ground_speed_mps()
+            if link.position_enu_m is None or course is None or speed is None:
+                fallback = float(path.courses[min(SAMPLES_PER_STEP, len(path.courses) - 1)])
+                self.commander.command(vehicle_id, HeadingCommand(fallback, path.altitude_m, path.airspeed_mps))
+                continue
+            latency = max(now - link.position_stamp_s, 0.0) * self.loop.data_rate
+            steering = follow(path, link.position_enu_m, course, speed, self.course_loops[vehicle_id],
+                              period_s=period, latency_s=latency)
+            self.commander.command(vehicle_id, HeadingCommand(steering.command_course_rad, path.altitude_m,
+                                                              path.airspeed_mps))
 
     def _record(self, ready: ReadyStep, active: list[str], estimate) -> None:
         """Note what the step did; it is scored against the simulator's truth once that is in (:class:`StepScorer`)."""
@@ -658,6 +698,7 @@ class Daemon:
         record = StepRecord(ready.index, ready.stamp_ns, seen, estimate_xy, None, tuple(active), time.time_ns(),
                             nav_std, fix)
         self.scorer.add(record)
+        self._watch_target(ready, any(seen.values()))
 
     # ----------------------------------------------------------------- status
 
@@ -665,13 +706,19 @@ class Daemon:
         """The daemon's health: vehicles, link state, counters, last track."""
         vehicles = []
         for vehicle_id, entry in self.registry.entries.items():
-            autopilot = None
+            autopilot = heartbeat = control = None
             if self.commander is not None:
-                autopilot = AUTOPILOT_NAMES.get(self.commander.link(vehicle_id).autopilot)
+                link = self.commander.link(vehicle_id)
+                autopilot = AUTOPILOT_NAMES.get(link.autopilot)
+                heartbeat = "unknown" if link.last_heartbeat_s is None else (
+                    "ok" if link.alive(now, LOST_AFTER_S) else "lost")
+                control = self.commander.control(vehicle_id, now)
             vehicles.append(VehicleStatus(vehicle_id=vehicle_id, sysid=entry.config.sysid,
                                           link=self.registry.link_state(vehicle_id, now),
                                           last_report_stamp_ns=entry.last_report_stamp_ns, reports=entry.reports,
-                                          autopilot=autopilot))
+                                          autopilot=autopilot, heartbeat=heartbeat,
+                                          liveliness=self.registry.liveliness_state(vehicle_id),
+                                          control=control))
         counters = Counter(self.ingest.counters) + self.steps.counters + self.counters
         if self.navigator is not None:
             counters += self.navigator.counters

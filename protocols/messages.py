@@ -370,13 +370,20 @@ class VehicleStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=Tr
     sysid : int or None
         MAVLink system id (1..250), if a MAVLink link is configured.
     link : {"ok", "lost", "unknown"}
-        Liveliness of the vehicle.
+        The vehicle is alive: its liveliness token is declared or its MAVLink heartbeat recent.
     last_report_stamp_ns : int or None
         ``stamp_ns`` of the last accepted report, if any.
     reports : int
         Accepted reports so far.
     autopilot : str or None
         Autopilot description, if known (e.g. ``"ArduPilot"``, ``"PX4"``).
+    heartbeat : {"ok", "lost", "unknown"} or None
+        The MAVLink heartbeat alone (within 5 s), if a MAVLink link is configured.
+    liveliness : {"ok", "lost", "unknown"} or None
+        The Zenoh liveliness token alone (declared, withdrawn, never seen).
+    control : str or None
+        Who flies it, if a MAVLink link is configured: ``daemon``, ``switching``, ``waiting: REASON``
+        (held back by the takeover guard), ``handed back: WHY`` or ``pilot``.
     """
 
     vehicle_id: Ident
@@ -385,6 +392,9 @@ class VehicleStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=Tr
     last_report_stamp_ns: StampNs | None = None
     reports: Count
     autopilot: Text | None = None
+    heartbeat: Literal["ok", "lost", "unknown"] | None = None
+    liveliness: Literal["ok", "lost", "unknown"] | None = None
+    control: Text | None = None
 
 
 class DaemonStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -404,6 +414,9 @@ class DaemonStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=Tru
     last_track_stamp_ns : int or None
         ``stamp_ns`` of the last published track, if any.
     """
+
+    VERSION: ClassVar[int] = 2
+    """Version 2: :class:`VehicleStatus` says the heartbeat, the liveliness and who flies the vehicle."""
 
     stamp_ns: StampNs
     uptime_s: UptimeS

@@ -241,6 +241,20 @@ def _cmd_imm(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_autopilots(args: argparse.Namespace) -> int:
+    from gcs.bench import autopilots_report
+
+    report = autopilots_report.run_benchmark(
+        args.scenario, args.runs, args.seed, personalities=args.autopilot or autopilots_report.PERSONALITIES,
+        duration_s=args.duration, compare_pursuit=args.compare_pursuit, workers=args.workers,
+        identify_loops=args.identify, progress=_progress)
+    print(autopilots_report.format_report(report))
+    if args.json is not None:
+        autopilots_report.write_json(report, args.json)
+        _wrote([args.json])
+    return 0
+
+
 def _cmd_soak(args: argparse.Namespace) -> int:
     from gcs.bench import soak
 
@@ -472,5 +486,27 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     soak.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     soak.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
     soak.set_defaults(handler=_outputs_checked(_cmd_soak))
+    aps = benches.add_parser(
+        "autopilots", help="the daemon's steering flown by each autopilot personality: course error, seen, RMSE",
+        description="Flies the scenario in one process on paired seeds under each simulated autopilot "
+                    "personality (ideal, arduplane, px4), with the daemon's own telemetry handling, steering "
+                    "and MAVLink encoding, every message packed and parsed as on the wire, and prints per "
+                    "personality the course error against the planned path (median and p90 after a 10 s "
+                    "settle), seen by any UAV and per UAV, RMSE, their ratios to the ideal airframe and the "
+                    "paired Wilcoxon p of seen-by-any against it.")
+    aps.add_argument("--scenario", default="wang2012_urban", help="shipped name or .toml path (default wang2012_urban)")
+    aps.add_argument("--runs", type=_positive_int, default=10, help="paired seeds per personality (default 10)")
+    aps.add_argument("--seed", type=int, default=2012, help="seed of the first run (default 2012)")
+    aps.add_argument("--duration", type=_positive_float, help="seconds of flight per run (default: the scenario's)")
+    aps.add_argument("--autopilot", action="append", choices=["ideal", "arduplane", "px4"],
+                     help="personality to fly (repeatable; default all three)")
+    aps.add_argument("--compare-pursuit", action="store_true",
+                     help="also fly every personality steered by pursuit of a point 4 s on the plan, without lead")
+    aps.add_argument("--identify", action="store_true",
+                     help="also print each personality's course loop identified from step responses")
+    aps.add_argument("--workers", type=_positive_int, default=1, help="processes to fly the seeds in (default 1)")
+    aps.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
+    aps.set_defaults(handler=_outputs_checked(_cmd_autopilots), autopilot=None)
+
     for bench in benches.choices.values():  # errors name the benchmark: "gcs bench soak: error: ..."
         bench.set_defaults(command_prog=bench.prog)

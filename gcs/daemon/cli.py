@@ -12,7 +12,8 @@ from gcs.adapters.foxglove_out import FoxgloveMissing, add_foxglove_arguments, f
 from gcs.adapters.mavlink_cli import add_mavlink_arguments, connections_from_arguments, signing_key_from_arguments
 from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, required_settings
-from gcs.cli_errors import UsageError, one_line, set_command, stop_on_signals, writable_file
+from gcs.adapters.mavlink_commands import DEFAULT_STREAM_RATE_HZ, HANDBACK_MODES, Takeover
+from gcs.cli_errors import UsageError, one_line, positive, set_command, stop_on_signals, writable_file
 from gcs.daemon.navigation import NAVIGATION_MODES
 from gcs.daemon.status_cli import add_status, format_status, query_status
 from gcs.daemon.planning import PLANNER_MODES, PLANNER_NICENESS
@@ -54,6 +55,35 @@ def add_daemon_arguments(parser: argparse.ArgumentParser) -> None:
                         help="also accept and fuse reports from vehicles outside the scenario's roster (default: "
                              "rejected and counted as rejected.unknown_vehicle); they are never commanded")
     add_navigation_argument(parser)
+    add_control_arguments(parser)
+
+
+def add_control_arguments(parser: argparse.ArgumentParser) -> None:
+    """How the daemon takes vehicles over and gives them back, and the telemetry rate it asks for."""
+    parser.add_argument("--stream-rate", type=float, default=DEFAULT_STREAM_RATE_HZ, metavar="HZ",
+                        help=f"ask every vehicle for GLOBAL_POSITION_INT and ATTITUDE at this rate (default "
+                             f"{DEFAULT_STREAM_RATE_HZ:g}; ArduPlane sends 1 Hz until asked); 0 asks nothing")
+    parser.add_argument("--takeover-altitude", type=float, default=Takeover().min_altitude_m, metavar="M",
+                        help="switch a vehicle to GUIDED only when it is armed and at least this high above home "
+                             f"(default {Takeover().min_altitude_m:g} m)")
+    parser.add_argument("--handback", choices=HANDBACK_MODES, default=Takeover().handback,
+                        help="the mode a vehicle is given back in when the daemon stops or loses the target "
+                             f"(default {Takeover().handback})")
+    parser.add_argument("--handback-after", type=float, default=60.0, metavar="S",
+                        help="give the vehicles back after this many seconds with no vehicle seeing the target "
+                             "(default 60); they are taken again when it is seen")
+
+
+def _control_options(args: argparse.Namespace) -> dict:
+    """The DaemonOptions fields of :func:`add_control_arguments`, checked (UsageError naming the option)."""
+    if not 0.0 <= args.stream_rate <= 50.0:
+        raise UsageError(f"--stream-rate must be between 0 and 50 Hz, got {args.stream_rate:g}")
+    if not -1000.0 <= args.takeover_altitude <= 10_000.0:
+        raise UsageError(f"--takeover-altitude must be a height in metres above home (-1000 to 10000), "
+                         f"got {args.takeover_altitude:g}")
+    positive(args.handback_after, "--handback-after")
+    return {"stream_rate_hz": args.stream_rate, "handback_after_lost_s": args.handback_after,
+            "takeover": Takeover(min_altitude_m=args.takeover_altitude, handback=args.handback)}
 
 
 def add_navigation_argument(parser: argparse.ArgumentParser) -> None:
@@ -96,7 +126,7 @@ def build_daemon(args: argparse.Namespace, **kwargs):
                                 record=args.record, planner_mode=args.planner_mode,
                                 planner_niceness=args.planner_niceness, http=args.http,
                                 foxglove=foxglove_options(args), accept_unlisted=args.accept_unlisted,
-                                navigation=args.navigation)
+                                navigation=args.navigation, **_control_options(args))
     except (ValueError, FoxgloveMissing) as error:
         raise UsageError(error) from None
     base_dir = scenario_base_dir(args.scenario)

@@ -104,6 +104,13 @@ class Registry:
             return False
         return entry.token_changed_s is None or now_s - age > entry.token_changed_s + AFTER_WITHDRAWAL_S
 
+    def liveliness_state(self, vehicle_id: str) -> str:
+        """The Zenoh liveliness token alone: ``ok`` (declared), ``lost`` (withdrawn) or ``unknown`` (never seen)."""
+        entry = self.entries[vehicle_id]
+        if entry.token:
+            return "ok"
+        return "unknown" if entry.token_changed_s is None else "lost"
+
     def link_state(self, vehicle_id: str, now_s: float) -> str:
         """``ok``, ``lost`` (was alive, is not) or ``unknown`` (never heard of)."""
         entry = self.entries[vehicle_id]

@@ -49,7 +49,9 @@ def format_status(status: DaemonStatus) -> list[str]:
              f"{status.last_track_stamp_ns if status.last_track_stamp_ns is not None else 'none'}"]
     for vehicle in status.vehicles:
         lines.append(f"  {vehicle.vehicle_id:<10} sysid {vehicle.sysid or '-':>3}  link {vehicle.link:<7} "
-                     f"reports {vehicle.reports:>6}  autopilot {vehicle.autopilot or '-'}")
+                     f"(heartbeat {vehicle.heartbeat or '-'}, liveliness {vehicle.liveliness or '-'})  "
+                     f"reports {vehicle.reports:>6}  autopilot {vehicle.autopilot or '-'}  "
+                     f"control {vehicle.control or '-'}")
     for name, value in sorted(status.counters.items()):
         lines.append(f"  {name:<40} {value:>10}")
     return lines

@@ -9,19 +9,25 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import replace
 
+import msgspec
+
 from gcs.adapters.mavlink_wire import GCS_SYSID, mavlink, open_connection
 from gcs.scenarios import load_scenario
 from gcs.world_loader import build_world
 from sim_vehicles.runner import Runner, RunOptions
 
 SCENARIO = load_scenario("wang2012_urban")
+"""The default scenario: its vehicles answer as ArduPlane does (``[simulation] autopilot``)."""
 WORLD = build_world(SCENARIO)
+IDEAL_SCENARIO = msgspec.structs.replace(
+    SCENARIO, simulation=msgspec.structs.replace(SCENARIO.simulation, autopilot="ideal"))
+"""The default scenario with the ``ideal`` autopilot, which obeys every steering message (carrots too)."""
 
 
 @contextmanager
-def running_vehicles(options: RunOptions) -> Iterator[Runner]:
-    """The default scenario's vehicles flying in a thread; stopped and joined on exit."""
-    runner = Runner(SCENARIO, WORLD, options)
+def running_vehicles(options: RunOptions, scenario=SCENARIO) -> Iterator[Runner]:
+    """The scenario's vehicles (the default one's unless given) flying in a thread; stopped and joined on exit."""
+    runner = Runner(scenario, WORLD, options)
     errors: list[BaseException] = []
 
     def target() -> None:

@@ -12,9 +12,9 @@ The simulated vehicles (default scenario, seed 1) fly at 5x real time; the daemo
 runs its loop in a thread until the simulation has flown :data:`SIMULATED_S`. While
 both run, the test samples every vehicle's autopilot and truth and the daemon's
 MAVLink view of it; afterwards it compares uav1 (behind MAVProxy) with uav2 and uav3
-(direct) on every count: the GUIDED switch, carrots and heading commands delivered,
-the autopilot's guidance against the daemon's command, the flown course, and the
-decision steps that planned for it.
+(direct) on every count: the GUIDED switch, the stream-rate requests and heading
+commands delivered, the autopilot's guidance against the daemon's command, the
+flown course against the planned path, and the decision steps that planned for it.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ from tests.integration.mavproxy_harness import MavProxy
 from tests.integration.sim_harness import SCENARIO, angle_error_deg, options, running_vehicles
 from tests.loopback import LOCALHOST, ANY_PORT_ENDPOINT, daemon_ports
 
-GUIDED = ARDUPLANE_MODES["GUIDED"]
+GUIDED, LOITER = ARDUPLANE_MODES["GUIDED"], ARDUPLANE_MODES["LOITER"]
 RATE = 5.0
 """Simulated seconds per wall-clock second."""
 SIMULATED_S = 50.0
@@ -56,23 +56,22 @@ PROXIED = "uav1"
 DIRECT = ("uav2", "uav3")
 VEHICLES = (PROXIED, *DIRECT)
 SYSIDS = {v.id: v.sysid for v in SCENARIO.vehicles}
-GUIDANCE_TOLERANCE_DEG = 3.0
+GUIDANCE_TOLERANCE_DEG = 1.0
 """The autopilot's guidance against the daemon's command: GUIDED_CHANGE_HEADING is re-sent on a 0.5 degree
-change, and the bearing to a carrot 375 m ahead moves by a degree or two while the vehicle flies the few
-tens of metres between two carrots."""
+change, and the autopilot holds the course it was sent."""
 COMMAND_LAG_S = 1.5
 """Simulated time a command may take to reach the autopilot: the daemon's loop, MAVProxy and the simulator's
 step, at 5x on a loaded machine (0.3 s of wall time)."""
 GUIDED_SETTLE_S = 3.0
-"""After entering GUIDED the autopilot loiters until the next carrot, and the heading command waits for the
-daemon to see GUIDED in a heartbeat (1 Hz): guidance is compared from this long after the switch."""
+"""After entering GUIDED the autopilot loiters until the heading command, which waits for the daemon to see
+GUIDED in a heartbeat (1 Hz): guidance is compared from this long after the switch."""
 TRACK_TOLERANCE_M = 5.0
 """How far the daemon's MAVLink position of a vehicle may be from the vehicle's true track of the last
 :data:`TRACK_WINDOW_S` (GLOBAL_POSITION_INT carries the true position to 1e-7 degree)."""
 TRACK_WINDOW_S = 3.0
-COURSE_MEDIAN_DEG = 30.0
-"""The flown course against the commanded heading (pure pursuit on a 5-step plan leads a turning vehicle
-by up to half the plan's turn, about 29 degrees at 0.2 rad/s; measured medians are 8-17 degrees)."""
+COURSE_MEDIAN_DEG = 5.0
+"""The flown course against the planned path's course at the nearest point, median after the settle (the
+issue's goal for steering; `gcs bench autopilots` measures under a degree in one process)."""
 
 
 @dataclass
@@ -84,6 +83,7 @@ class Sample:
     guidance_rad: float | None
     course_rad: float
     commanded_rad: float | None
+    path_course_rad: float | None
     truth_xy: tuple[float, float]
     link_xy: tuple[float, float] | None
 
@@ -93,7 +93,7 @@ class Watch:
     """Everything sampled while the daemon steers."""
 
     samples: dict[str, list[Sample]] = field(default_factory=lambda: {v: [] for v in VEHICLES})
-    carrots_mid_run: dict[str, int] = field(default_factory=dict)
+    commands_mid_run: dict[str, int] = field(default_factory=dict)
 
     def guided(self, vehicle_id: str) -> list[Sample]:
         """Samples in GUIDED with a command from the daemon."""
@@ -144,8 +144,13 @@ def distance_to_polyline(point: tuple[float, float], vertices: list[tuple[float,
 
 
 def guidance_direction(runner: Runner, vehicle_id: str) -> float | None:
-    """ENU direction the autopilot is steering to: a course or heading, or the bearing to its fly-to point."""
-    guidance = runner.autopilots[vehicle_id].guidance
+    """ENU direction the autopilot is steering to: ArduPlane's guided heading in force, a course or heading, or the
+    bearing to its fly-to point."""
+    autopilot = runner.autopilots[vehicle_id]
+    heading_target = getattr(autopilot, "heading_target", None)  # the arduplane personality's GUIDED_CHANGE_HEADING
+    if heading_target is not None:
+        return heading_target.direction_rad
+    guidance = autopilot.guidance
     if guidance is None or guidance.kind == "loiter":
         return None
     if guidance.kind == "goto":
@@ -154,7 +159,14 @@ def guidance_direction(runner: Runner, vehicle_id: str) -> float | None:
     return guidance.direction_rad
 
 
-def watch(runner: Runner, daemon_thread: threading.Thread, commander: Callable[[], MavlinkCommander | None]) -> Watch:
+def path_course(daemon: Daemon, vehicle_id: str, xy: np.ndarray) -> float | None:
+    """The course of the vehicle's planned path at the point nearest ``xy`` (None before a plan)."""
+    path = daemon.loop.paths.get(vehicle_id)
+    return None if path is None else float(path.courses[path.nearest(xy)])
+
+
+def watch(runner: Runner, daemon: Daemon, daemon_thread: threading.Thread,
+          commander: Callable[[], MavlinkCommander | None]) -> Watch:
     """Sample the vehicles and the daemon's view of them until the daemon's thread ends."""
     seen = Watch()
     while daemon_thread.is_alive():
@@ -168,16 +180,25 @@ def watch(runner: Runner, daemon_thread: threading.Thread, commander: Callable[[
                 seen.samples[vehicle_id].append(Sample(
                     elapsed, runner.autopilots[vehicle_id].mode, guidance_direction(runner, vehicle_id),
                     state.course_rad(runner.scene.wind), None if command is None else command.heading_enu_rad,
+                    path_course(daemon, vehicle_id, state.position_enu_m[:2]),
                     (float(state.position_enu_m[0]), float(state.position_enu_m[1])),
                     None if position is None else (float(position[0]), float(position[1]))))
-            if elapsed >= SIMULATED_S / 2 and not seen.carrots_mid_run:
-                seen.carrots_mid_run = {v: carrots_received(runner, v) for v in VEHICLES}
+            if elapsed >= SIMULATED_S / 2 and not seen.commands_mid_run:
+                seen.commands_mid_run = {v: commands_received(runner, v) for v in VEHICLES}
         time.sleep(SAMPLE_PERIOD_S)
     return seen
 
 
-def carrots_received(runner: Runner, vehicle_id: str) -> int:
-    return runner.autopilots[vehicle_id].counters["SET_POSITION_TARGET_GLOBAL_INT"]
+def commands_received(runner: Runner, vehicle_id: str) -> int:
+    """COMMAND_INT (GUIDED_CHANGE_*) and COMMAND_LONG (mode, stream rates) the vehicle's autopilot received."""
+    counters = runner.autopilots[vehicle_id].counters
+    return counters["COMMAND_INT"] + counters["COMMAND_LONG"]
+
+
+def commands_sent(links: MavlinkCommander, vehicle_id: str) -> int:
+    counters = links.link(vehicle_id).counters
+    return sum(counters[k] for k in ("heading_commands", "speed_commands", "altitude_commands", "mode_requests",
+                                     "stream_requests"))
 
 
 def test_vehicle_behind_mavproxy_is_tracked_and_steered_like_a_direct_one(tmp_path: Path) -> None:
@@ -205,7 +226,7 @@ def test_vehicle_behind_mavproxy_is_tracked_and_steered_like_a_direct_one(tmp_pa
         # The vehicles fly once the daemon hears them: it listens before they connect (as `gcs demo` does), and
         # their clock starts when their reports have a subscriber. A peer that connects before the other listens
         # retries 1, 3 and 7 s later, while its simulated time runs: the likeliest cause of two CI runs that sent
-        # carrots for only 3.5 s of the 10 (the daemon opened in a thread started after the vehicles').
+        # commands for only 3.5 s of the 10 (the daemon opened in a thread started after the vehicles').
         sim = options(proxy.master_port, rate=RATE, epoch_ns=EPOCH_NS, wait_for_subscriber_s=WAIT_S,
                       zenoh=ZenohSettings(mode="peer", connect=(zenoh_endpoint,)),
                       mavlink={PROXIED: f"udpout:{LOCALHOST}:{proxy.master_port}",
@@ -223,7 +244,7 @@ def test_vehicle_behind_mavproxy_is_tracked_and_steered_like_a_direct_one(tmp_pa
             thread = threading.Thread(target=run_daemon, name="gcs-daemon", daemon=True)
             thread.start()
             try:
-                seen = watch(runner, thread, commander)
+                seen = watch(runner, daemon, thread, commander)
             finally:
                 daemon.stop()
                 thread.join(timeout=10)
@@ -233,17 +254,18 @@ def test_vehicle_behind_mavproxy_is_tracked_and_steered_like_a_direct_one(tmp_pa
             stopped_at_s = runner.scene.elapsed_s  # the vehicles had sent a heartbeat at 0, 1, ... s by then
             links = commander()
 
-            def delivered() -> bool:  # the last carrots in flight (through MAVProxy) have reached the vehicles
-                return all(carrots_received(runner, v) >= links.link(v).counters["carrots"] for v in VEHICLES)
+            def delivered() -> bool:  # the last commands in flight (through MAVProxy) have reached the vehicles
+                return all(commands_received(runner, v) >= commands_sent(links, v) for v in VEHICLES)
 
-            deadline = time.monotonic() + WAIT_S  # a carrot lost on the way is allowed for below
+            deadline = time.monotonic() + WAIT_S  # a command lost on the way is allowed for below
             while not delivered() and time.monotonic() < deadline:
                 time.sleep(SAMPLE_PERIOD_S)
             flown_s = runner.scene.elapsed_s
-            modes = {v: runner.autopilots[v].mode for v in VEHICLES}
+            steering_modes = {v: seen.samples[v][-1].mode for v in VEHICLES}  # the last look while it steered
+            handed_back = {v: runner.autopilots[v].mode for v in VEHICLES}
             received = {v: runner.autopilots[v].counters.copy() for v in VEHICLES}
             proxy.wait_for_vehicle(SYSIDS[PROXIED], WAIT_S)
-            proxy.wait_for_mode("GUIDED", WAIT_S)  # MAVProxy saw its vehicle switched by the daemon behind it
+            proxy.wait_for_mode("LOITER", WAIT_S)  # MAVProxy saw its vehicle handed back by the daemon behind it
             transcript = proxy.transcript
 
     assert flown_s >= SIMULATED_S, f"the simulation flew {flown_s:.1f} s only (machine too slow?)"
@@ -266,14 +288,13 @@ def test_vehicle_behind_mavproxy_is_tracked_and_steered_like_a_direct_one(tmp_pa
             f"{vehicle_id}: the daemon's MAVLink position is {np.percentile(off_track, 90):.1f} m off the track (p90)"
 
     # Put into GUIDED by the daemon at the same point of its command stream as the direct ones: as many mode
-    # requests (up to one re-sent), and as many carrots arriving before the switch (up to one); the ack came
-    # back to the daemon.
-    assert modes == {v: GUIDED for v in VEHICLES}, modes
+    # requests (up to one re-sent); the ack came back to the daemon.
+    assert steering_modes == {v: GUIDED for v in VEHICLES}, steering_modes
+    assert handed_back == {v: LOITER for v in VEHICLES}, handed_back  # given back when the daemon stopped
+    assert "GUIDED> " in transcript  # MAVProxy saw its vehicle switched by the daemon behind it
     assert all(seen.first_guided_s(v) is not None for v in VEHICLES)
     requests = {v: links.link(v).counters["mode_requests"] for v in VEHICLES}
     assert requests[PROXIED] <= max(requests[v] for v in DIRECT) + 1, requests
-    early = {v: received[v]["position_target_outside_guided"] for v in VEHICLES}
-    assert early[PROXIED] <= max(early[v] for v in DIRECT) + 1, early
     for vehicle_id in VEHICLES:
         link = links.link(vehicle_id)
         assert link.counters["mode_requests"] >= 1, (vehicle_id, link.counters)
@@ -284,18 +305,20 @@ def test_vehicle_behind_mavproxy_is_tracked_and_steered_like_a_direct_one(tmp_pa
         assert link.counters["ack_accepted"] >= commands - 2, (vehicle_id, link.counters)  # the last may be in flight
         assert link.counters["commands_rejected"] == 0, (vehicle_id, link.counters)
 
-    # Every carrot and heading command the daemon sent reached the vehicle, through MAVProxy as directly.
+    # Every command the daemon sent reached the vehicle, through MAVProxy as directly: the stream rates asked
+    # once (and met), heading commands on every change, no carrots (an ArduPilot peer flies the course).
     for vehicle_id in VEHICLES:
         sent = links.link(vehicle_id).counters
         got = received[vehicle_id]
-        assert sent["carrots"] >= 0.5 * 4.0 * SIMULATED_S / RATE, \
-            (vehicle_id, sent, f"first command at {seen.first_commanded_s(vehicle_id)} s")  # 4 Hz of wall time
-        assert sent["carrots"] - 2 <= got["SET_POSITION_TARGET_GLOBAL_INT"] <= sent["carrots"], (vehicle_id, sent, got)
+        assert sent["carrots"] == 0 and got["SET_POSITION_TARGET_GLOBAL_INT"] == 0, (vehicle_id, sent, got)
+        assert sent["stream_requests"] == 2 and sent["streams_below_rate"] == 0, (vehicle_id, sent)
+        assert sent["heading_commands"] >= 0.5 * SIMULATED_S, \
+            (vehicle_id, sent, f"first command at {seen.first_commanded_s(vehicle_id)} s")  # turning: most steers
         commands_int = sent["heading_commands"] + sent["speed_commands"] + sent["altitude_commands"]
         assert commands_int - 2 <= got["COMMAND_INT"] <= commands_int, (vehicle_id, sent, got)
-        assert carrots_received(runner, vehicle_id) > seen.carrots_mid_run[vehicle_id], "carrots stopped mid-run"
-    carrots = {v: links.link(v).counters["carrots"] for v in VEHICLES}
-    assert all(abs(carrots[PROXIED] - carrots[v]) <= 3 for v in DIRECT), carrots
+        assert commands_received(runner, vehicle_id) > seen.commands_mid_run[vehicle_id], "commands stopped mid-run"
+    headings = {v: links.link(v).counters["heading_commands"] for v in VEHICLES}
+    assert all(abs(headings[PROXIED] - headings[v]) <= 0.3 * headings[v] for v in DIRECT), headings
 
     # The autopilot's guidance is a command the daemon just sent, and the vehicle flies it.
     for vehicle_id in VEHICLES:
@@ -304,9 +327,11 @@ def test_vehicle_behind_mavproxy_is_tracked_and_steered_like_a_direct_one(tmp_pa
             f"{vehicle_id}: {len(guided)} samples, the first command at {seen.first_commanded_s(vehicle_id)} s"
         follows = seen.guidance_follows(vehicle_id)
         assert np.mean(follows) >= 0.85, f"{vehicle_id}: guidance on the command in {np.mean(follows):.0%} of samples"
-        course_errors = [angle_error_deg(math.degrees(s.course_rad), math.degrees(s.commanded_rad)) for s in guided]
+        settled = guided[0].elapsed_s + GUIDED_SETTLE_S
+        course_errors = [angle_error_deg(math.degrees(s.course_rad), math.degrees(s.path_course_rad))
+                         for s in guided if s.elapsed_s >= settled and s.path_course_rad is not None]
         assert float(np.median(course_errors)) <= COURSE_MEDIAN_DEG, \
-            f"{vehicle_id}: course {np.median(course_errors):.1f} degrees from the command (median)"
+            f"{vehicle_id}: course {np.median(course_errors):.1f} degrees from the planned path (median)"
 
     # Tracked: every decision step plans for uav1 as for the direct ones; the target is kept in sight.
     records = daemon.records

@@ -108,7 +108,8 @@ def test_commanded_headings_switch_to_guided_and_the_courses_converge(sim) -> No
         link = commander.link(vehicle_id)
         assert on_course(commander, vehicle_id, heading), vehicle_id  # and holds it
         assert link.custom_mode == GUIDED and runner.autopilots[vehicle_id].mode == GUIDED
-        assert link.counters["mode_requests"] >= 1 and link.counters["carrots"] >= 4
+        assert link.counters["mode_requests"] >= 1 and link.counters["carrots"] == 0  # ArduPilot: no carrots
+        assert link.counters["stream_requests"] >= 2 and link.counters["streams_below_rate"] == 0
         assert link.last_ack[mavlink.MAV_CMD_DO_SET_MODE] == mavlink.MAV_RESULT_ACCEPTED
         assert link.last_ack[mavlink.MAV_CMD_GUIDED_CHANGE_HEADING] == mavlink.MAV_RESULT_ACCEPTED
         assert link.position_enu_m[2] == pytest.approx(230.0, abs=5.0)  # climbing from 200-220 m at 5 m/s max
@@ -120,19 +121,18 @@ def test_guided_change_heading_is_sent_once_per_change(sim) -> None:
     commands = runner.autopilots[uav].counters  # COMMAND_INT received by the vehicle: heading, speed, altitude
     commander.command(uav, HeadingCommand(1.0, 220.0, 25.0))
     pump(commander, lambda: commander.link(uav).counters["heading_commands"] == 1 and commands["COMMAND_INT"] == 3)
-    carrots = commander.link(uav).counters["carrots"]
     for jitter in (0.001, -0.002, 0.003, 0.0):  # radians, all below 0.5 degree
         commander.command(uav, HeadingCommand(1.0 + jitter, 220.0, 25.0))
-        pump(commander, lambda c=commander.link(uav).counters["carrots"]: commander.link(uav).counters["carrots"] > c)
+        pump(commander, lambda c=commander.link(uav).counters["received"]: commander.link(uav).counters["received"] > c + 5)
     assert commander.link(uav).counters["heading_commands"] == 1 and commands["COMMAND_INT"] == 3
     commander.command(uav, HeadingCommand(1.5, 220.0, 25.0))
     pump(commander, lambda: on_course(commander, uav, 1.5))
     link = commander.link(uav)
     assert (link.counters["heading_commands"], link.counters["speed_commands"], link.counters["altitude_commands"]) \
         == (2, 1, 1)
-    assert commands["COMMAND_INT"] == 4 and link.counters["carrots"] >= carrots + 4
+    assert commands["COMMAND_INT"] == 4
     assert commander.counters()["heading_commands"] == 2  # the other vehicles were never commanded
-    assert commander.link("uav1").counters["carrots"] == 0 and runner.autopilots["uav1"].mode == LOITER
+    assert commander.link("uav1").counters["mode_requests"] == 0 and runner.autopilots["uav1"].mode == LOITER
 
 
 def test_signed_commander_flies_signed_vehicles() -> None:
@@ -244,11 +244,11 @@ def test_a_vehicle_that_disappears_and_returns_gets_its_heading_again(scripted, 
     settle(commander, 0.0, lambda: commander.link("uav1").position_enu_m is not None)
     commander.command("uav1", HeadingCommand(math.radians(30.0), 200.0, 25.0))
     commander.service(0.1)
-    carrot = station.wait("SET_POSITION_TARGET_GLOBAL_INT", GCS_SYSID)  # sent first
-    assert carrot.target_system == 1 and carrot.type_mask == 0x09F8
+    streams = station.wait("COMMAND_LONG", GCS_SYSID, condition=lambda m: m.command == 511)  # sent first
+    assert (streams.target_system, streams.param1, streams.param2) == (1, 33.0, 200_000.0)  # 5 Hz positions
     heading = station.wait("COMMAND_INT", GCS_SYSID, condition=lambda m: m.command == 43002)
     assert (heading.target_system, heading.param1, heading.param2) == (1, 0.0, pytest.approx(60.0))
-    assert heading.param3 == pytest.approx(25.0 * TURN_RATES["uav1"])
+    assert heading.param3 == pytest.approx(1.25 * 25.0 * TURN_RATES["uav1"])
     for now in (1.0, 2.0, 3.0):  # heard every second, same command: no new heading command
         peers.heartbeat(1)
         settle(commander, now, lambda t=now: commander.link("uav1").last_heartbeat_s == t)
@@ -259,12 +259,13 @@ def test_a_vehicle_that_disappears_and_returns_gets_its_heading_again(scripted, 
     with caplog.at_level(logging.WARNING, logger="gcs.adapters.mavlink_io"):
         commander.service(9.0)  # silent for 6 s: lost, nothing sent to it
         assert link.counters["link_lost"] == 1 and not commander.alive("uav1", 9.0)
-        carrots = link.counters["carrots"]
+        requests = link.counters["stream_requests"]
         peers.heartbeat(1)  # back
         settle(commander, 10.0, lambda: commander.alive("uav1", 10.0))
         commander.service(10.0)
         assert link.counters["link_up"] == 2 and link.counters["heading_commands"] == 2
-        assert link.counters["carrots"] == carrots + 1
+        assert link.counters["stream_requests"] == requests + 2  # the rates are asked for again
+        assert link.counters["carrots"] == 0
 
         peers.heartbeat(1, LOITER)  # switched away (a pilot, a failsafe): GUIDED is requested again
         settle(commander, 10.5, lambda: link.custom_mode == LOITER)

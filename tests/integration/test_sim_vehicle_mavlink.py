@@ -1,4 +1,8 @@
-"""Simulated vehicles as MAVLink 2 peers, driven by a pymavlink ground station on loopback."""
+"""Simulated vehicles as MAVLink 2 peers, driven by a pymavlink ground station on loopback.
+
+The ``ideal`` autopilot's command set (the arduplane and px4 personalities are tested in
+tests/unit/test_sim_personalities.py and flown by the daemon's tests).
+"""
 
 from __future__ import annotations
 
@@ -7,7 +11,7 @@ import math
 import pytest
 
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODES, mavlink, signing_key_from_passphrase
-from tests.integration.sim_harness import GroundStation, angle_error_deg, options, running_vehicles
+from tests.integration.sim_harness import IDEAL_SCENARIO, GroundStation, angle_error_deg, options, running_vehicles
 
 
 GUIDED, LOITER = ARDUPLANE_MODES["GUIDED"], ARDUPLANE_MODES["LOITER"]
@@ -16,7 +20,7 @@ GUIDED, LOITER = ARDUPLANE_MODES["GUIDED"], ARDUPLANE_MODES["LOITER"]
 @pytest.fixture()
 def link():
     gcs = GroundStation()
-    with running_vehicles(options(gcs.port)) as runner:
+    with running_vehicles(options(gcs.port), IDEAL_SCENARIO) as runner:
         gcs.wait("HEARTBEAT")  # a udpin GCS learns where to send from the first packet
         yield gcs, runner
     gcs.close()

@@ -13,7 +13,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from gcs.adapters.mavlink_io import HeadingCommand, SendMemory, VehicleLink, due_actions, update_from_message
+from gcs.adapters.mavlink_commands import SendMemory, due_actions
+from gcs.adapters.mavlink_link import HeadingCommand, VehicleLink, update_from_message
 from gcs.adapters.mavlink_wire import mavlink
 from gcs.core.geometry import LocalFrame
 

@@ -9,24 +9,23 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from gcs.adapters.mavlink_io import (
+from gcs.adapters.mavlink_commands import (
     CARROT_TYPE_MASK,
     Carrot,
     ChangeAltitude,
     ChangeHeading,
     ChangeSpeed,
-    HeadingCommand,
-    MavlinkCommander,
+    MessageInterval,
     ModeRequest,
     SendMemory,
-    VehicleLink,
+    Takeover,
     carrot_distance_m,
     carrot_for,
     course_param_deg,
     due_actions,
-    in_guided_mode,
-    update_from_message,
 )
+from gcs.adapters.mavlink_io import MavlinkCommander
+from gcs.adapters.mavlink_link import HeadingCommand, VehicleLink, in_guided_mode, update_from_message
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODES, GCS_SYSID, mavlink
 from gcs.core.geometry import LocalFrame, wrap_angle
 
@@ -54,9 +53,12 @@ def flying(autopilot: int = ARDUPILOT, mode: int = GUIDED, heading_deg: float = 
                        heading_enu_rad=0.0, position_stamp_s=0.0, command=HeadingCommand(**wanted))
 
 
-def due(link: VehicleLink, memory: SendMemory, now_s: float):
+def due(link: VehicleLink, memory: SendMemory, now_s: float, stream_rate_hz: float = 0.0):
     return due_actions(FRAME, link, memory, now_s, max_turn_rate_rad_s=TURN_RATE, carrot_period_s=CARROT_PERIOD,
-                       link_timeout_s=5.0)
+                       link_timeout_s=5.0, stream_rate_hz=stream_rate_hz)
+
+
+OFFBOARD = 6 << 16
 
 
 def kinds(actions) -> list[type]:
@@ -164,14 +166,21 @@ def test_guided_means_offboard_for_px4_and_mode_15_otherwise() -> None:
 # ---------------------------------------------------------------- what is sent when
 
 
-def test_first_service_in_guided_sends_carrot_heading_speed_and_altitude() -> None:
+def test_first_service_to_ardupilot_in_guided_sends_heading_speed_and_altitude_and_no_carrot() -> None:
     actions, memory = due(flying(heading_deg=30.0), SendMemory(), 0.0)
-    assert kinds(actions) == [Carrot, ChangeHeading, ChangeSpeed, ChangeAltitude]
-    heading = actions[1]
+    assert kinds(actions) == [ChangeHeading, ChangeSpeed, ChangeAltitude]
+    heading = actions[0]
     assert heading.course_deg == pytest.approx(60.0)  # ENU 30 degrees = NED 60 degrees
-    assert heading.lateral_accel_mps2 == pytest.approx(25.0 * TURN_RATE)
-    assert (actions[2].airspeed_mps, actions[3].altitude_m) == (25.0, 220.0)
-    assert memory.heading_rad == pytest.approx(math.radians(30.0)) and memory.next_carrot_s == CARROT_PERIOD
+    assert heading.lateral_accel_mps2 == pytest.approx(1.25 * 25.0 * TURN_RATE)  # the bank margin over V omega
+    assert (actions[1].airspeed_mps, actions[2].altitude_m) == (25.0, 220.0)
+    assert memory.heading_rad == pytest.approx(math.radians(30.0)) and memory.next_carrot_s == -math.inf
+
+
+def test_px4_in_offboard_gets_only_carrots_along_the_commanded_course() -> None:
+    link = flying(autopilot=PX4, mode=OFFBOARD, heading_deg=-45.0)
+    actions, _ = due(link, SendMemory(), 0.0)
+    assert kinds(actions) == [Carrot]
+    assert actions[0].yaw_ned_rad == pytest.approx(math.radians(135.0))  # ENU -45 degrees = NED 135 degrees
 
 
 def test_guided_change_heading_only_when_the_heading_moves_more_than_half_a_degree() -> None:
@@ -191,7 +200,7 @@ def test_guided_change_heading_only_when_the_heading_moves_more_than_half_a_degr
     assert sent == [[ChangeHeading, ChangeSpeed, ChangeAltitude], [], [], [ChangeHeading], [ChangeAltitude],
                     [ChangeSpeed]]
     actions, _ = due(link, memory.forget_guided(), 1.0)  # re-entered GUIDED, or the link came back
-    assert kinds(actions)[1:] == [ChangeHeading, ChangeSpeed, ChangeAltitude]
+    assert kinds(actions) == [ChangeHeading, ChangeSpeed, ChangeAltitude]
 
 
 def test_mode_requests_at_most_once_per_second_and_no_guided_commands_outside_guided() -> None:
@@ -210,7 +219,7 @@ def test_mode_requests_at_most_once_per_second_and_no_guided_commands_outside_gu
 def test_px4_is_asked_for_offboard_and_gets_no_ardupilot_commands() -> None:
     actions, memory = due(flying(autopilot=PX4, mode=0), SendMemory(), 0.0)
     assert kinds(actions) == [Carrot, ModeRequest] and actions[1].custom_mode == 6
-    actions, _ = due(flying(autopilot=PX4, mode=6 << 16), memory, 2.0)
+    actions, _ = due(flying(autopilot=PX4, mode=OFFBOARD), memory, 2.0)
     assert kinds(actions) == [Carrot]
 
 
@@ -243,7 +252,7 @@ def test_course_parameter_just_below_north() -> None:
 
 
 def test_carrots_stream_at_the_carrot_rate_and_wait_for_a_position() -> None:
-    link = flying()
+    link = flying(autopilot=PX4, mode=OFFBOARD)
     memory, carrots = SendMemory(), 0
     for now in np.arange(0.0, 10.0, 0.01):
         link.last_heartbeat_s = float(now)
@@ -252,11 +261,11 @@ def test_carrots_stream_at_the_carrot_rate_and_wait_for_a_position() -> None:
     assert carrots == 40  # 4 Hz for 10 s, drift-free
     link.position_enu_m = None
     actions, _ = due(link, SendMemory(), 0.0)
-    assert Carrot not in kinds(actions) and ChangeHeading in kinds(actions)
+    assert actions == []
 
 
 def test_a_stall_does_not_cause_a_burst_of_carrots() -> None:
-    link = flying()
+    link = flying(autopilot=PX4, mode=OFFBOARD)
     _, memory = due(link, SendMemory(), 0.0)
     actions, memory = due(link, memory, 3.0)  # the daemon stalled for 3 s
     assert kinds(actions).count(Carrot) == 1 and memory.next_carrot_s == pytest.approx(3.0 + CARROT_PERIOD)
@@ -270,6 +279,83 @@ def test_nothing_without_a_command_or_a_recent_heartbeat() -> None:
     assert due(link, SendMemory(), 5.0)[0] != [] and due(link, SendMemory(), 5.01)[0] == []
     link.last_heartbeat_s = None
     assert due(link, SendMemory(), 0.0)[0] == []
+
+
+def test_stream_rates_are_asked_when_the_link_is_up_and_again_only_while_one_falls_short() -> None:
+    link = flying()
+    link.command = None  # asked whether or not the vehicle is commanded
+    actions, memory = due(link, SendMemory(), 0.0, stream_rate_hz=5.0)
+    assert [(a.message_id, a.interval_us) for a in actions] == [(33, 200_000.0), (30, 200_000.0)]
+    assert due(link, memory, 4.9, stream_rate_hz=5.0)[0] == []  # not checked before 5 s
+    link.arrivals.update({"GLOBAL_POSITION_INT": 25, "ATTITUDE": 25})  # 5 Hz each over 5 s
+    link.last_heartbeat_s = 5.0
+    actions, memory = due(link, memory, 5.0, stream_rate_hz=5.0)
+    assert actions == [] and memory.stream_rates_hz == pytest.approx((5.0, 5.0))
+    link.arrivals.update({"GLOBAL_POSITION_INT": 5, "ATTITUDE": 25})  # position at 1 Hz over the next 5 s
+    link.last_heartbeat_s = 10.0
+    actions, memory = due(link, memory, 10.0, stream_rate_hz=5.0)
+    assert kinds(actions) == [MessageInterval, MessageInterval] and memory.stream_rates_hz == pytest.approx((1.0, 5.0))
+    assert due(link, memory.forget_streams(), 10.0, stream_rate_hz=5.0)[0] == actions  # a link back: asked at once
+
+
+def test_stream_request_message_fields() -> None:
+    sent = roundtrip(MessageInterval(33, 200_000.0).encode(mavlink.MAVLink(None, srcSystem=GCS_SYSID), 2),
+                     sysid=GCS_SYSID)
+    assert (sent.get_type(), sent.command, sent.target_system, sent.param1, sent.param2) == (
+        "COMMAND_LONG", 511, 2, 33.0, 200_000.0)
+
+
+def test_the_takeover_guard_waits_for_an_armed_vehicle_above_the_takeover_altitude() -> None:
+    guard = Takeover(min_altitude_m=150.0)
+    link = flying(mode=LOITER)
+    link.armed = False
+
+    def requests(memory: SendMemory, now: float) -> tuple[list, SendMemory]:
+        actions, memory = due_actions(FRAME, link, memory, now, max_turn_rate_rad_s=TURN_RATE,
+                                      carrot_period_s=CARROT_PERIOD, link_timeout_s=5.0, stream_rate_hz=0.0,
+                                      takeover=guard)
+        return [a for a in actions if isinstance(a, ModeRequest)], memory
+
+    sent, memory = requests(SendMemory(), 0.0)
+    assert sent == [] and memory.blocked == "disarmed"
+    link.armed, link.position_enu_m = True, np.array([1200.0, 1300.0, 120.0])
+    sent, memory = requests(memory, 1.0)
+    assert sent == [] and memory.blocked == "below 150 m"
+    link.position_enu_m = np.array([1200.0, 1300.0, 150.0])
+    sent, memory = requests(memory, 2.0)
+    assert sent == [ModeRequest(GUIDED)] and memory.blocked is None and not memory.took_over
+    link.custom_mode = GUIDED
+    _, memory = requests(memory, 3.0)
+    assert memory.took_over
+
+
+@pytest.mark.parametrize(("autopilot", "mode", "handback", "expected"), [
+    (ARDUPILOT, GUIDED, "LOITER", ModeRequest(12)),
+    (ARDUPILOT, GUIDED, "RTL", ModeRequest(11)),
+    (PX4, OFFBOARD, "LOITER", ModeRequest(4, 3)),  # AUTO.LOITER
+    (PX4, OFFBOARD, "RTL", ModeRequest(4, 5)),  # AUTO.RTL
+])
+def test_a_vehicle_let_go_of_is_given_back_once_in_the_handback_mode(autopilot: int, mode: int, handback: str,
+                                                                      expected: ModeRequest) -> None:
+    link = flying(autopilot=autopilot, mode=mode)
+    guard = Takeover(handback=handback)
+    kwargs = dict(max_turn_rate_rad_s=TURN_RATE, carrot_period_s=CARROT_PERIOD, link_timeout_s=5.0,
+                  stream_rate_hz=0.0, takeover=guard)
+    _, memory = due_actions(FRAME, link, SendMemory(), 0.0, **kwargs)
+    assert memory.took_over
+    link.command = None
+    actions, memory = due_actions(FRAME, link, memory.let_go(), 0.5, **kwargs)
+    assert actions == [expected]
+    assert due_actions(FRAME, link, memory, 1.5, **kwargs)[0] == []  # once
+    never = flying(autopilot=autopilot, mode=LOITER)  # never taken over: nothing to give back
+    never.command = None
+    assert due_actions(FRAME, never, SendMemory().let_go(), 0.0, **kwargs)[0] == []
+
+
+def test_handback_request_fields_for_px4() -> None:
+    sent = roundtrip(ModeRequest(4, 5).encode(mavlink.MAVLink(None, srcSystem=GCS_SYSID), 3), sysid=GCS_SYSID)
+    assert (sent.command, sent.param1, sent.param2, sent.param3) == (176, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+                                                                     4.0, 5.0)
 
 
 def test_invalid_commands_and_rosters_are_refused_before_any_socket_opens() -> None:

@@ -215,7 +215,8 @@ def test_every_message_type_has_a_strategy() -> None:
 def test_round_trip(tp: type, data: st.DataObject) -> None:
     msg = data.draw(STRATEGIES[tp])
     payload, encoding = encode(msg)
-    assert encoding == f"application/json;gcs.{tp.__name__}/1"
+    version = 2 if tp.__name__ == "DaemonStatus" else 1  # DaemonStatus 2: heartbeat, liveliness, control
+    assert encoding == f"application/json;gcs.{tp.__name__}/{version}"
     assert len(payload) <= MAX_PAYLOAD_BYTES
     back = decode(payload, encoding, expected=tp)
     assert type(back) is tp

@@ -147,11 +147,12 @@ def test_track_estimate_models() -> None:
 def test_struct_config(tp: type[msgspec.Struct]) -> None:
     config = tp.__struct_config__
     assert config.frozen and config.forbid_unknown_fields
-    assert tp.VERSION == 1  # type: ignore[attr-defined]
+    version = 2 if tp is DaemonStatus else 1  # DaemonStatus 2: the vehicles' heartbeat, liveliness and control
+    assert tp.VERSION == version  # type: ignore[attr-defined]
     assert "VERSION" not in tp.__struct_fields__
     with pytest.raises(TypeError, match="positional"):
         tp(1)  # keyword-only: positional arguments are refused
-    assert encoding_for(tp) == f"application/json;gcs.{tp.__name__}/1"
+    assert encoding_for(tp) == f"application/json;gcs.{tp.__name__}/{version}"
 
 
 def test_messages_are_immutable_and_version_is_not_on_the_wire() -> None:

@@ -39,17 +39,17 @@ def _guided(name: str, **kw) -> Flight:
 
 def test_scenario_names_the_personality_per_vehicle_and_rejects_unknown_names(tmp_path) -> None:
     scenario = load_scenario("wang2012_urban")
-    assert {scenario.autopilot_for(v) for v in scenario.vehicles} == {"ideal"}
+    assert {scenario.autopilot_for(v) for v in scenario.vehicles} == {"arduplane"}  # the default scenario's
+    downtown = load_scenario("downtown_dense")
+    assert {downtown.autopilot_for(v) for v in downtown.vehicles} == {"ideal"}  # the configuration's default
     base = (resources.files("gcs.scenarios") / "wang2012_urban.toml").read_text()
-    assert "[simulation]" not in base
     first_vehicle = base.index("[[vehicles]]") + len("[[vehicles]]")
     overridden = tmp_path / "px4.toml"
-    overridden.write_text(base[:first_vehicle] + '\nautopilot = "px4"' + base[first_vehicle:]
-                          + '\n[simulation]\nautopilot = "arduplane"\n')
+    overridden.write_text(base[:first_vehicle] + '\nautopilot = "px4"' + base[first_vehicle:])
     scenario = load_scenario(overridden)
-    assert [scenario.autopilot_for(v) for v in scenario.vehicles][:2] == ["px4", "arduplane"]
+    assert [scenario.autopilot_for(v) for v in scenario.vehicles] == ["px4", "arduplane", "arduplane"]
     unknown = tmp_path / "unknown.toml"
-    unknown.write_text(base + '\n[simulation]\nautopilot = "ardupilot"\n')
+    unknown.write_text(base.replace('autopilot = "arduplane"', 'autopilot = "ardupilot"'))
     with pytest.raises(ScenarioError) as error:
         load_scenario(unknown)
     message = str(error.value)
