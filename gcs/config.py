@@ -336,6 +336,8 @@ class SimulationConfig(_Config):
     """MAVLink position/attitude stream rate of the ``ideal`` autopilot (HEARTBEAT and SYS_STATUS are 1 Hz)."""
     autopilot: str = "ideal"
     """Autopilot personality of every simulated vehicle: one of ``AUTOPILOT_PERSONALITIES``."""
+    start_on_ground: bool = False
+    """The vehicles start disarmed, parked at their start points on the ground, until a take-off."""
     wind_enu_mps: tuple[Annotated[float, msgspec.Meta(ge=-50.0, le=50.0)], Annotated[float, msgspec.Meta(ge=-50.0, le=50.0)]] = (0.0, 0.0)
     airframe: AirframeConfig = AirframeConfig()
     gps: GpsConfig = GpsConfig()

@@ -98,7 +98,9 @@ class ArduPlaneAutopilot(SimAutopilot):
     # ------------------------------------------------------------- the loop
 
     def update(self, now_s: float, state: AirframeState, wind_enu_mps: tuple[float, float]) -> None:
-        """Run the guided heading PID (when a heading is in force) and put its bank demand into the guidance."""
+        """Run the guided heading PID (when a heading is in force) and put its bank demand into the guidance; the
+        end of a take-off."""
+        self._takeoff_update(state)
         dt = 0.0 if self._last_update_s is None else max(now_s - self._last_update_s, 0.0)
         self._last_update_s = now_s
         target = self.heading_target

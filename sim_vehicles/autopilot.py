@@ -32,6 +32,8 @@ STABILIZE, FBWA, FBWB, CRUISE, TRAINING and ACRO hold the current heading. Enter
 a command arrives, as ArduPlane does. The vehicle is airborne and armed from
 the start; a disarm request in flight is refused.
 
+**On the ground** (``[simulation] start_on_ground``): :mod:`sim_vehicles.ground`.
+
 Altitudes in commands: frames GLOBAL (0) and GLOBAL_INT (5) are above mean sea
 level; GLOBAL_RELATIVE_ALT (3, 6) relative to home; terrain frames (10, 11) are
 taken as relative to home (the simulated ground is flat at the origin's height).
@@ -47,11 +49,11 @@ from dataclasses import dataclass, field, replace
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODE_NAMES, ARDUPLANE_MODES, mavlink, ned_yaw_from_enu_heading
 from gcs.config import AirframeConfig
 from gcs.core.geometry import LocalFrame
-from sim_vehicles import telemetry_messages
 from sim_vehicles.streams import STREAMED_MESSAGES, MessageSchedule
 from sim_vehicles.autopilot_params import ParameterTable
+from sim_vehicles.egress import Egress
+from sim_vehicles.ground import GroundStart
 from sim_vehicles.truth.fixed_wing import AirframeState, Guidance
-from sim_vehicles.truth.gps import GpsReading
 
 __all__ = ["SimAutopilot", "HEADING_HOLD_MODES", "LOITER_MODES", "HOME_MODES"]
 
@@ -62,7 +64,7 @@ LOITER_MODES = frozenset({ARDUPLANE_MODES["LOITER"], ARDUPLANE_MODES["CIRCLE"]})
 HOME_MODES = frozenset({ARDUPLANE_MODES["RTL"], ARDUPLANE_MODES["AUTO"]})
 HEADING_HOLD_MODES = frozenset(ARDUPLANE_MODES[name] for name in
                                ("MANUAL", "STABILIZE", "FBWA", "FBWB", "CRUISE", "TRAINING", "ACRO"))
-SUPPORTED_MODES = frozenset({GUIDED}) | LOITER_MODES | HOME_MODES | HEADING_HOLD_MODES
+SUPPORTED_MODES = frozenset({GUIDED, ARDUPLANE_MODES["TAKEOFF"]}) | LOITER_MODES | HOME_MODES | HEADING_HOLD_MODES
 
 _RELATIVE_FRAMES = frozenset({mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
                               mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT, mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT})
@@ -73,7 +75,7 @@ _MASK_VX, _MASK_VY = 8, 16
 _MASK_YAW = 1024
 
 @dataclass
-class SimAutopilot(ParameterTable):
+class SimAutopilot(GroundStart, Egress, ParameterTable):
     """Mode, arming and guidance of one vehicle, driven by MAVLink messages.
 
     Parameters
@@ -95,6 +97,9 @@ class SimAutopilot(ParameterTable):
 
     personality = "ideal"
     """The name a scenario gives this behaviour (``autopilot = "ideal"``)."""
+    takeoff_mode = ARDUPLANE_MODES["TAKEOFF"]
+    takeoff_altitude_param = "TKOFF_ALT"
+    ground_mode = ARDUPLANE_MODES["MANUAL"]
     disarm_in_flight_result = mavlink.MAV_RESULT_DENIED
 
     sysid: int
@@ -104,6 +109,8 @@ class SimAutopilot(ParameterTable):
     cruise_altitude_m: float
     encoder: mavlink.MAVLink
     telemetry_rate_hz: float = 4.0
+    on_ground: bool = False
+    """Parked on the ground until a take-off (module docstring)."""
     mode: int = ARDUPLANE_MODES["LOITER"]
     armed: bool = True
     guidance: Guidance | None = None
@@ -120,6 +127,7 @@ class SimAutopilot(ParameterTable):
             "ROLL_LIMIT_DEG": math.degrees(self.airframe.max_bank_rad),
             "AIRSPEED_MIN": float(self.airframe.min_airspeed_mps),
             "AIRSPEED_MAX": float(self.airframe.max_airspeed_mps),
+            "TKOFF_ALT": 50.0,
         }
         self.schedule = MessageSchedule(self.default_stream_rates())
 
@@ -129,7 +137,9 @@ class SimAutopilot(ParameterTable):
 
     def update(self, now_s: float, state: AirframeState, wind_enu_mps: tuple[float, float]) -> None:
         """Once per physics step, before the airframe moves: controllers that run in the autopilot's own loop
-        (none here: the truth model's guidance law steers)."""
+        (here only the end of a take-off: the truth model's guidance law steers)."""
+        self._takeoff_update(state)
+
 
     # ----------------------------------------------------------------- guidance
 
@@ -139,7 +149,10 @@ class SimAutopilot(ParameterTable):
         return ARDUPLANE_MODE_NAMES.get(self.mode, str(self.mode))
 
     def start(self, state: AirframeState) -> None:
-        """Begin in the initial mode (LOITER about the start point)."""
+        """Begin in the initial mode (LOITER about the start point), or disarmed and parked on the ground."""
+        if self.on_ground:
+            self.armed, self.mode, self.guidance = False, self.ground_mode, self._parked()
+            return
         self._enter_mode(self.mode, state)
 
     def _hold(self, kind: str, state: AirframeState, **changes) -> Guidance:
@@ -152,9 +165,13 @@ class SimAutopilot(ParameterTable):
         return self._hold("loiter", state, point_enu_m=point, radius_m=self.airframe.loiter_radius_m, clockwise=True)
 
     def _enter_mode(self, mode: int, state: AirframeState) -> None:
+        if self._enter_on_ground(mode, state):
+            return
         self.mode = mode
         self.guided_target_enu_m = None
-        if mode == GUIDED or mode in LOITER_MODES:
+        if mode == self.takeoff_mode:
+            self._take_off(state)
+        elif mode == GUIDED or mode in LOITER_MODES:
             self.guidance = self._loiter_here(state)
         elif mode in HOME_MODES:
             self.guidance = self._hold("loiter", state, point_enu_m=(0.0, 0.0), radius_m=self.airframe.loiter_radius_m,
@@ -232,7 +249,7 @@ class SimAutopilot(ParameterTable):
             else:
                 result = self._set_mode(int(p[1]), state)
         elif command == mavlink.MAV_CMD_COMPONENT_ARM_DISARM:
-            result = mavlink.MAV_RESULT_ACCEPTED if p[0] == 1 else self.disarm_in_flight_result  # airborne
+            result = self._arm(p[0] == 1, state)
         elif command == mavlink.MAV_CMD_DO_REPOSITION:
             result = self._reposition(p, frame, state)
         elif command == mavlink.MAV_CMD_GUIDED_CHANGE_HEADING:
@@ -354,46 +371,3 @@ class SimAutopilot(ParameterTable):
     def _param_changed(self, name: str, value: float) -> None:
         if name == "AIRSPEED_CRUISE":
             self._change_speed(value)
-
-    # ------------------------------------------------------------------ egress
-
-    def _message(self, message_id: int, now_s: float, state: AirframeState):
-        if message_id == mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
-            return self.autopilot_version()
-        if message_id == mavlink.MAVLINK_MSG_ID_HOME_POSITION:
-            return self.home_position(now_s)
-        if message_id == mavlink.MAVLINK_MSG_ID_HEARTBEAT:
-            return self.heartbeat()
-        return None
-
-    def heartbeat(self):
-        """HEARTBEAT: fixed-wing, ArduPilot, custom mode, armed flag, ACTIVE in flight."""
-        base = (mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED
-                | mavlink.MAV_MODE_FLAG_GUIDED_ENABLED | (mavlink.MAV_MODE_FLAG_SAFETY_ARMED if self.armed else 0))
-        status = mavlink.MAV_STATE_ACTIVE if self.armed else mavlink.MAV_STATE_STANDBY
-        return self.encoder.heartbeat_encode(mavlink.MAV_TYPE_FIXED_WING, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA,
-                                             base, self.mode, status)
-
-    def sys_status(self):
-        """SYS_STATUS (every sensor healthy)."""
-        return telemetry_messages.sys_status(self.encoder)
-
-    def autopilot_version(self):
-        """AUTOPILOT_VERSION."""
-        return telemetry_messages.autopilot_version(self.encoder, self.sysid)
-
-    def home_position(self, now_s: float):
-        """HOME_POSITION: the scenario origin at ground level."""
-        return telemetry_messages.home_position(self.encoder, self.frame, now_s)
-
-    def echoed_target(self) -> tuple[float, float, float] | None:
-        """The guided target POSITION_TARGET_GLOBAL_INT echoes (ENU metres), or None for no echo."""
-        return self.guided_target_enu_m if self.mode == GUIDED else None
-
-    def streams(self, now_s: float, state: AirframeState, gps: GpsReading, wind_enu_mps: tuple[float, float]) -> list:
-        """The position/attitude messages due now by the stream schedule (:mod:`sim_vehicles.streams`)."""
-        target = self.echoed_target()
-        messages = (telemetry_messages.stream_message(self.encoder, self.frame, message_id, now_s, state, gps,
-                                                      wind_enu_mps, target)
-                    for message_id in self.schedule.due(now_s))
-        return [message for message in messages if message is not None]

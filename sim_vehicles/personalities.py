@@ -31,10 +31,13 @@ PERSONALITIES: dict[str, type[SimAutopilot]] = {
 
 
 def make_autopilot(name: str, sysid: int, frame: LocalFrame, airframe: AirframeConfig, cruise_airspeed_mps: float,
-                   cruise_altitude_m: float, encoder: mavlink.MAVLink, telemetry_rate_hz: float = 4.0) -> SimAutopilot:
-    """The autopilot of one vehicle; ValueError naming the known personalities for an unknown name."""
+                   cruise_altitude_m: float, encoder: mavlink.MAVLink, telemetry_rate_hz: float = 4.0,
+                   on_ground: bool = False) -> SimAutopilot:
+    """The autopilot of one vehicle (``on_ground``: disarmed and parked until a take-off); ValueError naming the
+    known personalities for an unknown name."""
     try:
         cls = PERSONALITIES[name]
     except KeyError:
         raise ValueError(f"unknown autopilot {name!r}; expected one of: {', '.join(PERSONALITIES)}") from None
-    return cls(sysid, frame, airframe, cruise_airspeed_mps, cruise_altitude_m, encoder, telemetry_rate_hz)
+    return cls(sysid, frame, airframe, cruise_airspeed_mps, cruise_altitude_m, encoder, telemetry_rate_hz,
+               on_ground=on_ground)

@@ -76,6 +76,9 @@ class Px4Autopilot(SimAutopilot):
 
     personality = "px4"
     disarm_in_flight_result = mavlink.MAV_RESULT_TEMPORARILY_REJECTED
+    takeoff_mode = PX4_MODES["AUTO_TAKEOFF"]
+    takeoff_altitude_param = "MIS_TAKEOFF_ALT"
+    ground_mode = PX4_MODES["AUTO_LOITER"]
     mode: int = HOLD
     last_setpoint_s: float | None = None
     last_setpoint: object | None = None
@@ -91,6 +94,7 @@ class Px4Autopilot(SimAutopilot):
             "NAV_LOITER_RAD": float(self.airframe.loiter_radius_m),
             "COM_OF_LOSS_T": 1.0,
             "COM_OBL_RC_ACT": 0.0,
+            "MIS_TAKEOFF_ALT": 50.0,
         }
 
     def default_stream_rates(self) -> dict[int, float]:
@@ -114,7 +118,9 @@ class Px4Autopilot(SimAutopilot):
     # ------------------------------------------------------------- the loop
 
     def update(self, now_s: float, state: AirframeState, wind_enu_mps: tuple[float, float]) -> None:
-        """Offboard loss: out of OFFBOARD into COM_OBL_RC_ACT once the setpoints stop for COM_OF_LOSS_T."""
+        """Offboard loss: out of OFFBOARD into COM_OBL_RC_ACT once the setpoints stop for COM_OF_LOSS_T; the end
+        of a take-off."""
+        self._takeoff_update(state)
         if self.mode == OFFBOARD and not self._signal_fresh(now_s):
             action = _LOSS_ACTIONS.get(int(self.params["COM_OBL_RC_ACT"]), POSCTL)
             log.info("vehicle %d: offboard signal lost, %s", self.sysid, PX4_MODE_NAMES[action])
@@ -124,9 +130,13 @@ class Px4Autopilot(SimAutopilot):
     # ------------------------------------------------------------- modes
 
     def _enter_mode(self, mode: int, state: AirframeState) -> None:
+        if self._enter_on_ground(mode, state):
+            return
         self.mode = mode
         self.guided_target_enu_m = None
-        if mode == HOLD:
+        if mode == self.takeoff_mode:
+            self._take_off(state)
+        elif mode == HOLD:
             self.guidance = self._loiter_here(state)
         elif mode == RTL:
             self.guidance = self._hold("loiter", state, point_enu_m=(0.0, 0.0), radius_m=self.airframe.loiter_radius_m,
@@ -136,8 +146,12 @@ class Px4Autopilot(SimAutopilot):
         if mode == OFFBOARD and self.last_setpoint is not None:
             self._apply_setpoint(self.last_setpoint, state)
 
+    def _takeoff_done(self, state: AirframeState) -> None:
+        """PX4 switches to Hold (AUTO.LOITER) at the take-off altitude."""
+        self._enter_mode(HOLD, state)
+
     def _set_mode(self, mode: int, state: AirframeState, now_s: float | None = None) -> int:
-        if mode not in _FLYABLE:
+        if mode not in _FLYABLE and not (mode == self.takeoff_mode and self.on_ground):
             return mavlink.MAV_RESULT_TEMPORARILY_REJECTED  # no mission, and no take-off or landing in flight
         if mode == OFFBOARD and (now_s is None or not self._signal_fresh(now_s)):
             self.counters["offboard_rejected"] += 1

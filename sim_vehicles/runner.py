@@ -193,7 +193,8 @@ class Runner:
             for vehicle in self.vehicles:
                 autopilot = make_autopilot(self.scenario.autopilot_for(vehicle), vehicle.sysid, self.scene.frame,
                                            sim.airframe, vehicle.speed_mps, vehicle.altitude_m,
-                                           self.endpoints.encoder(vehicle.sysid), sim.telemetry_rate_hz)
+                                           self.endpoints.encoder(vehicle.sysid), sim.telemetry_rate_hz,
+                                           on_ground=sim.start_on_ground)
                 autopilot.start(self.scene.vehicles[vehicle.id].state)
                 self.autopilots[vehicle.id] = autopilot
             log.info("MAVLink: %s", ", ".join(f"{by_sysid[s]} (sysid {s}) -> {c}" for s, c in connections.items()))

@@ -108,8 +108,10 @@ class Scene:
             if only is not None and cfg.id not in only:
                 continue  # its streams stay unused, so every vehicle draws the same noise in any split
             rng_gps, rng_ins, rng_sensor = (np.random.default_rng(s) for s in streams[1 + 3 * index: 4 + 3 * index])
-            state = AirframeState(np.array([cfg.start_enu_m[0], cfg.start_enu_m[1], cfg.altitude_m]),
-                                  heading_rad=cfg.start_heading_rad, roll_rad=0.0, airspeed_mps=cfg.speed_mps)
+            grounded = sim.start_on_ground  # parked at home height until its autopilot takes off
+            state = AirframeState(np.array([cfg.start_enu_m[0], cfg.start_enu_m[1], 0.0 if grounded else cfg.altitude_m]),
+                                  heading_rad=cfg.start_heading_rad, roll_rad=0.0,
+                                  airspeed_mps=0.0 if grounded else cfg.speed_mps)
             gps_state = gps_model.start(rng_gps)
             gps_state, reading = gps_model.read(gps_state, state.position_enu_m, 0.0, rng_gps)
             self.vehicles[cfg.id] = SimVehicle(

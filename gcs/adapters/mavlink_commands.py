@@ -12,7 +12,10 @@ from the autopilot the vehicle's HEARTBEAT names:
   - ``MAV_CMD_DO_SET_MODE`` to GUIDED (ArduPilot numbering, custom mode 15;
     OFFBOARD for a PX4 peer) at most once per second until the HEARTBEAT
     shows it, and only while the takeover guard allows (:class:`Takeover`:
-    armed, and at least ``min_altitude_m`` above home);
+    armed, and at least ``min_altitude_m`` above home); with ``takeoff``, a
+    vehicle held back by the guard is armed (``MAV_CMD_COMPONENT_ARM_DISARM``)
+    and switched to its own take-off mode (ArduPlane TAKEOFF, PX4
+    AUTO.TAKEOFF), each at most once per second, until it is high enough;
   - to an ArduPilot peer in GUIDED, ``COMMAND_INT MAV_CMD_GUIDED_CHANGE_HEADING``
     (course over ground, degrees NED in [0, 360), lateral acceleration limit
     ``margin V omega_max``) when the course moved by more than 0.5 degree since
@@ -46,8 +49,8 @@ from gcs.adapters.mavlink_wire import ARDUPLANE_MODES, mavlink, ned_yaw_from_enu
 from gcs.core.geometry import LocalFrame, wrap_angle
 
 __all__ = [
-    "CARROT_TYPE_MASK", "Carrot", "ChangeAltitude", "ChangeHeading", "ChangeSpeed", "HANDBACK_MODES", "MessageInterval",
-    "ModeRequest", "SendMemory", "Takeover", "handback_request", "takeover_blocked", "carrot_distance_m", "next_due", "stream_requests", "carrot_for", "course_param_deg", "due_actions",
+    "Arm", "CARROT_TYPE_MASK", "Carrot", "ChangeAltitude", "ChangeHeading", "ChangeSpeed", "HANDBACK_MODES", "MessageInterval",
+    "ModeRequest", "SendMemory", "Takeover", "handback_request", "takeoff_actions", "takeover_blocked", "carrot_distance_m", "next_due", "stream_requests", "carrot_for", "course_param_deg", "due_actions",
 ]
 
 CARROT_TYPE_MASK = 0x09F8
@@ -125,15 +128,33 @@ _HANDBACK_PX4 = {"LOITER": ModeRequest(4, 3), "RTL": ModeRequest(4, 5)}
 
 
 @dataclass(frozen=True)
+class Arm:
+    """COMMAND_LONG MAV_CMD_COMPONENT_ARM_DISARM, param1 1: arm."""
+
+    counter: ClassVar[str] = "arm_requests"
+
+    def encode(self, mav: mavlink.MAVLink, sysid: int):
+        return mav.command_long_encode(sysid, 1, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
+
+
+_TAKEOFF_ARDUPILOT = ModeRequest(ARDUPLANE_MODES["TAKEOFF"])
+_TAKEOFF_PX4 = ModeRequest(4, 2)
+"""PX4's AUTO (main mode 4) with sub mode TAKEOFF (2)."""
+
+
+@dataclass(frozen=True)
 class Takeover:
     """When the daemon may switch a vehicle to GUIDED/OFFBOARD, and the mode it gives it back in.
 
     A vehicle is taken over only when its HEARTBEAT says armed and its telemetry puts it at least
     ``min_altitude_m`` above home: the daemon never switches a plane on the ground, or one taking off.
+    With ``takeoff`` it arms such a vehicle and puts it in its own take-off mode first (whose
+    altitude, ArduPlane's TKOFF_ALT, must be above ``min_altitude_m``).
     """
 
     min_altitude_m: float = 30.0
     handback: str = "LOITER"
+    takeoff: bool = False
 
     def __post_init__(self) -> None:
         if self.handback not in HANDBACK_MODES:
@@ -151,6 +172,28 @@ def takeover_blocked(link: VehicleLink, takeover: Takeover) -> str | None:
     if link.position_enu_m[2] < takeover.min_altitude_m:
         return f"below {takeover.min_altitude_m:g} m"
     return None
+
+
+def _in_takeoff_mode(link: VehicleLink) -> bool:
+    """The HEARTBEAT shows the take-off mode (PX4: main mode in bits 16-23, sub mode in bits 24-31)."""
+    if link.autopilot == mavlink.MAV_AUTOPILOT_PX4:
+        return link.custom_mode == (_TAKEOFF_PX4.custom_mode << 16 | _TAKEOFF_PX4.sub_mode << 24)
+    return link.custom_mode == _TAKEOFF_ARDUPILOT.custom_mode
+
+
+def takeoff_actions(link: VehicleLink, memory: SendMemory, now_s: float) -> tuple[list[Action], SendMemory, str]:
+    """Arm a disarmed vehicle, then ask for its take-off mode, each at most once per
+    :data:`MODE_REQUEST_PERIOD_S`; and what the vehicle is waiting for (``arming``, ``taking off``)."""
+    if link.armed and _in_takeoff_mode(link):
+        return [], memory, "taking off"
+    waiting = "taking off" if link.armed else "arming"
+    if now_s - memory.mode_request_s < MODE_REQUEST_PERIOD_S:
+        return [], memory, waiting
+    if not link.armed:
+        action: Action = Arm()
+    else:
+        action = _TAKEOFF_PX4 if link.autopilot == mavlink.MAV_AUTOPILOT_PX4 else _TAKEOFF_ARDUPILOT
+    return [action], replace(memory, mode_request_s=now_s), waiting
 
 
 def handback_request(autopilot: int | None, mode: str) -> ModeRequest:
@@ -218,7 +261,7 @@ class ChangeAltitude:
                             0.0, 0.0, 0.0, z=self.altitude_m)
 
 
-Action = Carrot | ModeRequest | MessageInterval | ChangeHeading | ChangeSpeed | ChangeAltitude
+Action = Carrot | ModeRequest | MessageInterval | Arm | ChangeHeading | ChangeSpeed | ChangeAltitude
 
 
 @dataclass(frozen=True)
@@ -329,6 +372,9 @@ def due_actions(frame: LocalFrame, link: VehicleLink, memory: SendMemory, now_s:
         memory = replace(memory, next_carrot_s=next_due(memory.next_carrot_s, now_s, carrot_period_s))
     if not in_guided_mode(link.autopilot, link.custom_mode):
         blocked = takeover_blocked(link, takeover)
+        if blocked is not None and takeover.takeoff and blocked != "no position":
+            more, memory, blocked = takeoff_actions(link, memory, now_s)
+            actions += more
         if blocked is not None:
             return actions, replace(memory, blocked=blocked)
         if now_s - memory.mode_request_s >= MODE_REQUEST_PERIOD_S:

@@ -69,6 +69,10 @@ def add_control_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--handback", choices=HANDBACK_MODES, default=Takeover().handback,
                         help="the mode a vehicle is given back in when the daemon stops or loses the target "
                              f"(default {Takeover().handback})")
+    parser.add_argument("--takeoff", action="store_true",
+                        help="arm a vehicle that is disarmed or below --takeover-altitude and take it off with its "
+                             "autopilot's own take-off mode (ArduPlane TAKEOFF to TKOFF_ALT, PX4 AUTO.TAKEOFF) "
+                             "before switching it to GUIDED (default: wait for the pilot to do so)")
     parser.add_argument("--handback-after", type=float, default=60.0, metavar="S",
                         help="give the vehicles back after this many seconds with no vehicle seeing the target "
                              "(default 60); they are taken again when it is seen")
@@ -83,7 +87,8 @@ def _control_options(args: argparse.Namespace) -> dict:
                          f"got {args.takeover_altitude:g}")
     positive(args.handback_after, "--handback-after")
     return {"stream_rate_hz": args.stream_rate, "handback_after_lost_s": args.handback_after,
-            "takeover": Takeover(min_altitude_m=args.takeover_altitude, handback=args.handback)}
+            "takeover": Takeover(min_altitude_m=args.takeover_altitude, handback=args.handback,
+                                 takeoff=args.takeoff)}
 
 
 def add_navigation_argument(parser: argparse.ArgumentParser) -> None:

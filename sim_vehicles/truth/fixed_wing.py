@@ -58,10 +58,10 @@ class Guidance:
 
     Attributes
     ----------
-    kind : ``"course"``, ``"heading"``, ``"goto"`` or ``"loiter"``
+    kind : ``"course"``, ``"heading"``, ``"goto"``, ``"loiter"`` or ``"parked"``
         ``course``: hold ``direction_rad`` over the ground; ``heading``: hold it
         through the air; ``goto``: fly to ``point_enu_m`` then loiter about it;
-        ``loiter``: circle ``point_enu_m``.
+        ``loiter``: circle ``point_enu_m``; ``parked``: stand still on the ground.
     direction_rad : float
         ENU course or heading for ``course``/``heading``.
     point_enu_m : tuple of 2 float
@@ -84,7 +84,7 @@ class Guidance:
         limit), and ``direction_rad`` is only what that controller aims at.
     """
 
-    kind: Literal["course", "heading", "goto", "loiter"]
+    kind: Literal["course", "heading", "goto", "loiter", "parked"]
     altitude_m: float
     airspeed_mps: float
     direction_rad: float = 0.0
@@ -115,7 +115,9 @@ class AirframeState:
     elapsed_s: float = 0.0
 
     def ground_velocity(self, wind_enu_mps: tuple[float, float]) -> NDArray[np.float64]:
-        """ENU ground velocity (3,), m/s."""
+        """ENU ground velocity (3,), m/s (zero for a plane standing on the ground, airspeed 0)."""
+        if self.airspeed_mps == 0.0:
+            return np.zeros(3)
         return np.array([
             self.airspeed_mps * math.cos(self.heading_rad) + wind_enu_mps[0],
             self.airspeed_mps * math.sin(self.heading_rad) + wind_enu_mps[1],
@@ -172,22 +174,26 @@ class Airframe:
         return bearing + sign * (0.5 * math.pi + correction), False, feedforward
 
     def step(self, state: AirframeState, guidance: Guidance, dt: float) -> AirframeState:
-        """Advance ``dt`` seconds under ``guidance``."""
+        """Advance ``dt`` seconds under ``guidance`` (``parked``: nothing moves)."""
+        if guidance.kind == "parked":
+            return replace(state, roll_rad=0.0, airspeed_mps=0.0, climb_rate_mps=0.0, turn_rate_rad_s=0.0,
+                           elapsed_s=state.elapsed_s + dt)
         cfg = self.config
         wind = self.wind_enu_mps
         airspeed = state.airspeed_mps
+        lateral_speed = max(airspeed, cfg.min_airspeed_mps)  # bank-to-turn at the speed of flight (a take-off starts at 0)
         if guidance.roll_command_rad is not None:
             roll_c = min(max(guidance.roll_command_rad, -cfg.max_bank_rad), cfg.max_bank_rad)
         else:
             direction, is_heading, feedforward = self.desired_direction(state, guidance)
             current = state.heading_rad if is_heading else state.course_rad(wind)
-            limit = self.turn_rate_limit(airspeed)
+            limit = self.turn_rate_limit(lateral_speed)
             if guidance.max_turn_rate_rad_s is not None:
                 limit = min(limit, guidance.max_turn_rate_rad_s)
             omega_c = min(max(feedforward + cfg.heading_gain_per_s * wrap_angle(direction - current), -limit), limit)
-            roll_c = math.atan(omega_c * airspeed / GRAVITY_MPS2)
+            roll_c = math.atan(omega_c * lateral_speed / GRAVITY_MPS2)
         roll = roll_c + (state.roll_rad - roll_c) * math.exp(-dt / cfg.roll_time_constant_s)
-        turn_rate = GRAVITY_MPS2 * math.tan(roll) / airspeed
+        turn_rate = GRAVITY_MPS2 * math.tan(roll) / lateral_speed
         turn_rate = min(max(turn_rate, -self.max_turn_rate_rad_s), self.max_turn_rate_rad_s)
         half = 0.5 * turn_rate * dt
         chord = airspeed * dt * (math.sin(half) / half if half != 0.0 else 1.0)

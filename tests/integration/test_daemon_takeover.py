@@ -9,6 +9,8 @@ from __future__ import annotations
 import threading
 from contextlib import ExitStack
 
+import msgspec
+
 from gcs.adapters.mavlink_commands import Takeover
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODES
 from gcs.adapters.zenoh_session import ZenohSettings
@@ -24,7 +26,7 @@ VEHICLES = [v.id for v in SCENARIO.vehicles]
 
 
 def modes(runner) -> dict[str, int | None]:
-    """Each vehicle's autopilot mode (None until the runner has opened its MAVLink)."""
+    """Each vehicle's autopilot mode (None until the runner has opened its MAVLink, or for one it does not fly)."""
     return {v: getattr(runner.autopilots.get(v), "mode", None) for v in VEHICLES}
 
 
@@ -72,3 +74,32 @@ def test_vehicles_taken_over_are_given_back_in_rtl_when_the_daemon_stops() -> No
     assert status is not None and [v.control for v in status.vehicles] == ["daemon"] * len(VEHICLES)
     assert counters["handbacks"] == len(VEHICLES) and counters["ack_accepted"] >= len(VEHICLES)
     assert {daemon.commander.control(v, 0.0) for v in VEHICLES} == {"handed back: the daemon stopped"}
+
+
+ON_GROUND = msgspec.structs.replace(SCENARIO, simulation=msgspec.structs.replace(
+    SCENARIO.simulation, start_on_ground=True))
+
+
+def test_vehicles_on_the_ground_wait_for_the_pilot_or_are_taken_off_with_takeoff() -> None:
+    with ExitStack() as stack:
+        waiting, endpoint, port = start_daemon(stack, Takeover(min_altitude_m=40.0))
+        runner = stack.enter_context(running_vehicles(options(
+            port, rate=RATE, zenoh=ZenohSettings(connect=(endpoint,)), epoch_ns=EPOCH_NS, wait_for_subscriber_s=5,
+            only=("uav1",)), ON_GROUND))
+        wait_until(lambda: waiting.commander.control("uav1", 0.0) == "waiting: disarmed", 20, "uav1 held back")
+        sent = waiting.commander.link("uav1").counters.copy()
+        altitude = runner.scene.vehicles["uav1"].state.position_enu_m[2]
+    assert sent["mode_requests"] == 0 and sent["arm_requests"] == 0 and altitude == 0.0
+
+    with ExitStack() as stack:
+        daemon, endpoint, port = start_daemon(stack, Takeover(min_altitude_m=40.0, takeoff=True))
+        runner = stack.enter_context(running_vehicles(options(
+            port, rate=RATE, zenoh=ZenohSettings(connect=(endpoint,)), epoch_ns=EPOCH_NS, wait_for_subscriber_s=5,
+            only=("uav1",)), ON_GROUND))
+        wait_until(lambda: daemon.commander.control("uav1", 0.0) == "waiting: taking off", 20, "uav1 taking off")
+        wait_until(lambda: modes(runner)["uav1"] == GUIDED, 30, "uav1 in GUIDED once above 40 m")
+        altitude = runner.scene.vehicles["uav1"].state.position_enu_m[2]
+        sent = daemon.commander.link("uav1").counters.copy()
+    assert altitude >= 40.0
+    assert sent["arm_requests"] >= 1 and sent["mode_requests"] >= 2  # TAKEOFF, then GUIDED
+    assert sent["commands_rejected"] == 0
