@@ -10,6 +10,7 @@ from contextlib import contextmanager
 from dataclasses import replace
 
 from gcs.adapters.mavlink_wire import GCS_SYSID, mavlink, open_connection
+from gcs.config import Scenario
 from gcs.scenarios import load_scenario
 from gcs.world_loader import build_world
 from sim_vehicles.runner import Runner, RunOptions
@@ -19,9 +20,10 @@ WORLD = build_world(SCENARIO)
 
 
 @contextmanager
-def running_vehicles(options: RunOptions) -> Iterator[Runner]:
-    """The default scenario's vehicles flying in a thread; stopped and joined on exit."""
-    runner = Runner(SCENARIO, WORLD, options)
+def running_vehicles(options: RunOptions, scenario: Scenario = SCENARIO) -> Iterator[Runner]:
+    """The default scenario's vehicles (or those of ``scenario``, in the same city) flying in a thread; stopped
+    and joined on exit."""
+    runner = Runner(scenario, WORLD, options)
     errors: list[BaseException] = []
 
     def target() -> None:
