@@ -107,13 +107,23 @@ class PayloadRunner:
     def _open(self) -> None:
         for connection in sorted(set(self.options.connections.values())):
             self.links[connection] = open_connection(connection, GCS_SYSID, BRIDGE_COMPONENT)
-        log.info("MAVLink: %s", ", ".join(f"{vid} (sysid {self.sysids[vid]}) <- {c}"
+        log.info("MAVLink: %s", ", ".join(f"{vid} (sysid {self.sysids[vid]}) <- {c}{self._bound(c)}"
                                           for vid, c in self.options.connections.items()))
         self.session = open_session(self.options.zenoh)
         self.publishers = declare_vehicle_publishers(self.session, self.bridge.vehicles, self.options.prefix,
                                                      self.bridge.scenario.target.id)
         log.info("Zenoh: %s session, prefix %r", self.options.zenoh.mode, self.options.prefix)
         self.opened.set()
+
+    def _bound(self, connection: str) -> str:
+        """`` (listening on HOST:PORT)`` for a link that listens (a port of 0 read back), else ``""``."""
+        if not connection.startswith(("udpin:", "udp:", "tcpin:")):
+            return ""
+        try:
+            host, port = self.links[connection].port.getsockname()[:2]
+        except (AttributeError, OSError):
+            return ""
+        return f" (listening on {host}:{port})"
 
     def close(self) -> None:
         """Withdraw the tokens, close the Zenoh session and the MAVLink links."""
