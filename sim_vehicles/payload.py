@@ -27,9 +27,8 @@ bridge keeps a :class:`~sim_vehicles.scene.Scene` of the bridged vehicles, moves
 target one physics step at a time on the bridge's clock
 (:meth:`~sim_vehicles.scene.Scene.skip_target`), and before each report sets the
 vehicle's state to the pose from telemetry, so the line of sight, range limit and
-noise are the scene's. The pose is the latest GLOBAL_POSITION_INT carried forward
-to the report's time with its own velocity (and the heading with the turn rate),
-over at most ``stale_after_s``.
+noise are the scene's. The pose is the latest GLOBAL_POSITION_INT moved to the
+report's time with its own velocity (and the heading with the turn rate).
 
 The ``NavReport``: ``gps`` (that position as a fix, with the GPS_RAW_INT's fix type,
 accuracy and satellites) when the last GPS_RAW_INT had a fix (``fix_type >= 2``);
@@ -222,15 +221,16 @@ class VehicleTelemetry:
         return self.position_s is not None and now_s - self.position_s <= stale_after_s
 
     def pose(self, now_s: float) -> Pose:
-        """The pose at ``now_s``: the last position moved on by its velocity, the heading by the turn rate."""
+        """The pose at ``now_s``: the last position moved on by its velocity, the heading by the turn rate (back,
+        for a time just before they arrived: a report for the physics step the newest telemetry fell in)."""
         if self.position_enu_m is None or self.position_s is None:
             raise ValueError("no position yet")
-        ahead = max(now_s - self.position_s, 0.0)
+        ahead = now_s - self.position_s
         heading = self.heading_rad
         if heading is None:  # neither hdg nor ATTITUDE: the course over the ground
             heading = math.atan2(self.velocity_enu_mps[1], self.velocity_enu_mps[0])
         else:
-            heading = wrap_angle(heading + self.turn_rate_rad_s * max(now_s - self.heading_s, 0.0))
+            heading = wrap_angle(heading + self.turn_rate_rad_s * (now_s - self.heading_s))
         return Pose(self.position_enu_m + self.velocity_enu_mps * ahead, self.velocity_enu_mps.copy(),
                     float(heading), self.roll_rad, self.pitch_rad, self.turn_rate_rad_s)
 

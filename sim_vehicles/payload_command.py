@@ -11,7 +11,8 @@ GPS_RAW_INT at HZ (SET_MESSAGE_INTERVAL, which ArduPilot and PX4 take, and
 REQUEST_DATA_STREAM for ArduPilot's stream groups), once when the vehicle is first
 heard and again each time its telemetry comes back after going stale: for an
 autopilot that streams slower than the scenario's ``nav_rate_hz`` (ArduPlane's 1 Hz
-until a ground station asks). It never commands the vehicle.
+until a ground station asks). An autopilot keeps such a rate for the whole port,
+so a daemon that shares it through MAVProxy gets it too. It never commands the vehicle.
 
 What it publishes, and on which clock: :mod:`sim_vehicles.payload`. Stop with
 Ctrl-C (SIGINT) or SIGTERM; ``--duration S`` stops after S wall seconds. The summary
@@ -59,7 +60,6 @@ _POLL_S = 0.01
 """Longest wait for telemetry between two looks at the clock (wall seconds)."""
 _MAX_READ = 1000
 """Messages read from one link before the clock is looked at again."""
-"""Longest wait for telemetry between two looks at the clock (wall seconds)."""
 
 
 @dataclass(frozen=True)
@@ -81,7 +81,11 @@ class PayloadRunner:
                  clock: Callable[[], float] = time.monotonic, wall_clock: Callable[[], int] = time.time_ns) -> None:
         self.bridge, self.options, self.clock, self.wall_clock = bridge, options, clock, wall_clock
         self.stop_event = threading.Event()
-        self.sysids = {vid: v.sysid for v in bridge.scenario.vehicles if (vid := v.id) in bridge.vehicles}
+        self.sysids = {v.id: v.sysid for v in bridge.scenario.vehicles if v.id in bridge.vehicles}
+        self._by_sysid: dict[str, dict[int, str]] = {}
+        """Per connection string, the vehicles it carries by sysid."""
+        for vehicle_id, connection in options.connections.items():
+            self._by_sysid.setdefault(connection, {})[self.sysids[vehicle_id]] = vehicle_id
         self.links: dict[str, object] = {}
         self.session = None
         self.publishers: dict[tuple[str, str], object] = {}
@@ -163,9 +167,6 @@ class PayloadRunner:
             self.stop_event.wait(timeout_s)
 
     def _receive(self, now_s: float) -> None:
-        vehicles_on = {}
-        for vehicle_id, connection in self.options.connections.items():
-            vehicles_on.setdefault(connection, {})[self.sysids[vehicle_id]] = vehicle_id
         for connection, link in self.links.items():
             for _ in range(_MAX_READ):
                 if (message := link.recv_msg()) is None:
@@ -174,7 +175,7 @@ class PayloadRunner:
                 if kind == "BAD_DATA":
                     self.counters["bad_data"] += 1
                     continue
-                vehicle_id = vehicles_on[connection].get(message.get_srcSystem())
+                vehicle_id = self._by_sysid[connection].get(message.get_srcSystem())
                 if vehicle_id is None or message.get_srcComponent() != _AUTOPILOT_COMPONENT:
                     self.counters["other_systems"] += 1
                     continue

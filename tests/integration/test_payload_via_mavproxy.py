@@ -42,11 +42,11 @@ BRIDGED = ("uav1", "uav2")
 REQUEST_HZ = 5.0
 STALE_AFTER_S = 1.0
 POSITION_TOLERANCE_M = 5.0
-"""Between a report's position and the truth at its stamp. The bridge carries the last GLOBAL_POSITION_INT (at
-most 0.2 s old at 5 Hz) on by its velocity, so what is left is the curvature of the loiter over that time
-(centimetres) and the time between the simulator's step and the bridge's reading of it: about 0.5 m measured
-(20 ms at 25 m/s). 5 m allows 0.2 s of delay on a loaded machine and still catches a frame, axis or unit error
-(hundreds of metres) or stamps a step of the simulator's telemetry (1 s at 1 Hz: 25 m) off."""
+"""Between a report's position and the truth at its stamp. The bridge moves the last GLOBAL_POSITION_INT (at most
+0.2 s old at 5 Hz) to the stamp by its velocity, so what is left is the curvature of the loiter over that time
+(centimetres) and how the simulator's truth maps to the wall clock: it runs up to a physics step (50 ms, 1.25 m
+at 25 m/s) ahead of it; 0.2-1.3 m measured. 5 m allows more delay on a loaded machine and still catches a frame,
+axis or unit error (hundreds of metres) or a stamp a step of the simulator's 1 Hz telemetry (25 m) off."""
 WAIT_S = 30.0
 
 
