@@ -10,7 +10,6 @@ from contextlib import contextmanager
 from dataclasses import replace
 
 from gcs.adapters.mavlink_wire import GCS_SYSID, mavlink, open_connection
-from gcs.config import Scenario
 from gcs.scenarios import load_scenario
 from gcs.world_loader import build_world
 from sim_vehicles.runner import Runner, RunOptions
@@ -20,9 +19,8 @@ WORLD = build_world(SCENARIO)
 
 
 @contextmanager
-def running_vehicles(options: RunOptions, scenario: Scenario = SCENARIO) -> Iterator[Runner]:
-    """The default scenario's vehicles (or those of ``scenario``, in the same city) flying in a thread; stopped
-    and joined on exit."""
+def running_vehicles(options: RunOptions, scenario=SCENARIO) -> Iterator[Runner]:
+    """The scenario's vehicles (the default one's unless given) flying in a thread; stopped and joined on exit."""
     runner = Runner(scenario, WORLD, options)
     errors: list[BaseException] = []
 
