@@ -14,9 +14,10 @@ from collections.abc import Callable, Sequence
 from gcs.cli_errors import OneLineParser, run_command
 from gcs.config import ScenarioError
 from sim_vehicles import __version__
+from sim_vehicles.payload_command import add_payload
 from sim_vehicles.run_command import add_run
 
-SUBCOMMANDS: tuple[Callable[[argparse._SubParsersAction], None], ...] = (add_run,)
+SUBCOMMANDS: tuple[Callable[[argparse._SubParsersAction], None], ...] = (add_run, add_payload)
 """Registration functions, one per subcommand, in the order ``--help`` lists them."""
 
 

@@ -18,7 +18,7 @@ from protocols.errors import ProtocolError
 from protocols.keys import validate_prefix
 from sim_vehicles.runner import DEFAULT_MAVLINK, Runner, RunOptions, install_signal_handlers
 
-__all__ = ["add_run", "check_run"]
+__all__ = ["add_run", "add_scenario_argument", "check_run"]
 
 log = logging.getLogger(__name__)
 
@@ -29,8 +29,7 @@ def add_run(sub: argparse._SubParsersAction) -> None:
         "run", help="fly the scenario's vehicles and target; MAVLink peers and Zenoh publishers",
         description="Simulated fixed-wings (one MAVLink 2 system each) watching a ground target. Without a "
                     "ground station the vehicles loiter about their start points. Stop with Ctrl-C.")
-    parser.add_argument("--scenario", default=DEFAULT_SCENARIO,
-                        help=f"shipped name or .toml path (default {DEFAULT_SCENARIO})")
+    add_scenario_argument(parser)
     parser.add_argument("--rate", type=float, default=1.0,
                         help="simulation seconds per wall-clock second; every timer scales with it (default 1)")
     parser.add_argument("--duration", type=float, default=None, metavar="S",
@@ -57,6 +56,12 @@ def add_run(sub: argparse._SubParsersAction) -> None:
                              "apart (needs Zenoh)")
     parser.add_argument("--json", type=Path, metavar="FILE", help="write the closing summary as JSON")
     set_command(parser, _cmd_run, check_run)
+
+
+def add_scenario_argument(parser: argparse.ArgumentParser) -> None:
+    """``--scenario NAME|PATH``, as every ``sim-vehicles`` subcommand takes it."""
+    parser.add_argument("--scenario", default=DEFAULT_SCENARIO,
+                        help=f"shipped name or .toml path (default {DEFAULT_SCENARIO})")
 
 
 def _options(args: argparse.Namespace, vehicle_ids: list[str]) -> RunOptions:

@@ -39,17 +39,17 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from gcs.adapters.zenoh_session import ZenohSettings, declare_publisher, open_session, publish
+from gcs.adapters.zenoh_session import ZenohSettings, open_session, publish
 from gcs.config import Scenario
 from gcs.core.world import World
 from protocols.errors import ProtocolError
-from protocols.keys import alive_key, nav_key, report_key, truth_key
-from protocols.messages import NavReport, SensorReport, TargetTruth
+from protocols.keys import alive_key
 from sim_vehicles.autopilot import SimAutopilot
 from sim_vehicles.personalities import make_autopilot
 from sim_vehicles.lockstep import PeerClock
 from sim_vehicles.mavlink_endpoint import MavlinkEndpoints
 from sim_vehicles.scene import Scene
+from sim_vehicles.zenoh_out import close_zenoh, declare_vehicle_publishers
 
 __all__ = ["RunOptions", "RunSummary", "Runner", "DEFAULT_MAVLINK"]
 
@@ -201,15 +201,8 @@ class Runner:
         if self.options.zenoh is not None:
             self.session = open_session(self.options.zenoh)
             prefix = self.options.prefix
-            for vehicle in self.vehicles:
-                self.publishers[(vehicle.id, "report")] = declare_publisher(
-                    self.session, report_key(vehicle.id, prefix), SensorReport)
-                self.publishers[(vehicle.id, "nav")] = declare_publisher(
-                    self.session, nav_key(vehicle.id, prefix), NavReport)
-            target = self.scenario.target.id
-            if self.publishes_truth:
-                self.publishers[(target, "truth")] = declare_publisher(self.session, truth_key(target, prefix),
-                                                                       TargetTruth)
+            self.publishers = declare_vehicle_publishers(self.session, [v.id for v in self.vehicles], prefix,
+                                                         self.scenario.target.id if self.publishes_truth else None)
             if self.options.lockstep:
                 wall_period_s = self._report_period_ns / NS_PER_S / self.options.rate
                 self.peers = PeerClock(self.session, prefix, [v.id for v in self.vehicles], wall_period_s,
@@ -237,18 +230,12 @@ class Runner:
 
     def close(self) -> None:
         """Withdraw liveliness, close the Zenoh session and the MAVLink sockets."""
-        for token in self.tokens:
-            token.undeclare()
-        self.tokens.clear()
         if self.peers is not None:
             self.peers.close()
             self.peers = None
-        for publisher in self.publishers.values():
-            publisher.undeclare()
-        self.publishers.clear()
-        if self.session is not None:
-            self.session.close()
-            self.session = None
+        close_zenoh(self.tokens, self.publishers, self.session)
+        self.tokens.clear()
+        self.session = None
         if self.endpoints is not None:
             self.summary.mavlink.update(self.endpoints.counters())
             self.endpoints.close()

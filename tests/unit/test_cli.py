@@ -75,8 +75,8 @@ def test_sim_vehicles_help_runs(capsys: pytest.CaptureFixture[str]) -> None:
         sim_cli.main(["--help"])
     assert info.value.code == 0
     out = capsys.readouterr().out
-    assert "sim-vehicles" in out and "run" in out
-    assert set(_subcommands(sim_cli.build_parser())) == {"run"}
+    assert "sim-vehicles" in out and "run" in out and "payload" in out
+    assert set(_subcommands(sim_cli.build_parser())) == {"run", "payload"}
 
 
 def test_sim_vehicles_run_rejects_bad_arguments_with_exit_2(capsys: pytest.CaptureFixture[str]) -> None:

@@ -125,6 +125,34 @@ TABLE = [
     ("sim-vehicles", ["run", "--wait-for-gcs", "-1"], "sim-vehicles run", "--wait-for-gcs must be"),
     ("sim-vehicles", ["run", "--start-at", "1e20"], "sim-vehicles run", "--start-at is a Unix time in seconds"),
     ("sim-vehicles", ["run", "--scenario", "nosuch"], "sim-vehicles run", "unknown scenario 'nosuch'"),
+    ("sim-vehicles", ["payload"], "sim-vehicles payload", "give at least one --vehicle ID=CONNECTION"),
+    ("sim-vehicles", ["payload", "--vehicle", "uav1"], "sim-vehicles payload",
+     "--vehicle 'uav1': expected ID=CONNECTION, e.g. uav1=udpin:127.0.0.1:14551"),
+    ("sim-vehicles", ["payload", "--vehicle", "nobody=udpin:127.0.0.1:0"], "sim-vehicles payload",
+     "--vehicle nobody: not in the scenario, whose vehicles are uav1, uav2, uav3"),
+    ("sim-vehicles", ["payload", "--vehicle", "uav1=udpin:127.0.0.1:0", "--vehicle", "uav1=udpin:127.0.0.1:0"],
+     "sim-vehicles payload", "--vehicle uav1: given twice"),
+    ("sim-vehicles", ["payload", "--vehicle", "uav1=bogus:xyz"], "sim-vehicles payload",
+     "--vehicle uav1: MAVLink connection 'bogus:xyz': unknown scheme 'bogus'"),
+    ("sim-vehicles", ["payload", "--vehicle", "uav1=udpin:127.0.0.1:99999"], "sim-vehicles payload",
+     "port 99999 is outside 0-65535"),
+    ("sim-vehicles", ["payload", "--vehicle", "uav1=udpout:127.0.0.1:0"], "sim-vehicles payload",
+     "port 0 is outside 1-65535"),
+    ("sim-vehicles", ["payload", "--vehicle", "uav1=tcp:127.0.0.1"], "sim-vehicles payload",
+     "expected tcp:HOST:PORT"),
+    ("sim-vehicles", ["payload", "--vehicle", "uav1=udpin:127.0.0.1:0", "--zenoh-mode", "none"],
+     "sim-vehicles payload", "needs zenoh: --zenoh-mode peer or client, not none"),
+    ("sim-vehicles", ["payload", "--vehicle", "uav1=udpin:127.0.0.1:0", "--zenoh-connect", "bogus"],
+     "sim-vehicles payload", "--zenoh-connect: zenoh endpoint 'bogus'"),
+    ("sim-vehicles", ["payload", "--vehicle", "uav1=udpin:127.0.0.1:0", "--stale-after", "0"],
+     "sim-vehicles payload", "--stale-after must be a finite number > 0, got 0"),
+    ("sim-vehicles", ["payload", "--vehicle", "uav1=udpin:127.0.0.1:0", "--request-rate", "500"],
+     "sim-vehicles payload", "--request-rate 500: at most 50 Hz"),
+    ("sim-vehicles", ["payload", "--vehicle", "uav1=udpin:127.0.0.1:0", "--duration", "nan"],
+     "sim-vehicles payload", "--duration must be a finite number > 0, got nan"),
+    ("sim-vehicles", ["payload", "--vehicle", "uav1=udpin:127.0.0.1:0", "--prefix", "a b"], "sim-vehicles payload",
+     "--prefix: invalid key prefix 'a b'"),
+    ("sim-vehicles", ["payload", "--scenario", "nosuch"], "sim-vehicles payload", "unknown scenario 'nosuch'"),
 ]
 
 MAINS = {"gcs": gcs.cli.main, "sim-vehicles": sim_vehicles.cli.main}
@@ -152,7 +180,8 @@ def _subparser(parser: argparse.ArgumentParser, path: list[str]) -> argparse.Arg
 
 COMMANDS = [("gcs", ["run"]), ("gcs", ["demo"]), ("gcs", ["status"]), ("gcs", ["record"]), ("gcs", ["router"]),
             ("gcs", ["replay"]), ("gcs", ["scenario", "check"]), ("gcs", ["bench", "soak"]),
-            ("gcs", ["bench", "urban"]), ("gcs", ["bench", "estimation"]), ("sim-vehicles", ["run"])]
+            ("gcs", ["bench", "urban"]), ("gcs", ["bench", "estimation"]), ("sim-vehicles", ["run"]),
+            ("sim-vehicles", ["payload"])]
 PARSERS = {"gcs": gcs.cli.build_parser, "sim-vehicles": sim_vehicles.cli.build_parser}
 NEVER = {"-h", "--help", "--version"}
 VALUES = ["", "0", "-1", "1", "2.5", "nan", "inf", "-inf", "1e400", "none", "bogus", "bogus:xyz", "a b", "uav1",
