@@ -30,8 +30,10 @@ outputs, always on the loop thread):
 5. steer every vehicle along its planned path from its latest MAVLink
    telemetry, :data:`STEER_RATE_HZ` times a second of vehicle time
    (:meth:`Daemon._steer`, :mod:`gcs.core.steering`), and let the commander send
-   what is due (GCS heartbeat, stream-rate requests, GUIDED requests, ArduPilot
-   heading commands on change, carrots to PX4);
+   what is due (GCS heartbeat, stream-rate requests, GUIDED requests through the
+   takeover guard, ArduPilot heading commands on change, carrots to PX4); give the
+   vehicles back when no vehicle has seen the target for ``handback_after_lost_s``,
+   and when the daemon stops (:meth:`Daemon.close`);
 6. answer queries, publish ``DaemonStatus`` once a second.
 
 Stop with :meth:`Daemon.stop` (SIGINT/SIGTERM in the CLI): the loop returns and

@@ -19,6 +19,7 @@ seen_per_uav_mean, seen_any, p_vs_ideal, seen_any_ratio, rmse_ratio}``, and
 from __future__ import annotations
 
 import json
+import logging
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict
@@ -47,6 +48,7 @@ def _loaded(scenario: str):
 
 
 def _fly(job: tuple[str, str, str, int, float | None]) -> FlightRecord:
+    logging.getLogger("sim_vehicles").setLevel(logging.WARNING)  # every mode switch of every flight is noise here
     scenario_name, personality, steering, seed, duration_s = job
     scenario, world = _loaded(scenario_name)
     return fly(scenario, world, personality, seed, duration_s=duration_s, steering=steering)
