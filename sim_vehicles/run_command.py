@@ -11,12 +11,13 @@ from pathlib import Path
 
 from gcs.adapters.mavlink_cli import add_mavlink_arguments, connections_from_arguments, signing_key_from_arguments
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, settings_from_arguments
-from gcs.cli_errors import UsageError, one_line, positive, set_command, writable_file
+from gcs.cli_errors import UsageError, one_line, positive, set_command, stop_on_signals, writable_file
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
 from gcs.world_loader import build_world
 from protocols.errors import ProtocolError
 from protocols.keys import validate_prefix
-from sim_vehicles.runner import DEFAULT_MAVLINK, Runner, RunOptions, install_signal_handlers
+from sim_vehicles.run_options import RunOptions
+from sim_vehicles.runner import DEFAULT_MAVLINK, Runner
 
 __all__ = ["add_run", "add_scenario_argument", "check_run"]
 
@@ -54,6 +55,11 @@ def add_run(sub: argparse._SubParsersAction) -> None:
                              "hold while more than one report ahead of the slowest, so that a machine that cannot "
                              "keep the rate slows the run down as a whole instead of letting the processes drift "
                              "apart (needs Zenoh)")
+    parser.add_argument("--wait-for-plans", action="store_true",
+                        help="hold each step until the ground station's plan of the decision step reached has come "
+                             "(at most 0.5 s of wall time), as a simulator in lockstep with its controller: commands "
+                             "are then never flown later than in the daemon's own loop (needs Zenoh; not for real "
+                             "time against real vehicles)")
     parser.add_argument("--json", type=Path, metavar="FILE", help="write the closing summary as JSON")
     set_command(parser, _cmd_run, check_run)
 
@@ -75,6 +81,8 @@ def _options(args: argparse.Namespace, vehicle_ids: list[str]) -> RunOptions:
         zenoh = settings_from_arguments(args)
     except ValueError as error:
         raise UsageError(error) from None
+    if args.wait_for_plans and zenoh is None:
+        raise UsageError("--wait-for-plans hears the plans over zenoh: not with --zenoh-mode none")
     if args.lockstep and zenoh is None:
         raise UsageError("--lockstep keeps the clock with the other vehicles over zenoh: not with --zenoh-mode none")
     if args.start_at is not None and not abs(args.start_at) < 1e11:
@@ -84,7 +92,7 @@ def _options(args: argparse.Namespace, vehicle_ids: list[str]) -> RunOptions:
                       signing_key=key, zenoh=zenoh, prefix=args.prefix,
                       only=None if args.only is None else tuple(args.only), wait_for_subscriber_s=args.wait_for_gcs,
                       start_at_ns=None if args.start_at is None else round(args.start_at * 1e9),
-                      lockstep=args.lockstep)
+                      lockstep=args.lockstep, wait_for_plans=args.wait_for_plans)
 
 
 def check_run(args: argparse.Namespace) -> Runner:
@@ -108,7 +116,7 @@ def check_run(args: argparse.Namespace) -> Runner:
 def _cmd_run(args: argparse.Namespace) -> int:
     runner = check_run(args)
     options = runner.options
-    install_signal_handlers(runner)
+    stop_on_signals(runner.stop)
     log.info("%s: %d vehicles at %gx real time%s", runner.scenario.name, len(runner.vehicles), options.rate,
              "" if options.duration_s is None else f" for {options.duration_s:g} s")
     try:

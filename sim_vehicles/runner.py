@@ -21,7 +21,10 @@ the steps that started behind schedule (``late_steps`` in the summary). With
 ``lockstep`` (:mod:`sim_vehicles.lockstep`) it also holds each step while it is
 more than one report period ahead of the slowest other vehicle under the
 prefix, so that the processes of one run keep one clock (``held_steps``,
-``held_s``).
+``held_s``). With ``wait_for_plans`` (:mod:`sim_vehicles.plan_clock`) it holds
+each step until the ground station's plan of the decision step reached has
+come, and the wall schedule moves on by the time held (``plan_held_steps``,
+``plan_held_s``, ``plan_waits_timed_out``).
 
 Wire stamps are simulation time (``epoch_ns + elapsed``), so a daemon that
 orders data by stamp sees the same data at any rate.
@@ -31,15 +34,12 @@ from __future__ import annotations
 
 import logging
 import math
-import signal
 import threading
 import time
-from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
 
-from gcs.adapters.zenoh_session import ZenohSettings, open_session, publish
+from gcs.adapters.zenoh_session import open_session, publish
 from gcs.config import Scenario
 from gcs.core.world import World
 from protocols.errors import ProtocolError
@@ -47,11 +47,14 @@ from protocols.keys import alive_key
 from sim_vehicles.autopilot import SimAutopilot
 from sim_vehicles.personalities import make_autopilot
 from sim_vehicles.lockstep import PeerClock
+from sim_vehicles.plan_clock import STALE_AFTER_S as PLAN_STALE_AFTER_S
+from sim_vehicles.plan_clock import PlanClock
+from sim_vehicles.run_options import RunOptions, RunSummary
 from sim_vehicles.mavlink_endpoint import MavlinkEndpoints
 from sim_vehicles.scene import Scene
 from sim_vehicles.zenoh_out import close_zenoh, declare_vehicle_publishers
 
-__all__ = ["RunOptions", "RunSummary", "Runner", "DEFAULT_MAVLINK"]
+__all__ = ["Runner", "DEFAULT_MAVLINK"]
 
 log = logging.getLogger(__name__)
 
@@ -60,89 +63,6 @@ DEFAULT_MAVLINK = "udpout:127.0.0.1:14550"
 NS_PER_S = 1_000_000_000
 HOLD_POLL_S = 0.001
 """How often a held step looks at the other vehicles' reports again (wall seconds)."""
-
-
-@dataclass(frozen=True)
-class RunOptions:
-    """How to run the scene.
-
-    Attributes
-    ----------
-    rate : float
-        Simulation seconds per wall-clock second.
-    duration_s : float or None
-        Simulation seconds to run; None runs until stopped.
-    seed : int
-    epoch_ns : int
-        Wire stamp of simulation time zero.
-    mavlink : dict of vehicle id -> connection string, or None
-        Per-vehicle MAVLink endpoints (None: no MAVLink at all).
-    signing_key : bytes or None
-        MAVLink 2 signing key for every link.
-    zenoh : ZenohSettings or None
-        None: publish nothing over Zenoh.
-    prefix : str
-        Zenoh key prefix.
-    only : tuple of vehicle ids, or None
-        Fly only these vehicles (e.g. one per process); the target's truth is
-        published by the process that flies the scenario's first vehicle.
-    start_at_ns : int or None
-        Start the simulation clock at this Unix time (ns), after the waits above, so
-        that vehicles flown by several processes keep one clock. A time already past
-        joins a run in flight (a vehicle process restarted after a crash): the target
-        is first moved, publishing nothing, to the clock's time (with ``lockstep``, to
-        the median of the others' newest reports, when some are heard), so that it
-        is where the other processes have it; the vehicles start afresh from their
-        start points, and their liveliness tokens are declared once the scene has
-        joined. ``duration_s`` still counts from zero.
-    wait_for_subscriber_s : float
-        Before the clock starts, wait up to this long (wall time) for subscribers
-        to every key (a ground station), so that the first reports are not
-        published into the void while the connection comes up.
-    """
-
-    rate: float = 1.0
-    duration_s: float | None = None
-    seed: int = 0
-    epoch_ns: int = 0
-    mavlink: dict[str, str] | None = None
-    signing_key: bytes | None = None
-    zenoh: ZenohSettings | None = None
-    prefix: str = "gcs"
-    only: tuple[str, ...] | None = None
-    wait_for_subscriber_s: float = 0.0
-    start_at_ns: int | None = None
-    lockstep: bool = False
-
-
-@dataclass
-class RunSummary:
-    """What a run did, for the closing summary and tests."""
-
-    simulated_s: float = 0.0
-    wall_s: float = 0.0
-    steps: int = 0
-    late_steps: int = 0
-    held_steps: int = 0
-    held_s: float = 0.0
-    reports: Counter = field(default_factory=Counter)
-    detections: Counter = field(default_factory=Counter)
-    nav_reports: Counter = field(default_factory=Counter)
-    modes: dict[str, str] = field(default_factory=dict)
-    mavlink: Counter = field(default_factory=Counter)
-    unpublishable: Counter = field(default_factory=Counter)
-
-    def lines(self) -> list[str]:
-        """Human-readable summary."""
-        out = [f"simulated {self.simulated_s:.1f} s in {self.wall_s:.1f} s of wall time "
-               f"({self.steps} steps, {self.late_steps} started late"
-               + (f", {self.held_steps} held {self.held_s:.1f} s for the other vehicles)" if self.held_steps else ")")]
-        for vehicle_id, mode in self.modes.items():
-            out.append(f"  {vehicle_id}: mode {mode}, {self.reports[vehicle_id]} reports "
-                       f"({self.detections[vehicle_id]} detections), {self.nav_reports[vehicle_id]} nav reports")
-        if self.mavlink:
-            out.append("  MAVLink: " + ", ".join(f"{k} {v}" for k, v in sorted(self.mavlink.items())))
-        return out
 
 
 class _Timer:
@@ -180,6 +100,7 @@ class Runner:
         self.publishers: dict[tuple[str, str], object] = {}
         self.tokens: list = []
         self.peers: PeerClock | None = None
+        self.plans: PlanClock | None = None
         self._report_period_ns = round(NS_PER_S / scenario.simulation.report_rate_hz)
 
     # ------------------------------------------------------------- lifecycle
@@ -207,6 +128,9 @@ class Runner:
                 wall_period_s = self._report_period_ns / NS_PER_S / self.options.rate
                 self.peers = PeerClock(self.session, prefix, [v.id for v in self.vehicles], wall_period_s,
                                        self.clock)
+            if self.options.wait_for_plans:
+                self.plans = PlanClock(self.session, prefix, [v.id for v in self.vehicles], self._report_period_ns,
+                                       self.options.epoch_ns, clock=self.clock)
             log.info("Zenoh: %s session, prefix %r, %d vehicles", self.options.zenoh.mode, prefix, len(self.vehicles))
             self._wait_for_subscriber()
 
@@ -233,6 +157,9 @@ class Runner:
         if self.peers is not None:
             self.peers.close()
             self.peers = None
+        if self.plans is not None:
+            self.plans.close()
+            self.plans = None
         close_zenoh(self.tokens, self.publishers, self.session)
         self.tokens.clear()
         self.session = None
@@ -278,6 +205,8 @@ class Runner:
         while not self.stop_event.is_set() and (steps_total is None or self.summary.steps < steps_total):
             if self.peers is not None:
                 self._keep_step()
+            if self.plans is not None:
+                wall_start += self._wait_for_plan()  # the wait stops the clock: the run goes on at its rate
             self._receive()
             now = scene.elapsed_s
             if heartbeat.due(now):
@@ -378,6 +307,25 @@ class Runner:
                 break
         self.summary.held_s += self.clock() - start
 
+    def _wait_for_plan(self) -> float:
+        """Hold this step until the ground station's plan of the decision step reached has come, for at most
+        :data:`~sim_vehicles.plan_clock.STALE_AFTER_S` of wall time (see :mod:`sim_vehicles.plan_clock`); the
+        wall seconds held."""
+        stamp = self.scene.stamp_ns
+        if not self.plans.behind(stamp):
+            return 0.0
+        self.summary.plan_held_steps += 1
+        start = self.clock()
+        while not self.stop_event.wait(HOLD_POLL_S):
+            if not self.plans.behind(stamp):
+                break
+            if self.clock() - start >= PLAN_STALE_AFTER_S:
+                self.summary.plan_waits_timed_out += 1
+                break
+        held = self.clock() - start
+        self.summary.plan_held_s += held
+        return held
+
     def _receive(self) -> None:
         if self.endpoints is None:
             return
@@ -403,9 +351,3 @@ class Runner:
         except ProtocolError as error:  # a bug in a truth model must not stop the vehicles
             self.summary.unpublishable[kind] += 1
             log.error("%s %s not published: %s", vehicle_id, kind, error)
-
-
-def install_signal_handlers(runner: Runner) -> None:
-    """SIGINT and SIGTERM stop the loop, which then closes everything and returns normally."""
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: runner.stop())

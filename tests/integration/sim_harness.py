@@ -14,7 +14,8 @@ import msgspec
 from gcs.adapters.mavlink_wire import GCS_SYSID, mavlink, open_connection
 from gcs.scenarios import load_scenario
 from gcs.world_loader import build_world
-from sim_vehicles.runner import Runner, RunOptions
+from sim_vehicles.run_options import RunOptions
+from sim_vehicles.runner import Runner
 
 SCENARIO = load_scenario("wang2012_urban")
 """The default scenario: its vehicles answer as ArduPlane does (``[simulation] autopilot``)."""

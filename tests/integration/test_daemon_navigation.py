@@ -18,7 +18,8 @@ from gcs.replay import process
 from gcs.scenarios import load_scenario
 from gcs.world_loader import build_world
 from protocols.codec import encode
-from sim_vehicles.runner import Runner, RunOptions
+from sim_vehicles.run_options import RunOptions
+from sim_vehicles.runner import Runner
 from tests.integration.sim_harness import wait_until
 from tests.loopback import ANY_PORT_ENDPOINT, ANY_UDP, daemon_ports
 

@@ -21,7 +21,8 @@ import zenoh
 from gcs.adapters.zenoh_session import ZenohSettings, listening_endpoints, open_session
 from protocols.keys import reports_selector
 from protocols.messages import SensorReport
-from sim_vehicles.runner import Runner, RunOptions
+from sim_vehicles.run_options import RunOptions
+from sim_vehicles.runner import Runner
 from tests.integration.sim_harness import SCENARIO, WORLD
 from tests.loopback import LOCALHOST
 

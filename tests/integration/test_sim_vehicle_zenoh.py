@@ -12,7 +12,7 @@ from protocols.codec import decode
 from protocols.keys import alive_key, alive_selector, navs_selector, parse_key, reports_selector
 from protocols.messages import NavReport, SensorReport
 from tests.integration.sim_harness import SCENARIO, running_vehicles
-from sim_vehicles.runner import RunOptions
+from sim_vehicles.run_options import RunOptions
 from tests.loopback import ANY_PORT_ENDPOINT
 
 RATE = 20.0

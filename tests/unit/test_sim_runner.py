@@ -6,7 +6,8 @@ import pytest
 
 from gcs.scenarios import load_scenario
 from gcs.world_loader import build_world
-from sim_vehicles.runner import Runner, RunOptions, _Timer
+from sim_vehicles.run_options import RunOptions
+from sim_vehicles.runner import Runner, _Timer
 from sim_vehicles.scene import Scene
 
 SCENARIO = load_scenario("wang2012_urban")
