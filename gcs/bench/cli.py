@@ -255,6 +255,18 @@ def _cmd_autopilots(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from gcs.bench import demo_compare
+
+    report = demo_compare.run_benchmark(args.scenario, args.runs, args.seed, rate=args.rate, duration_s=args.duration,
+                                        wait_for_plans=args.wait_for_plans, progress=_progress)
+    print(demo_compare.format_report(report))
+    if args.json is not None:
+        demo_compare.write_json(report, args.json)
+        _wrote([args.json])
+    return 0
+
+
 def _cmd_soak(args: argparse.Namespace) -> int:
     from gcs.bench import soak
 
@@ -507,6 +519,21 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     aps.add_argument("--workers", type=_positive_int, default=1, help="processes to fly the seeds in (default 1)")
     aps.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     aps.set_defaults(handler=_outputs_checked(_cmd_autopilots), autopilot=None)
+
+    dem = benches.add_parser(
+        "demo", help="gcs demo at its default settings against the same scenario and seeds in one process",
+        description="For each seed, runs gcs demo (the daemon and sim-vehicles on loopback) and the in-process "
+                    "loop of gcs bench autopilots on the same scene, and prints the means of seen-by-any, per UAV "
+                    "and RMSE of both, with the demo's ratios to the in-process loop.")
+    dem.add_argument("--scenario", default="wang2012_urban", help="shipped name or .toml path (default wang2012_urban)")
+    dem.add_argument("--runs", type=_positive_int, default=5, help="seeds (default 5)")
+    dem.add_argument("--seed", type=int, default=0, help="the first seed (default 0, gcs demo's)")
+    dem.add_argument("--rate", type=_positive_float, default=10.0, help="the demo's speed-up (default 10, gcs demo's)")
+    dem.add_argument("--duration", type=_positive_float, help="simulated seconds per run (default: the scenario's)")
+    dem.add_argument("--wait-for-plans", action="store_true",
+                     help="run the vehicles with sim-vehicles run --wait-for-plans (default: as gcs demo, without)")
+    dem.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
+    dem.set_defaults(handler=_outputs_checked(_cmd_demo))
 
     for bench in benches.choices.values():  # errors name the benchmark: "gcs bench soak: error: ..."
         bench.set_defaults(command_prog=bench.prog)

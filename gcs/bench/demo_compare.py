@@ -1,0 +1,123 @@
+"""``gcs bench demo``: ``gcs demo`` at its default settings against the in-process loop, seed by seed.
+
+For each seed the same scenario is flown twice:
+
+* **demo**: what ``gcs demo --seed S`` runs, the daemon in this process (its planner in
+  a child process) and ``sim-vehicles run --seed S`` in another, on loopback at the
+  demo's rate, with Zenoh reports and MAVLink commands;
+* **in process**: :func:`gcs.bench.autopilots.fly`, the same scene (truth, target,
+  sensors: the same seed's random streams), the same autopilot personality and the
+  daemon's own steering and MAVLink encoding, in one process with no network and no
+  clock: every plan is made at once and flown from the step it was made for.
+
+The report gives, per mode, the means over the seeds of seen-by-any and of each UAV,
+the RMSE pooled over the runs' scored steps (root of the mean of the runs' mean
+squares), and the demo's ratios to the in-process loop. The issue's bars: seen-by-any
+within 2%, each UAV within 5%, RMSE within 15%. Per seed the two runs are not the same
+trajectory (the live loop's timing differs, and a different plan soon gives a
+different flight), so only the means over seeds compare.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from gcs import demo
+from gcs.bench.autopilots import fly
+from gcs.cli import build_parser
+from gcs.scenarios import load_scenario
+from gcs.world_loader import build_world
+
+__all__ = ["run_benchmark", "format_report", "write_json"]
+
+
+def _demo_run(seed: int, rate: float, duration_s: float | None, wait_for_plans: bool) -> dict:
+    """One ``gcs demo --seed SEED --rate RATE``; its summary (seen_any, seen_per_uav, rmse_m, ...)."""
+    argv = ["demo", "--seed", str(seed), "--rate", str(rate)] + ([] if duration_s is None else
+                                                                  ["--duration", str(duration_s)])
+    args = build_parser().parse_args(argv)
+    daemon = demo.check_demo(args)
+    daemon.open()
+    duration = duration_s if duration_s is not None else daemon.scenario.time.duration_s
+    (endpoint,) = daemon.zenoh_listening
+    (mavlink,) = set(daemon.mavlink_bound.values())
+    port = mavlink.rsplit(":", 1)[1]
+    command = [sys.executable, "-m", "sim_vehicles.cli", "--log-level", "WARNING", "run", "--scenario",
+               args.scenario, "--rate", str(rate), "--duration", str(duration), "--seed", str(seed),
+               "--mavlink", f"udpout:127.0.0.1:{port}", "--zenoh-connect", endpoint]
+    if wait_for_plans:
+        command.append("--wait-for-plans")
+    log_file = Path(tempfile.gettempdir()) / f"gcs-bench-demo-{port}.log"
+    demo._run_together(daemon, command, log_file)
+    summary = demo.summarise(daemon.records, daemon.plans, daemon.roster)
+    return {"seen_any": summary["seen_any"], "seen_per_uav": list(summary["seen_per_uav"].values()),
+            "rmse_m": summary["rmse_m"], "steps": summary["steps"]}
+
+
+def _in_process_run(scenario, world, seed: int, duration_s: float | None) -> dict:
+    personality = scenario.autopilot_for(scenario.vehicles[0])
+    record = fly(scenario, world, personality, seed, duration_s=duration_s)
+    errors = record.errors_m[np.isfinite(record.errors_m)]
+    return {"seen_any": record.seen_any, "seen_per_uav": record.seen_per_uav,
+            "rmse_m": float(np.sqrt(np.mean(errors**2))) if errors.size else None, "steps": int(record.seen.shape[0])}
+
+
+def _means(runs: list[dict]) -> dict:
+    rmses = [r["rmse_m"] for r in runs if r["rmse_m"] is not None]
+    return {"seen_any_mean": float(np.mean([r["seen_any"] for r in runs])),
+            "seen_per_uav_mean": [float(x) for x in np.mean([r["seen_per_uav"] for r in runs], axis=0)],
+            "rmse_m": float(np.sqrt(np.mean(np.square(rmses)))) if rmses else None,
+            "seen_any": [r["seen_any"] for r in runs]}
+
+
+def run_benchmark(scenario_name: str, runs: int, seed: int, rate: float = 10.0, duration_s: float | None = None,
+                  wait_for_plans: bool = False, progress: Callable[[str], None] | None = None) -> dict:
+    """Both modes on seeds ``seed .. seed + runs - 1``; the report (module docstring)."""
+    say = progress or (lambda _message: None)
+    scenario = load_scenario(scenario_name)
+    world = build_world(scenario)
+    demo_runs, loop_runs = [], []
+    for s in range(seed, seed + runs):
+        loop_runs.append(_in_process_run(scenario, world, s, duration_s))
+        demo_runs.append(_demo_run(s, rate, duration_s, wait_for_plans))
+        say(f"seed {s}: demo seen by any {demo_runs[-1]['seen_any']}, per UAV {demo_runs[-1]['seen_per_uav']}; "
+            f"in process {loop_runs[-1]['seen_any']}, per UAV {loop_runs[-1]['seen_per_uav']}")
+    demo_means, loop_means = _means(demo_runs), _means(loop_runs)
+    ratios = {"seen_any": demo_means["seen_any_mean"] / loop_means["seen_any_mean"],
+              "seen_per_uav": [d / max(p, 1e-9) for d, p in zip(demo_means["seen_per_uav_mean"],
+                                                               loop_means["seen_per_uav_mean"])],
+              "rmse": (demo_means["rmse_m"] / loop_means["rmse_m"]
+                       if demo_means["rmse_m"] and loop_means["rmse_m"] else None)}
+    return {"scenario": scenario.name, "runs": runs, "seed": seed, "rate": rate, "wait_for_plans": wait_for_plans,
+            "duration_s": duration_s or scenario.time.duration_s, "demo": demo_means, "in_process": loop_means,
+            "ratios": ratios, "per_seed": {"demo": demo_runs, "in_process": loop_runs}}
+
+
+def format_report(report: dict) -> str:
+    """The report as a markdown table."""
+    def row(name: str, means: dict) -> str:
+        per_uav = " / ".join(f"{x:.1f}" for x in means["seen_per_uav_mean"])
+        rmse = "-" if means["rmse_m"] is None else f"{means['rmse_m']:.2f}"
+        return f"| {name} | {means['seen_any_mean']:.1f} | {per_uav} | {rmse} | {means['seen_any']} |"
+
+    ratios = report["ratios"]
+    per_uav = " / ".join(f"{x:.3f}" for x in ratios["seen_per_uav"])
+    rmse = "-" if ratios["rmse"] is None else f"{ratios['rmse']:.3f}"
+    return "\n".join([
+        f"gcs bench demo: {report['scenario']}, seeds {report['seed']}-{report['seed'] + report['runs'] - 1}, "
+        f"{report['duration_s']:.0f} s at {report['rate']:g}x" + (", vehicles waiting for plans"
+                                                                 if report["wait_for_plans"] else ""), "",
+        "| loop | seen by any (mean) | per UAV (mean) | RMSE (m) | seen by any per seed |",
+        "|---|---|---|---|---|",
+        row("gcs demo", report["demo"]), row("in process", report["in_process"]),
+        f"| demo / in process | {ratios['seen_any']:.3f} | {per_uav} | {rmse} | |"])
+
+
+def write_json(report: dict, path: Path) -> None:
+    path.write_text(json.dumps(report, indent=2) + "\n")

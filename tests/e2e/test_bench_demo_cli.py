@@ -1,0 +1,31 @@
+"""`gcs bench demo` runs gcs demo and the in-process loop on the same seeds and writes the documented JSON."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+
+def test_bench_demo_compares_the_demo_with_the_in_process_loop(tmp_path: Path) -> None:
+    out = tmp_path / "demo.json"
+    done = subprocess.run(
+        [sys.executable, "-m", "gcs.cli", "bench", "demo", "--runs", "2", "--seed", "3", "--duration", "30",
+         "--json", str(out)],
+        capture_output=True, text=True, timeout=600,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "demo / in process" in done.stdout
+    report = json.loads(out.read_text())
+    for mode in ("demo", "in_process"):
+        means, runs = report[mode], report["per_seed"][mode]
+        assert len(runs) == 2 and all(r["steps"] == 30 for r in runs)
+        assert means["seen_any_mean"] == pytest.approx(sum(r["seen_any"] for r in runs) / 2)
+        assert all(0 <= r["seen_any"] <= 30 and max(r["seen_per_uav"]) <= r["seen_any"] for r in runs)
+        assert len(means["seen_per_uav_mean"]) == 3
+    assert report["ratios"]["seen_any"] == pytest.approx(report["demo"]["seen_any_mean"]
+                                                         / report["in_process"]["seen_any_mean"])
+    assert "seed 4: demo seen by any" in done.stderr
