@@ -29,13 +29,14 @@ from dataclasses import dataclass, field, replace
 import msgspec
 import numpy as np
 from numpy.typing import NDArray
+from scipy.linalg import expm
 from scipy.optimize import least_squares
 
 from gcs.adapters.mavlink_commands import SendMemory, due_actions
 from gcs.adapters.mavlink_link import HeadingCommand, VehicleLink, update_from_message
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODES, GCS_SYSID, mavlink, ned_yaw_from_enu_heading
-from gcs.config import Scenario
-from gcs.core.geometry import wrap_angle
+from gcs.config import AirframeConfig, Scenario
+from gcs.core.geometry import LocalFrame, wrap_angle
 from gcs.core.kinematics import VehicleState
 from gcs.core.steering import SAMPLES_PER_STEP, CourseLoop, PlannedPath, course_loop, follow
 from gcs.core.tracker import TrackerState, plan
@@ -221,9 +222,6 @@ def step_response(personality: str, step_deg: float, seconds: float = 20.0, airs
     """Times (s) and turn rates (rad/s) after GUIDED_CHANGE_HEADING turns the course ``step_deg`` to the left,
     from straight flight east in GUIDED, lateral acceleration limit ``V omega_max`` as the daemon sends it
     (before its margin)."""
-    from gcs.config import AirframeConfig
-    from gcs.core.geometry import LocalFrame
-
     frame = LocalFrame(47.0, 8.0, 400.0)
     config = AirframeConfig()
     gcs = mavlink.MAVLink(None, srcSystem=GCS_SYSID, srcComponent=mavlink.MAV_COMP_ID_MISSIONPLANNER)
@@ -258,8 +256,6 @@ def _model_rates(gain: float, lag: float, step_rad: float, times: NDArray[np.flo
                  ) -> NDArray[np.float64]:
     """The turn rates of ``tau omega' = K e - omega``, ``e' = -omega`` from ``e = step``, exactly discretised."""
     a = np.array([[0.0, -1.0], [gain / lag, -1.0 / lag]])  # state (e, omega)
-    from scipy.linalg import expm
-
     transition = expm(a * dt)
     x = np.array([step_rad, 0.0])
     out = []
