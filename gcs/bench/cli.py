@@ -1,17 +1,15 @@
-"""``gcs bench ...``: argument parsing and output for each benchmark.
+"""``gcs bench ...``: the argument parser of each benchmark (:mod:`gcs.bench.commands` runs them).
 
-Each benchmark module computes; this module parses arguments, prints the
-tables (progress goes to stderr) and writes ``--json`` files.
+Each benchmark module computes; this module declares the arguments and checks ``--json`` and
+``--plots`` before a benchmark runs.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 from pathlib import Path
 
-from gcs.bench import PLANNERS, SEARCH_VARIANTS
+from gcs.bench import PLANNERS, SEARCH_VARIANTS, commands
 from gcs.bench.urban_nav import NAVIGATION_MODES
 from gcs.cli_errors import UsageError, writable_file
 from gcs.niceness import niceness_argument
@@ -24,15 +22,6 @@ LOAD_NICENESS = 5
 """``gcs bench daemon --load-nice``'s default (:data:`gcs.bench.daemon_load.LOAD_NICENESS`, not imported either)."""
 
 PLOTS_HELP = "write PNG plots and a markdown table (<benchmark>.md) into DIR"
-
-
-def _progress(message: str) -> None:
-    print(f"  ... {message}", file=sys.stderr, flush=True)
-
-
-def _wrote(paths) -> None:
-    for path in paths:
-        print(f"wrote {path}")
 
 
 def _check_outputs(args: argparse.Namespace) -> None:
@@ -61,236 +50,6 @@ def _outputs_checked(handler):
         return handler(args)
 
     return checked
-
-
-def _cmd_estimation(args: argparse.Namespace) -> int:
-    from gcs.bench import estimation
-
-    report = estimation.run_benchmark(
-        runs=args.runs, seed=args.seed, steps=args.steps, table_runs=args.table_runs, progress=_progress
-    )
-    print(estimation.format_report(report))
-    if args.json:
-        estimation.write_json(report, args.json)
-        print(f"wrote {args.json}")
-    if args.plots:
-        _wrote(estimation.write_plots(report, args.plots))
-    return 0
-
-
-def _cmd_urban(args: argparse.Namespace) -> int:
-    from gcs.bench import urban_report
-    from gcs.bench.urban_runs import DaskUnavailable
-    from gcs.scenarios import load_scenario
-    from gcs.world_loader import build_world
-
-    scenario = load_scenario(args.scenario)
-    world = build_world(scenario)
-    if args.gps_denied:
-        return _urban_gps_denied(args, scenario, world)
-    try:
-        report, records = urban_report.run_benchmark(
-            args.scenario, scenario, world, runs=args.runs, seed=args.seed, planners=args.planners or PLANNERS,
-            duration_s=args.duration, motion=args.motion, scaling=() if args.no_scaling else (3, 6, 10, 20),
-            workers=args.workers, dask=args.dask, progress=_progress)
-    except DaskUnavailable as error:
-        print(f"gcs bench urban: {error}", file=sys.stderr)
-        return 2
-    print(urban_report.format_report(report))
-    if args.json:
-        urban_report.write_json(report, args.json)
-        print(f"wrote {args.json}")
-    if args.plots:
-        _wrote(urban_report.write_plots(report, records, world, args.plots))
-    return 0
-
-
-def _urban_gps_denied(args: argparse.Namespace, scenario, world) -> int:
-    from gcs.bench import urban_nav_report
-
-    report = urban_nav_report.run_benchmark(
-        scenario, world, runs=args.runs, seed=args.seed, planners=args.planners or ("ga_k5",),
-        navigations=args.navigation or urban_nav_report.NAVIGATION_MODES, duration_s=args.duration,
-        motion=args.motion, progress=_progress)
-    print(urban_nav_report.format_report(report))
-    if args.json:
-        urban_nav_report.write_json(report, args.json)
-        print(f"wrote {args.json}")
-    if args.plots:
-        from gcs.bench.navigation_plots import write_gps_denied_plots
-
-        _wrote(write_gps_denied_plots(report, args.plots))
-    return 0
-
-
-def _cmd_daemon(args: argparse.Namespace) -> int:
-    import cProfile
-
-    from gcs.bench import daemon
-    from gcs.scenarios import load_scenario
-    from gcs.world_loader import build_world
-
-    scenario = load_scenario(args.scenario)
-    command = (f"gcs bench daemon --scenario {args.scenario} --vehicles {' '.join(map(str, args.vehicles))} "
-               f"--seconds {args.seconds:g} --solve-steps {args.solve_steps} --navigation {args.navigation}"
-               + (f" --rates {' '.join(f'{r:g}' for r in args.rates)}" if args.rates else "")
-               + (f" --load-nice {args.load_niceness}" if args.load_niceness != LOAD_NICENESS else ""))
-    profiler = cProfile.Profile() if args.profile else None
-    report = daemon.run_benchmark(scenario, build_world(scenario), vehicle_counts=args.vehicles, seconds=args.seconds,
-                                  solve_steps=args.solve_steps, command=command, progress=_progress, profiler=profiler,
-                                  navigation=args.navigation, rates=args.rates or (),
-                                  load_niceness=args.load_niceness)
-    print(daemon.format_report(report))
-    if args.json:
-        daemon.write_json(report, args.json)
-        print(f"wrote {args.json}")
-    if args.plots:
-        from gcs.bench.daemon_plots import write_plots
-
-        _wrote(write_plots(report, args.plots))
-    if profiler is not None:
-        profiler.dump_stats(args.profile)
-        print(f"wrote {args.profile} (python -m pstats {args.profile}; the profiler slows the daemon, so rates "
-              "measured with it are lower)")
-    return 0
-
-
-def _cmd_replay(args: argparse.Namespace) -> int:
-    from gcs.bench import replay
-    from gcs.scenarios import load_scenario
-    from gcs.world_loader import build_world
-
-    scenario = load_scenario(args.scenario)
-    report = replay.run_benchmark(scenario, build_world(scenario), duration_s=args.duration, repeats=args.repeats,
-                                  seed=args.seed, progress=_progress, navigation=args.navigation)
-    print(replay.format_report(report))
-    if args.json:
-        args.json.write_text(json.dumps(report, indent=2))
-        print(f"wrote {args.json}")
-    if args.plots:
-        _wrote(replay.write_plots(report, args.plots))
-    return 0
-
-
-def _cmd_aoa(args: argparse.Namespace) -> int:
-    from gcs.bench import aoa_report
-
-    report, records = aoa_report.run_benchmark(runs=args.runs, seed=args.seed, steps=args.steps, progress=_progress)
-    print(aoa_report.format_report(report))
-    if args.json:
-        aoa_report.write_json(report, args.json)
-        print(f"wrote {args.json}")
-    if args.plots:
-        _wrote(aoa_report.write_plots(report, records, args.plots))
-    return 0
-
-
-def _cmd_livemap(args: argparse.Namespace) -> int:
-    from gcs.bench import livemap
-    from gcs.scenarios import load_scenario
-    from gcs.world_loader import build_world
-
-    scenario = load_scenario(args.scenario)
-    command = (f"gcs bench livemap --vehicles {' '.join(map(str, args.vehicles))} --warm-up {args.warm_up} "
-               f"--seconds {args.seconds}")
-    report = livemap.run_benchmark(scenario, build_world(scenario), vehicle_counts=args.vehicles,
-                                   warm_up_s=args.warm_up, measure_s=args.seconds, command=command,
-                                   progress=_progress)
-    print(livemap.format_report(report))
-    if args.json:
-        args.json.write_text(json.dumps(report, indent=2) + "\n")
-        print(f"wrote {args.json}")
-    if args.plots:
-        _wrote(livemap.write_plots(report, args.plots))
-    return 0
-
-
-def _cmd_skf(args: argparse.Namespace) -> int:
-    from gcs.bench import skf_report
-
-    report = skf_report.run_benchmark(runs=args.runs, seed=args.seed, methods=args.method or skf_report.METHODS,
-                                      gps_outage_s=tuple(args.gps_outage) if args.gps_outage else None,
-                                      progress=_progress)
-    print(skf_report.format_report(report))
-    if args.json:
-        skf_report.write_json(report, args.json)
-        print(f"wrote {args.json}")
-    if args.plots:
-        from gcs.bench.navigation_plots import write_skf_plots
-
-        _wrote(write_skf_plots(report, args.plots))
-    return 0
-
-
-def _cmd_imm(args: argparse.Namespace) -> int:
-    from gcs.bench import imm
-    from gcs.scenarios import load_scenario
-    from gcs.world_loader import build_world
-
-    scenario = load_scenario(args.scenario)
-    report = imm.run_benchmark(scenario, build_world(scenario), runs=args.runs, seed=args.seed, steps=args.steps,
-                               progress=_progress)
-    print(imm.format_report(report))
-    if args.json:
-        imm.write_json(report, args.json)
-        print(f"wrote {args.json}")
-    if args.plots:
-        from gcs.bench.navigation_plots import write_imm_plots
-
-        _wrote(write_imm_plots(report, args.plots))
-    return 0
-
-
-def _cmd_autopilots(args: argparse.Namespace) -> int:
-    from gcs.bench import autopilots_report
-
-    report = autopilots_report.run_benchmark(
-        args.scenario, args.runs, args.seed, personalities=args.autopilot or autopilots_report.PERSONALITIES,
-        duration_s=args.duration, compare_pursuit=args.compare_pursuit, workers=args.workers,
-        identify_loops=args.identify, progress=_progress)
-    print(autopilots_report.format_report(report))
-    if args.json is not None:
-        autopilots_report.write_json(report, args.json)
-        _wrote([args.json])
-    return 0
-
-
-def _cmd_demo(args: argparse.Namespace) -> int:
-    from gcs.bench import demo_compare
-
-    report = demo_compare.run_benchmark(args.scenario, args.runs, args.seed, rate=args.rate, duration_s=args.duration,
-                                        wait_for_plans=args.wait_for_plans, progress=_progress)
-    print(demo_compare.format_report(report))
-    if args.json is not None:
-        demo_compare.write_json(report, args.json)
-        _wrote([args.json])
-    return 0
-
-
-def _cmd_soak(args: argparse.Namespace) -> int:
-    from gcs.bench import soak
-
-    options = soak.SoakOptions(scenario=args.scenario, vehicles=args.vehicles, processes=args.processes,
-                               duration_s=args.duration, rate=args.rate, seed=args.seed,
-                               fault_every_s=args.fault_every, planner=args.planner)
-    command = (f"gcs bench soak --vehicles {args.vehicles} --processes {args.processes} --duration {args.duration:g} "
-               f"--rate {args.rate:g} --fault-every {args.fault_every:g} --seed {args.seed}")
-    try:
-        report = soak.run_soak(options, command=command, progress=_progress, workdir=args.workdir)
-    except ValueError as error:  # the options describe no soak (e.g. fewer vehicles than the scenario's)
-        raise UsageError(error) from None
-    except RuntimeError as error:
-        print(f"gcs bench soak: error: {error}", file=sys.stderr)
-        return 1
-    print(soak.format_report(report))
-    if args.json:
-        soak.write_json(report, args.json)
-        print(f"wrote {args.json}")
-    if args.plots:
-        from gcs.bench.soak_plots import write_plots
-
-        _wrote(write_plots(report, args.plots))
-    return 0 if report["lost"] == 0 and report["crashes_total"] == 0 else 1
 
 
 def _positive_int(text: str) -> int:
@@ -335,7 +94,7 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     est.add_argument("--seed", type=int, default=2012, help="seed of the generated data (default 2012)")
     est.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     est.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
-    est.set_defaults(handler=_outputs_checked(_cmd_estimation))
+    est.set_defaults(handler=_outputs_checked(commands.cmd_estimation))
 
     urb = benches.add_parser(
         "urban",
@@ -371,7 +130,7 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
                           "RMSE with the vehicles' own navigation (perfect, raw GPS, SKF); planner default ga_k5")
     urb.add_argument("--navigation", action="append", choices=NAVIGATION_MODES,
                      help="with --gps-denied: navigation to run (repeatable; default all)")
-    urb.set_defaults(handler=_outputs_checked(_cmd_urban), planners=None, navigation=None)
+    urb.set_defaults(handler=_outputs_checked(commands.cmd_urban), planners=None, navigation=None)
 
     dmn = benches.add_parser(
         "daemon",
@@ -401,7 +160,7 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     dmn.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
     dmn.add_argument("--profile", type=Path, metavar="FILE",
                      help="profile the daemon's loop (cProfile) during the rate searches and write the stats to FILE")
-    dmn.set_defaults(handler=_outputs_checked(_cmd_daemon))
+    dmn.set_defaults(handler=_outputs_checked(commands.cmd_daemon))
 
     rpl = benches.add_parser(
         "replay", help="gcs replay --process speed in multiples of real time (goal 1000x)",
@@ -416,7 +175,7 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
                           "zones, else reported), skf (each vehicle's SKF on its nav reports) or reported")
     rpl.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     rpl.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
-    rpl.set_defaults(handler=_outputs_checked(_cmd_replay))
+    rpl.set_defaults(handler=_outputs_checked(commands.cmd_replay))
 
     aoa = benches.add_parser(
         "aoa", help="zuo2021 bearing-only tracking: estimators, GCRLB-LM vs CRLB vs straight-line planners",
@@ -428,7 +187,7 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     aoa.add_argument("--seed", type=int, default=2021, help="seed of the first run (default 2021)")
     aoa.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     aoa.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
-    aoa.set_defaults(handler=_outputs_checked(_cmd_aoa))
+    aoa.set_defaults(handler=_outputs_checked(commands.cmd_aoa))
 
     lmp = benches.add_parser(
         "livemap", help="what the live map costs the daemon's loop: per message and per snapshot",
@@ -444,7 +203,7 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
                      help="simulated seconds measured (default 20)")
     lmp.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     lmp.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
-    lmp.set_defaults(handler=_outputs_checked(_cmd_livemap))
+    lmp.set_defaults(handler=_outputs_checked(commands.cmd_livemap))
 
     from gcs.bench.skf_methods import METHODS as SKF_METHODS
 
@@ -462,7 +221,7 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
                      help="no GPS fix between these times (not in the paper)")
     skf.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     skf.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
-    skf.set_defaults(handler=_outputs_checked(_cmd_skf), method=None)
+    skf.set_defaults(handler=_outputs_checked(commands.cmd_skf), method=None)
 
     imm = benches.add_parser(
         "imm", help="CV + coordinated-turn IMM vs the single-model DUIF on the street-following target",
@@ -475,7 +234,7 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     imm.add_argument("--seed", type=int, default=3000, help="seed of the first run (default 3000)")
     imm.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     imm.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
-    imm.set_defaults(handler=_outputs_checked(_cmd_imm))
+    imm.set_defaults(handler=_outputs_checked(commands.cmd_imm))
 
     soak = benches.add_parser(
         "soak", help="the whole ground station for a long run with random faults: nothing lost, no crash, memory",
@@ -497,7 +256,7 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     soak.add_argument("--workdir", type=Path, metavar="DIR", help="where the logs go (default a temporary folder)")
     soak.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     soak.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
-    soak.set_defaults(handler=_outputs_checked(_cmd_soak))
+    soak.set_defaults(handler=_outputs_checked(commands.cmd_soak))
     aps = benches.add_parser(
         "autopilots", help="the daemon's steering flown by each autopilot personality: course error, seen, RMSE",
         description="Flies the scenario in one process on paired seeds under each simulated autopilot "
@@ -518,7 +277,7 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
                      help="also print each personality's course loop identified from step responses")
     aps.add_argument("--workers", type=_positive_int, default=1, help="processes to fly the seeds in (default 1)")
     aps.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
-    aps.set_defaults(handler=_outputs_checked(_cmd_autopilots), autopilot=None)
+    aps.set_defaults(handler=_outputs_checked(commands.cmd_autopilots), autopilot=None)
 
     dem = benches.add_parser(
         "demo", help="gcs demo at its default settings against the same scenario and seeds in one process",
@@ -533,7 +292,7 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     dem.add_argument("--wait-for-plans", action="store_true",
                      help="run the vehicles with sim-vehicles run --wait-for-plans (default: as gcs demo, without)")
     dem.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
-    dem.set_defaults(handler=_outputs_checked(_cmd_demo))
+    dem.set_defaults(handler=_outputs_checked(commands.cmd_demo))
 
     for bench in benches.choices.values():  # errors name the benchmark: "gcs bench soak: error: ..."
         bench.set_defaults(command_prog=bench.prog)
