@@ -34,7 +34,8 @@ from gcs.bench.urban import with_vehicles
 from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
 from gcs.core.world import World
-from gcs.daemon.picture import Picture, encode_json
+from gcs.daemon.picture import Picture
+from gcs.daemon.picture_geometry import encode_json
 from protocols.codec import decode, encode
 from protocols.messages import (GpsFix, Message, NavReport, PlanCommand, PredictedPoint, SensorReport, TargetTruth,
                                 TrackEstimate)

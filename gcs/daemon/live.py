@@ -19,7 +19,8 @@ from gcs.adapters.foxglove_out import FoxgloveOptions, FoxgloveOut
 from gcs.adapters.web.server import LiveMapServer
 from gcs.config import Scenario
 from gcs.core.world import World
-from gcs.daemon.picture import Picture, encode_json
+from gcs.daemon.picture import Picture
+from gcs.daemon.picture_geometry import encode_json
 from protocols.messages import DaemonStatus, Message
 
 __all__ = ["LiveMap", "PUBLISH_RATE_HZ"]

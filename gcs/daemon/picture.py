@@ -33,77 +33,24 @@ import numpy as np
 from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
 from gcs.core.world import World
+from gcs.daemon.picture_geometry import ellipse, world_geometry
+from gcs.daemon.picture_geometry import rounded as _r
 from protocols.codec import decode
 from protocols.errors import ProtocolError
 from protocols.messages import (DaemonStatus, Message, NavReport, PlanCommand, SensorReport, TargetTruth,
                                 TrackEstimate, VehicleStatus)
 
-__all__ = ["Picture", "ellipse", "world_geometry", "encode_json", "TRAIL_POINTS", "TRAIL_STEP_S", "SIGMAS"]
+__all__ = ["Picture", "TRAIL_POINTS", "TRAIL_STEP_S"]
 
 NS_PER_S = 1_000_000_000
 TRAIL_POINTS = 600
 """Points kept per trail (ten minutes at one a second)."""
 TRAIL_STEP_S = 1.0
 """A trail takes a point at most once per this many seconds of stamp time."""
-SIGMAS = 2.0
-"""The drawn uncertainty ellipse is the 2-sigma one: Mahalanobis distance 2 about the mean."""
 MAX_VEHICLES = 1000
 """Vehicles tracked for the page; ids beyond these are counted, not drawn (bounded memory)."""
 LOST_AFTER_S = 5.0
 """Without a status (replay), a vehicle is ``ok`` while its data is at most this old in stamp time."""
-
-
-def _r(value: float) -> float:
-    """Metres rounded to the decimetre: the page needs no more, the payload stays small."""
-    return round(float(value), 1)
-
-
-def ellipse(cov_xy: np.ndarray | tuple[float, ...], sigmas: float = SIGMAS) -> dict:
-    """The ``sigmas``-sigma ellipse of a 2x2 position covariance.
-
-    For ``P = [[a, b], [b, c]]`` the eigenvalues are
-    ``l_{1,2} = (a + c) / 2 +- sqrt(((a - c) / 2)^2 + b^2)`` (``l_1 >= l_2``) and the
-    major axis makes the angle ``theta = atan2(2b, a - c) / 2`` with east
-    (counter-clockwise, ENU). The points at Mahalanobis distance ``sigmas`` form
-    the ellipse with semi-axes ``sigmas * sqrt(l_1)`` along ``theta`` and
-    ``sigmas * sqrt(l_2)`` across it.
-
-    Parameters
-    ----------
-    cov_xy : array_like, shape (2, 2) or (4,) row-major
-        Covariance of (x, y), m^2.
-    sigmas : float
-
-    Returns
-    -------
-    dict
-        ``rx`` (major semi-axis, m), ``ry`` (minor, m), ``angle_rad`` (of the major axis).
-    """
-    a, b, b2, c = (float(v) for v in np.asarray(cov_xy, dtype=np.float64).ravel())
-    b = 0.5 * (b + b2)
-    mid, half = 0.5 * (a + c), math.hypot(0.5 * (a - c), b)
-    major, minor = max(mid + half, 0.0), max(mid - half, 0.0)
-    return {"rx": _r(sigmas * math.sqrt(major)), "ry": _r(sigmas * math.sqrt(minor)),
-            "angle_rad": round(0.5 * math.atan2(2.0 * b, a - c), 4)}
-
-
-def world_geometry(scenario: Scenario, world: World) -> dict:
-    """The static part of the page (``/api/world``): the city rectangle, buildings and no-fly zones (ENU m)."""
-    return {
-        "scenario": scenario.name,
-        "origin": {"lat_deg": scenario.origin.lat_deg, "lon_deg": scenario.origin.lon_deg,
-                   "height_m": scenario.origin.height_m},
-        "size_m": [float(world.size_m[0]), float(world.size_m[1])],
-        "buildings": [{"footprint": [[_r(x), _r(y)] for x, y in footprint], "height_m": _r(height)}
-                      for footprint, height in zip(world.buildings.footprints, world.buildings.heights)],
-        "no_fly": [{"name": name, "polygon": [[_r(x), _r(y)] for x, y in polygon], "floor_m": float(floor),
-                    "ceiling_m": float(ceiling)}
-                   for name, polygon, floor, ceiling in zip(world.airspace.names, world.airspace.polygons,
-                                                            world.airspace.floors_m, world.airspace.ceilings_m)],
-        "vehicles": [{"id": v.id, "start": [_r(v.start_enu_m[0]), _r(v.start_enu_m[1])]} for v in scenario.vehicles],
-        "target_id": scenario.target.id,
-        "step_s": scenario.time.step_s,
-    }
 
 
 class _Trail:
@@ -131,7 +78,7 @@ class _Trail:
             self._encoded = None
 
     def encoded(self) -> msgspec.Raw:
-        """The points as a JSON array of ``[x, y]`` (embedded as is by :func:`encode_json`)."""
+        """The points as a JSON array of ``[x, y]`` (embedded as is by :func:`~gcs.daemon.picture_geometry.encode_json`)."""
         if self._encoded is None:
             self._encoded = msgspec.Raw(b"[" + b",".join(self.points) + b"]")
         return self._encoded
@@ -408,8 +355,3 @@ class Picture:
             "contributing": list(track.contributing_vehicles),
             "trail": target.track_trail.encoded(),
         }
-
-
-def encode_json(document: dict) -> bytes:
-    """Compact JSON bytes of a snapshot document (NaN and infinity become null; ``msgspec.Raw`` as it is)."""
-    return msgspec.json.encode(document)
