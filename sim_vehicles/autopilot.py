@@ -47,7 +47,7 @@ from collections import Counter
 from dataclasses import dataclass, field, replace
 
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODE_NAMES, ARDUPLANE_MODES, mavlink, ned_yaw_from_enu_heading
-from gcs.config import AirframeConfig
+from gcs.config.simulation import AirframeConfig
 from gcs.core.geometry import LocalFrame
 from sim_vehicles.streams import STREAMED_MESSAGES, MessageSchedule
 from sim_vehicles.autopilot_params import ParameterTable

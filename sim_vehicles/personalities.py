@@ -8,14 +8,14 @@
 * ``px4`` (:class:`~sim_vehicles.px4.Px4Autopilot`): PX4's custom modes, OFFBOARD
   and its setpoint stream, UNSUPPORTED guided-change commands.
 
-The names are :data:`gcs.config.AUTOPILOT_PERSONALITIES`, which the scenario
+The names are :data:`gcs.config.simulation.AUTOPILOT_PERSONALITIES`, which the scenario
 validation checks, so an unknown name never reaches :func:`make_autopilot`.
 """
 
 from __future__ import annotations
 
 from gcs.adapters.mavlink_wire import mavlink
-from gcs.config import AirframeConfig
+from gcs.config.simulation import AirframeConfig
 from gcs.core.geometry import LocalFrame
 from sim_vehicles.arduplane import ArduPlaneAutopilot
 from sim_vehicles.autopilot import SimAutopilot

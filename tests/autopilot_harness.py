@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from gcs.adapters.mavlink_wire import GCS_SYSID, mavlink
-from gcs.config import AirframeConfig
+from gcs.config.simulation import AirframeConfig
 from gcs.core.geometry import LocalFrame
 from sim_vehicles.personalities import make_autopilot
 from sim_vehicles.truth.fixed_wing import Airframe, AirframeState

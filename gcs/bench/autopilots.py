@@ -35,7 +35,8 @@ from scipy.optimize import least_squares
 from gcs.adapters.mavlink_commands import SendMemory, due_actions
 from gcs.adapters.mavlink_link import HeadingCommand, VehicleLink, update_from_message
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODES, GCS_SYSID, mavlink, ned_yaw_from_enu_heading
-from gcs.config import AirframeConfig, Scenario
+from gcs.config import Scenario
+from gcs.config.simulation import AirframeConfig
 from gcs.core.geometry import LocalFrame, wrap_angle
 from gcs.core.kinematics import VehicleState
 from gcs.core.steering import SAMPLES_PER_STEP, CourseLoop, PlannedPath, course_loop, follow

@@ -88,6 +88,7 @@ def cmd_daemon(args: argparse.Namespace) -> int:
     import cProfile
 
     from gcs.bench import daemon
+    from gcs.bench.daemon_load import LOAD_NICENESS
     from gcs.scenarios import load_scenario
     from gcs.world_loader import build_world
 

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from gcs.config import GpsConfig, InsConfig
+from gcs.config.simulation import GpsConfig, InsConfig
 from gcs.core.geometry import wrap_angle
 from sim_vehicles.truth.gps import GpsModel
 from sim_vehicles.truth.ins import InsModel

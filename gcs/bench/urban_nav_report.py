@@ -22,7 +22,8 @@ import numpy as np
 
 from gcs.bench.urban import RunRecord, run_closed_loop
 from gcs.bench.urban_nav import NAVIGATION_MODES
-from gcs.config import GpsDeniedZone, Scenario
+from gcs.config import Scenario
+from gcs.config.simulation import GpsDeniedZone
 from gcs.core.world import World
 
 __all__ = ["NAVIGATION_MODES", "DEFAULT_ZONE", "with_gps_denied", "run_benchmark", "format_report", "write_json"]

@@ -42,7 +42,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from gcs.config import AirframeConfig
+from gcs.config.simulation import AirframeConfig
 from gcs.core.geometry import wrap_angle
 
 __all__ = ["GRAVITY_MPS2", "Airframe", "AirframeState", "Guidance", "LOITER_GAIN"]

@@ -37,7 +37,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from gcs.config import GpsConfig
+from gcs.config.simulation import GpsConfig
 from gcs.core.world._polygons import as_ring, bboxes, inside_any, pad_edges
 
 if TYPE_CHECKING:

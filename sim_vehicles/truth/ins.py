@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gcs.config import InsConfig
+from gcs.config.simulation import InsConfig
 
 __all__ = ["InsModel"]
 

@@ -291,7 +291,7 @@ def test_against_the_simulators_truth_the_covariance_is_about_right_with_a_fix_a
     half in a GPS-denied half-plane: the mean normalised error squared (2 is consistent) with and without a fix."""
     import msgspec
 
-    from gcs.config import GpsDeniedZone
+    from gcs.config.simulation import GpsDeniedZone
     from gcs.world_loader import build_world
     from sim_vehicles.scene import Scene
 

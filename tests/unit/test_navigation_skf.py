@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from gcs.config import GpsConfig, InsConfig
+from gcs.config.simulation import GpsConfig, InsConfig
 from gcs.core.filters.kalman import Observation, kalman_update
 from gcs.core.geometry import LocalFrame, wrap_angle
 from gcs.core.navigation.federated import federated_start, federated_update, fuse_estimates

@@ -7,7 +7,8 @@ from pathlib import Path
 import msgspec
 import pytest
 
-from gcs.config import AirframeConfig, Scenario, ScenarioError, SimulationConfig, validate_scenario
+from gcs.config import Scenario, ScenarioError, validate_scenario
+from gcs.config.simulation import AirframeConfig, SimulationConfig
 from gcs.scenarios import DEFAULT_SCENARIO, list_scenarios, load_scenario, parse_scenario
 
 MINIMAL = b"""

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from gcs.config import AirframeConfig
+from gcs.config.simulation import AirframeConfig
 from sim_vehicles.truth.fixed_wing import GRAVITY_MPS2, Airframe, AirframeState, Guidance
 
 DT = 0.05

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from gcs.config import GpsConfig, GpsDeniedZone
+from gcs.config.simulation import GpsConfig, GpsDeniedZone
 from gcs.scenarios import load_scenario
 from sim_vehicles.truth.gps import FIX_3D, FIX_NONE, GpsModel
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.stats import binom, chi2
 
-from gcs.config import InsConfig
+from gcs.config.simulation import InsConfig
 from sim_vehicles.truth.ins import InsModel
 
 ALPHA = 1e-4

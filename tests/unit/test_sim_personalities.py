@@ -9,7 +9,8 @@ from importlib import resources
 import pytest
 
 from gcs.adapters.mavlink_wire import mavlink
-from gcs.config import AirframeConfig, ScenarioError
+from gcs.config import ScenarioError
+from gcs.config.simulation import AirframeConfig
 from gcs.scenarios import load_scenario
 from sim_vehicles.guided_heading import bank_limit_cd
 from sim_vehicles.truth.fixed_wing import GRAVITY_MPS2

@@ -68,7 +68,7 @@ def test_scene_is_deterministic_for_a_seed_and_varies_with_it() -> None:
 def test_dead_reckoning_takes_over_in_a_gps_denied_zone() -> None:
     import msgspec
 
-    from gcs.config import GpsDeniedZone
+    from gcs.config.simulation import GpsDeniedZone
 
     zone = GpsDeniedZone(name="whole_city", polygon_enu_m=[(-1e4, -1e4), (1e4, -1e4), (1e4, 1e4), (-1e4, 1e4)])
     scenario = msgspec.structs.replace(SCENARIO, gps_denied=[zone])

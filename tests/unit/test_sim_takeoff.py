@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from gcs.adapters.mavlink_wire import GCS_SYSID, mavlink
-from gcs.config import AirframeConfig
+from gcs.config.simulation import AirframeConfig
 from gcs.core.geometry import LocalFrame
 from sim_vehicles.personalities import make_autopilot
 from sim_vehicles.px4 import PX4_MODES

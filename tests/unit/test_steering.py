@@ -14,7 +14,7 @@ import pytest
 
 from gcs.adapters.mavlink_wire import mavlink, ned_yaw_from_enu_heading
 from gcs.bench.autopilots import identify
-from gcs.config import AirframeConfig
+from gcs.config.simulation import AirframeConfig
 from gcs.core.geometry import wrap_angle
 from gcs.core.kinematics import VehicleState, rollout
 from gcs.core.steering import COURSE_LOOPS, PlannedPath, follow
