@@ -50,7 +50,7 @@ from sim_vehicles.truth.fixed_wing import Airframe, AirframeState
 __all__ = ["FlightRecord", "STEERINGS", "fly", "identify", "step_response", "with_autopilot"]
 
 STEER_RATE_HZ = 4.0
-"""The daemon's steering rate (:data:`gcs.app.STEER_RATE_HZ`), per second of vehicle time."""
+"""The daemon's steering rate (:data:`gcs.engine.memory.STEER_RATE_HZ`), per second of vehicle time."""
 STREAM_RATE_HZ = 5.0
 """The telemetry rate the daemon asks for (:data:`gcs.adapters.mavlink_commands.DEFAULT_STREAM_RATE_HZ`)."""
 SETTLE_S = 10.0
