@@ -36,12 +36,11 @@ import zenoh
 from gcs.adapters.recording import HEARTBEAT_ENCODING, LIVELINESS_ENCODING, Recorded, Recorder, read_recording
 from gcs.adapters.zenoh_session import open_session
 from gcs.config import Scenario
-from gcs.core.tracker import plan
 from gcs.core.world import World
-from gcs.daemon.planning import PlanOutcome
 from gcs.daemon.steps import HOLD_WAITS
 from gcs.engine.engine import Engine, EngineOptions
-from gcs.engine.events import Arrived, Heartbeat, PlanDone, PlannerFree, PublishPlan, PublishTrack, SubmitPlan, Tick
+from gcs.engine.events import Arrived, Heartbeat, PlannerFree, PublishPlan, PublishTrack, SubmitPlan, Tick
+from gcs.engine.inline import plan_at_once
 from protocols.codec import decode, encode
 from protocols.errors import ProtocolError
 from protocols.keys import DEFAULT_PREFIX, parse_key, plan_key, track_key
@@ -113,8 +112,10 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
     """The daemon's engine (:class:`~gcs.engine.engine.Engine`) on a recording: its tracks, plans and counters.
 
     The recorded inputs go to the same engine as live, in recorded order, each with its recorded
-    receive time as the clock: samples, liveliness tokens and the MAVLink heartbeats the daemon heard
-    (:data:`~gcs.adapters.recording.HEARTBEAT_ENCODING`), so a step is released for the same vehicles
+    receive time as the clock (the steps whose wait ran out before an input came in are released
+    before it is handled, as the live loop, idle between inputs, did): samples, liveliness tokens
+    and the MAVLink heartbeats the daemon heard (:data:`~gcs.adapters.recording.HEARTBEAT_ENCODING`),
+    so a step is released for the same vehicles
     alive as live (token or heartbeat) or when its wait expires. The options that change acceptance
     are the daemon's (``gcs run``'s flags of the same names): ``navigation`` (``--navigation``),
     ``accept_unlisted`` (``--accept-unlisted``), ``max_wait_s`` (``--max-wait``), and the roster is
@@ -139,10 +140,7 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
             elif isinstance(action, PublishPlan):
                 plans.append(action.command)
             elif isinstance(action, SubmitPlan):
-                job = action.job
-                state, turn_rates, diagnostics = plan(engine.subset(job.indices), job.state, job.vehicles, rng,
-                                                      predicted=job.predicted)
-                carry_out(engine.feed(PlanDone(PlanOutcome(job, state, turn_rates, diagnostics.plan, 0.0, 0.0, 0))))
+                carry_out(plan_at_once(engine, action.job, rng))
 
     def release(now: float) -> None:
         """Fuse the steps ready at ``now`` one at a time, each planned (with a world) before the next."""
@@ -159,6 +157,8 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
     for record in read_recording(path):
         kind, ident = _kind(record.key)
         now = record.log_time_ns / NS_PER_S
+        if kind in ("alive", "report", "nav", "truth"):
+            release(now)  # what timed out before it came in: the live loop, idle, released it before
         if kind == "alive" and record.encoding == HEARTBEAT_ENCODING:
             engine.feed(Heartbeat(ident, now))
         elif kind == "alive" and record.encoding == LIVELINESS_ENCODING:  # as the daemon's registry saw it

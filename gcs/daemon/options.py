@@ -55,7 +55,8 @@ class DaemonOptions:
     accept_unlisted : bool
         Accept reports from vehicles outside the scenario's roster (default: rejected as
         ``unknown_vehicle``); their detections are fused with the scenario's sensor model, and they
-        are never planned for or commanded.
+        are never planned for or commanded; a step waits for the reports of those whose liveliness token is
+        declared, as for the roster's.
     stream_rate_hz : float
         The rate asked of every vehicle for GLOBAL_POSITION_INT and ATTITUDE (0: ask nothing;
         :mod:`gcs.adapters.mavlink_commands`).

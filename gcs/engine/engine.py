@@ -12,7 +12,8 @@ decides lives here, so that live and replayed runs cannot drift apart:
   decision-step assembly (:class:`~gcs.daemon.steps.StepAssembler`, reorder window ``max_wait_s``),
   the vehicles' own navigation (:func:`~gcs.daemon.navigation.navigator_for`);
 * **step release and fusion** (a :class:`~gcs.engine.events.Tick`): the steps complete for the
-  vehicles alive (token or heartbeat, less those whose clocks went wrong), or whose wait ran out,
+  vehicles alive (token or heartbeat; with ``accept_unlisted`` the observers' tokens too; less those
+  whose clocks went wrong), or whose wait ran out,
   are fused (:func:`gcs.daemon.fusion.fuse_step`, every roster vehicle's reports and the unlisted
   observers') and their tracks published with the k+1..k+n prediction; each is recorded
   (:class:`~gcs.daemon.records.StepRecord`) and watched for the target being lost;
@@ -42,7 +43,7 @@ from gcs.core.steering import PlannedPath
 from gcs.core.tracker import TrackerConfig, prediction
 from gcs.core.world import World
 from gcs.daemon.fusion import FusionDiverged, fuse_step, plan_commands, track_message, with_observers
-from gcs.daemon.ingest import Ingest
+from gcs.daemon.ingest import MAX_UNLISTED, Ingest
 from gcs.daemon.navigation import navigator_for
 from gcs.daemon.planning import PlanJob, PlanOutcome
 from gcs.daemon.records import PlanRecord, StepRecord, StepScorer, keep_newest
@@ -55,11 +56,14 @@ from gcs.tracking import observer_sensor_model, scenario_planner, subset_config,
 from protocols.keys import parse_key
 from protocols.messages import NavReport, SensorReport, TargetTruth
 
-__all__ = ["EngineOptions", "Engine", "ALIVE_REFRESH_S", "NS_PER_S"]
+__all__ = ["EngineOptions", "Engine", "ALIVE_REFRESH_S", "MAX_OBSERVER_TOKENS", "NS_PER_S"]
 
 log = logging.getLogger(__name__)
 
 NS_PER_S = 1_000_000_000
+MAX_OBSERVER_TOKENS = 4 * MAX_UNLISTED
+"""Liveliness tokens of vehicles outside the roster remembered (``accept_unlisted``); a flood of made-up
+tokens cannot grow the set beyond this."""
 ALIVE_REFRESH_S = 0.02
 """How long the engine reuses the set of vehicles alive when no liveliness change came in between.
 
@@ -121,6 +125,7 @@ class Engine:
         self._alive_now: frozenset[str] | None = None  # the vehicles alive (see alive), asked at _alive_since_s
         self._alive_since_s = 0.0
         self._released: deque[ReadyStep] = deque()
+        self._observer_tokens: set[str] = set()
 
     # ------------------------------------------------------------------ input
 
@@ -156,8 +161,13 @@ class Engine:
                 self.registry.on_liveliness(parsed.ident, item.kind == "alive", now)
                 self._alive_now = None
                 log.info("vehicle %s %s", parsed.ident, "joined" if item.kind == "alive" else "left")
+            elif parsed.kind == "alive" and self.options.accept_unlisted:
+                self._observer_token(parsed.ident, item.kind == "alive")
             return []
+        admitted = len(self.ingest.unlisted)
         message = self.ingest.accept(item)
+        if len(self.ingest.unlisted) != admitted:  # a new observer: steps wait for it if its token is declared
+            self._alive_now = None
         if isinstance(message, SensorReport):
             if message.vehicle_id in self.registry.entries:  # else a vehicle outside the roster (accept_unlisted)
                 self.registry.on_report(message)
@@ -172,11 +182,22 @@ class Engine:
             self.scorer.add_truth(message.stamp_ns, message.position_enu_m)
         return [] if message is None else [Observed(message)]
 
+    def _observer_token(self, vehicle_id: str, declared: bool) -> None:
+        """The liveliness token of a vehicle outside the roster (kept for at most :data:`MAX_OBSERVER_TOKENS`)."""
+        if declared and len(self._observer_tokens) < MAX_OBSERVER_TOKENS:
+            self._observer_tokens.add(vehicle_id)
+        elif not declared:
+            self._observer_tokens.discard(vehicle_id)
+        self._alive_now = None
+
     def alive(self, now_s: float) -> frozenset[str]:
-        """The roster vehicles alive now (liveliness token or MAVLink heartbeat): asked again after a
-        liveliness change, or :data:`ALIVE_REFRESH_S` after the last time."""
+        """The vehicles a step waits for: the roster's alive now (liveliness token or MAVLink heartbeat) and,
+        with ``accept_unlisted``, the observers accepted whose token is declared (their reports are fused:
+        whether one is in its step must not depend on when it arrived). Asked again after a liveliness
+        change or a new observer, or :data:`ALIVE_REFRESH_S` after the last time."""
         if self._alive_now is None or not self._alive_since_s <= now_s < self._alive_since_s + ALIVE_REFRESH_S:
-            self._alive_now = frozenset(vid for vid in self.roster if self.registry.alive(vid, now_s))
+            self._alive_now = frozenset([vid for vid in self.roster if self.registry.alive(vid, now_s)]
+                                        + [vid for vid in self.ingest.unlisted if vid in self._observer_tokens])
             self._alive_since_s = now_s
         return self._alive_now
 
@@ -239,7 +260,7 @@ class Engine:
                                                       self.scenario.estimator.model, self.loop.track_seq,
                                                       contributing, predicted)))
         active = self.registry.plannable(now)
-        scale = self._clock_scale(ready, now)
+        scale = self.loop.clock_scale(now, ready.stamp_ns, self.options.plan_fraction)
         self._record(ready, active, estimate, tick.wall_ns, actions)
         if not active:
             self.counters["steps_without_vehicles"] += 1
@@ -249,26 +270,6 @@ class Engine:
         # What is known of the vehicles now: by the time the planner is free, newer reports may be in.
         return Planning(ready, tuple(active), self.registry.snapshot(active), estimate, predicted, scale,
                         tick.monotonic_s)
-
-    def _clock_scale(self, ready: ReadyStep, now: float) -> float:
-        """How much faster than the loop clock the planner's clock runs (data time, over ``plan_fraction``).
-
-        The planner's deadline is a fraction of a decision step of *data* time. Live,
-        stamps advance as fast as the wall clock; against vehicles simulated R times
-        faster than real time the GA gets 1/R of the wall time, so that its command
-        still arrives within the step it was planned for. The rate is measured over
-        the last few released steps and never below 1. The deadline is further shrunk
-        to ``plan_fraction`` of itself, leaving the rest of the step for fusion and I/O.
-        """
-        history = self.loop.step_times
-        history.append((now, ready.stamp_ns))
-        del history[:-6]
-        rate = 1.0
-        (wall_0, stamp_0), (wall_1, stamp_1) = history[0], history[-1]
-        if wall_1 - wall_0 > 1e-3:
-            rate = max(1.0, (stamp_1 - stamp_0) / NS_PER_S / (wall_1 - wall_0))
-        self.loop.data_rate = rate
-        return rate / self.options.plan_fraction
 
     def _record(self, ready: ReadyStep, active: list[str], estimate, wall_ns: int, actions: list[Action]) -> None:
         """Note what the step did; it is scored against the simulator's truth once that is in (:class:`StepScorer`)."""

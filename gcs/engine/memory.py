@@ -39,6 +39,7 @@ cheap planner (orbit, pursuit) would otherwise cost the loop more in job hand-ov
 and command publication than the fusion it is there for."""
 PLAN_INTERVAL_PER_VEHICLE_S = 0.0025
 """Loop time between two plans for each vehicle planned, at least (see :func:`plan_interval_s`)."""
+NS_PER_S = 1_000_000_000
 COMMAND_AGES_KEPT = 1000
 """Command ages kept for the median and p99 (:class:`CommandAges`): the newest this many."""
 
@@ -99,6 +100,28 @@ class LoopMemory:
     waiting: Planning | None = None
     """The newest fused step's planning, until the planner is free to take it."""
     next_plan_s: float = -math.inf
+
+    def clock_scale(self, now_s: float, stamp_ns: int, plan_fraction: float) -> float:
+        """How much faster than the loop clock the planner's clock runs (data time, over ``plan_fraction``),
+        with the step of ``stamp_ns`` released at ``now_s``.
+
+        The planner's deadline is a fraction of a decision step of *data* time. Live,
+        stamps advance as fast as the wall clock; against vehicles simulated R times
+        faster than real time the GA gets 1/R of the wall time, so that its command
+        still arrives within the step it was planned for. The rate is measured over
+        the last few released steps and never below 1 (kept as ``data_rate``). The deadline
+        is further shrunk to ``plan_fraction`` of itself, leaving the rest of the step for
+        fusion and I/O.
+        """
+        history = self.step_times
+        history.append((now_s, stamp_ns))
+        del history[:-6]
+        rate = 1.0
+        (wall_0, stamp_0), (wall_1, stamp_1) = history[0], history[-1]
+        if wall_1 - wall_0 > 1e-3:
+            rate = max(1.0, (stamp_1 - stamp_0) / NS_PER_S / (wall_1 - wall_0))
+        self.data_rate = rate
+        return rate / plan_fraction
 
 
 class CommandAges:
