@@ -111,19 +111,32 @@ class Daemon:
     plans = property(lambda self: self.engine.plans)
     planner_name = property(lambda self: self.engine.planner_name)
     tracker = property(lambda self: self.engine.tracker)
+    _subset = property(lambda self: self.engine.subset)  # the in-process planners' trackers
+    _alive = property(lambda self: self.engine.alive)
+
+    @property
+    def on_step(self) -> Callable[[StepRecord], None] | None:
+        """Called with each step's record once it is scored (settable after construction: ``gcs demo``)."""
+        return self.engine.scorer.on_step
+
+    @on_step.setter
+    def on_step(self, hook: Callable[[StepRecord], None] | None) -> None:
+        self.engine.scorer.on_step = hook
+
+    @property
+    def on_plan(self) -> Callable[[PlanRecord], None] | None:
+        """Called with each plan's record once its commands are published (settable after construction)."""
+        return self.engine.on_plan
+
+    @on_plan.setter
+    def on_plan(self, hook: Callable[[PlanRecord], None] | None) -> None:
+        self.engine.on_plan = hook
 
     # ------------------------------------------------------------- lifecycle
 
     def stop(self) -> None:
         """Ask the loop to return (thread- and signal-safe)."""
         self._stopping = True
-
-    def _subset(self, indices: tuple[int, ...]):
-        """The tracker for a subset of the roster (the in-process planners' configs)."""
-        return self.engine.subset(indices)
-
-    def _alive(self, now: float) -> frozenset[str]:
-        return self.engine.alive(now)
 
     def _record_published(self, key: str, payload: bytes, encoding: str, time_ns: int) -> None:
         if self.live is not None:
@@ -257,10 +270,10 @@ class Daemon:
         activity += self._apply_finished_plans()
         if not self.planner.planning:
             self._carry_out(self.engine.feed(PlannerFree(now)))
+        if now >= self._next_steer_s:
+            self._steer(now)
+            self._next_steer_s = now + 1.0 / (STEER_RATE_HZ * self.loop.data_rate)
         if self.commander is not None:
-            if now >= self._next_steer_s:
-                self._steer(now)
-                self._next_steer_s = now + 1.0 / (STEER_RATE_HZ * self.loop.data_rate)
             self.commander.service(now)
         self.zenoh.answer_queries(status=lambda: self.status(now))
         if self.live is not None:
@@ -330,10 +343,15 @@ class Daemon:
         the vehicle's autopilot (the one its scenario names) turn at the rate wanted: the course
         an ArduPilot peer is told, and the direction of a PX4 peer's carrot. Following the path from where the vehicle
         is *now* absorbs the delay between the reports a plan was made from and the moment it
-        is flown. Without telemetry the plan's course one step on is commanded.
+        is flown. Without telemetry the plan's course one step on is commanded. The engine measures each
+        command's age (:class:`~gcs.engine.memory.CommandAges`), without MAVLink too (``gcs bench daemon``):
+        the age of the plan a vehicle would be steered along.
         """
         period = 1.0 / STEER_RATE_HZ
-        for vehicle_id, path in self.engine.steer():
+        steered = self.engine.steer()
+        if self.commander is None:
+            return
+        for vehicle_id, path in steered:
             link = self.commander.link(vehicle_id)
             course, speed = link.course_rad(), link.ground_speed_mps()
             if link.position_enu_m is None or course is None or speed is None:
@@ -374,4 +392,6 @@ class Daemon:
         return DaemonStatus(stamp_ns=time.time_ns(), uptime_s=max(now - self._started_s, 0.0),
                             scenario=self.scenario.name, vehicles=tuple(vehicles),
                             counters={k: int(v) for k, v in counters.items() if v >= 0},
-                            last_track_stamp_ns=self.loop.last_track_stamp_ns)
+                            last_track_stamp_ns=self.loop.last_track_stamp_ns,
+                            command_age_ms_median=self.engine.command_ages.median_ms(),
+                            command_age_ms_p99=self.engine.command_ages.p99_ms())
