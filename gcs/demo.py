@@ -146,6 +146,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     counters = daemon.status(time.monotonic()).counters
     summary.update({"scenario": daemon.scenario.name, "planner": daemon.planner_name, "rate": args.rate,
                     "duration_s": duration, "navigation": "reported" if daemon.navigator is None else "skf",
+                    "command_age_ms_median": daemon.engine.command_ages.median_ms(),
+                    "command_age_ms_p99": daemon.engine.command_ages.p99_ms(),
                     "steps_released_by_timeout": counters.get("steps_released_by_timeout", 0),
                     "rejected": {k: v for k, v in counters.items() if k.startswith("rejected.")}})
     _print_summary(summary)
@@ -195,6 +197,9 @@ def _print_summary(summary: dict) -> None:
     median, p99 = (_ms(summary[key]) for key in ("decision_ms_median", "decision_ms_p99"))
     print(f"steps {summary['steps']}; seen by at least one UAV {summary['seen_any']}; per UAV {per_uav}")
     print(f"fused position RMSE {rmse}; decision time median {median}, p99 {p99}")
+    if summary.get("command_age_ms_median") is not None:
+        print(f"command age (vehicle time flown less the decision step's stamp) median "
+              f"{_ms(summary['command_age_ms_median'])}, p99 {_ms(summary['command_age_ms_p99'])}")
     if summary.get("nav_std_m_median") is not None:
         print(f"navigation {summary['navigation']}: vehicle position 1-sigma median {summary['nav_std_m_median']:.1f} m, "
               f"max {summary['nav_std_m_max']:.1f} m; {summary['nav_vehicle_steps_without_fix']} vehicle-steps "

@@ -9,9 +9,10 @@ processed, or fed back (the command line is :mod:`gcs.replay_cli`).
   with play/pause and speed (:mod:`gcs.replay_view`); ``--foxglove-mcap OUT``
   converts it to an MCAP file of Foxglove's map schemas.
 * ``gcs replay FILE --process [--plan] [--out TRACKS.mcap|.csv]`` runs the
-  estimator (and the planner) on the file directly, without Zenoh: the same validation, step assembly and
-  fusion as the daemon (:mod:`gcs.daemon.fusion`), with the same vehicle
-  navigation (``--navigation``, default ``auto``: :mod:`gcs.daemon.navigation`),
+  estimator (and the planner) on the file directly, without Zenoh: the daemon's own engine
+  (:mod:`gcs.engine`: validation, step assembly, navigation, fusion), fed the recorded
+  inputs, liveliness and heartbeats with their receive times, under the options of the
+  run (``--navigation``, ``--accept-unlisted``, ``--max-wait``, the scenario's roster),
   so a recording of a live run gives back the daemon's tracks bit for bit,
   provided no report or nav report was late in the live run (the daemon's
   ``rejected.late`` and ``rejected.late_nav`` counters are zero).
@@ -32,22 +33,18 @@ from pathlib import Path
 import numpy as np
 import zenoh
 
-from gcs.adapters.recording import LIVELINESS_ENCODING, Recorded, Recorder, read_recording
-from gcs.adapters.zenoh_io import Received
+from gcs.adapters.recording import HEARTBEAT_ENCODING, LIVELINESS_ENCODING, Recorded, Recorder, read_recording
 from gcs.adapters.zenoh_session import open_session
 from gcs.config import Scenario
-from gcs.core.tracker import plan, prediction
 from gcs.core.world import World
-from gcs.daemon.fusion import FusionDiverged, PlanMemory, fuse_step, plan_commands, track_message
-from gcs.daemon.ingest import Ingest
-from gcs.daemon.navigation import navigator_for
-from gcs.daemon.registry import Registry
-from gcs.daemon.steps import StepAssembler
-from gcs.tracking import scenario_planner, subset_config, tracker_config
+from gcs.daemon.steps import HOLD_WAITS
+from gcs.engine.engine import Engine, EngineOptions
+from gcs.engine.events import Arrived, Heartbeat, PlannerFree, PublishPlan, PublishTrack, SubmitPlan, Tick
+from gcs.engine.inline import plan_at_once
 from protocols.codec import decode, encode
 from protocols.errors import ProtocolError
 from protocols.keys import DEFAULT_PREFIX, parse_key, plan_key, track_key
-from protocols.messages import NavReport, PlanCommand, SensorReport, TargetTruth, TrackEstimate
+from protocols.messages import PlanCommand, TargetTruth, TrackEstimate
 
 __all__ = ["process", "summarise", "write_outputs", "truth_error", "republish", "INPUT_KINDS"]
 
@@ -110,92 +107,70 @@ def summarise(path: Path) -> dict:
 # ---------------------------------------------------------------- --process
 
 def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world: World | None = None,
-            seed: int = 0, navigation: str = "auto") -> tuple[list[TrackEstimate], list[PlanCommand], Counter]:
-    """The daemon's estimation (and planning, with a ``world``) on a recording.
+            seed: int = 0, navigation: str = "auto", accept_unlisted: bool = False, max_wait_s: float = 0.5,
+            planner: str | None = None) -> tuple[list[TrackEstimate], list[PlanCommand], Counter]:
+    """The daemon's engine (:class:`~gcs.engine.engine.Engine`) on a recording: its tracks, plans and counters.
 
-    Messages go through the same :class:`Ingest` and :class:`StepAssembler` as in
-    the daemon, in recorded order, with the recorded receive times as the clock;
-    a step is released once every vehicle that is alive (its recorded liveliness
-    token) or has reported so far has reported for it, or when its wait expires,
-    as live. With a ``world`` every step is also planned for the vehicles alive
-    then, as the daemon plans, but to the end of every generation (no deadline),
-    so the plans are reproducible; the daemon's own plans stop at its deadline.
-    ``navigation`` is the daemon's ``--navigation``: with ``skf`` (or ``auto`` on a scenario with GPS-denied
-    zones) the nav reports feed the
-    same :class:`FleetNavigator`, advanced to each step's stamp before it is fused, and
-    the steps wait for them as live.
+    The recorded inputs go to the same engine as live, in recorded order, each with its recorded
+    receive time as the clock (the steps whose wait ran out before an input came in are released
+    before it is handled, as the live loop, idle between inputs, did): samples, liveliness tokens
+    and the MAVLink heartbeats the daemon heard (:data:`~gcs.adapters.recording.HEARTBEAT_ENCODING`),
+    so a step is released for the same vehicles
+    alive as live (token or heartbeat) or when its wait expires. The options that change acceptance
+    are the daemon's (``gcs run``'s flags of the same names): ``navigation`` (``--navigation``),
+    ``accept_unlisted`` (``--accept-unlisted``), ``max_wait_s`` (``--max-wait``), and the roster is
+    the ``scenario``'s. With a ``world`` every fused step is handed to the planner, for the vehicles
+    alive then, as the daemon hands over the newest when its planner is free; here the planner
+    plans at once, with ``seed``, to the end of every generation (no deadline), so the plans are
+    reproducible; the daemon's own plans stop at its deadline.
 
     Returns the tracks, the plans (empty without a world) and the counters.
     """
-    planning = world is not None
-    config = tracker_config(scenario, world, scenario_planner(scenario))
-    roster = [v.id for v in scenario.vehicles]
-    ingest = Ingest(set(roster), prefix)
-    steps = StepAssembler(round(scenario.time.step_s * NS_PER_S))
-    navigator = navigator_for(navigation, scenario)
-    registry = Registry(list(scenario.vehicles), heartbeat_age=lambda vehicle, now: None)
+    engine = Engine(scenario, world, EngineOptions(prefix=prefix, accept_unlisted=accept_unlisted,
+                                                   navigation=navigation, max_wait_s=max_wait_s, planner=planner,
+                                                   plan_every_step=True))
     rng = np.random.default_rng(seed)
-    reporters: set[str] = set()
     tracks: list[TrackEstimate] = []
     plans: list[PlanCommand] = []
-    memory = PlanMemory()
-    estimate = None
-    diverged: Counter = Counter()
 
-    def release(ready_steps, now: float) -> None:
-        nonlocal estimate
-        for ready in ready_steps:
-            if navigator is not None:
-                navigator.advance_to(ready.stamp_ns)
-            try:
-                estimate, detections = fuse_step(config, estimate, ready, roster, navigator)
-            except FusionDiverged:  # as the daemon: counted, the previous estimate stands
-                diverged["rejected.diverged"] += 1
-                continue
-            if estimate is None:
-                continue
-            contributing = sorted({roster[d.vehicle] for d in detections})
-            predicted = prediction(config, estimate)
-            tracks.append(track_message(config, estimate, scenario.target.id, scenario.estimator.model,
-                                        len(tracks) + 1, contributing, predicted))
-            active = registry.plannable(now)
-            if planning and active:
-                vehicles = registry.vehicle_state(active, ready.stamp_ns)
-                subset = subset_config(config, tuple(roster.index(v) for v in active))
-                state, turn_rates, _ = plan(subset, memory.state_for(active, estimate), vehicles, rng,
-                                            predicted=predicted)
-                memory.remember(active, state, turn_rates)
-                plans.extend(plan_commands(vehicles, [registry.entries[v].config for v in active], state.plan,
-                                           subset.max_turn_rate, scenario.time.step_s, ready.stamp_ns,
-                                           len(plans) + 1, scenario_planner(scenario)))
+    def carry_out(actions) -> None:
+        for action in actions:
+            if isinstance(action, PublishTrack):
+                tracks.append(action.track)
+            elif isinstance(action, PublishPlan):
+                plans.append(action.command)
+            elif isinstance(action, SubmitPlan):
+                carry_out(plan_at_once(engine, action.job, rng))
+
+    def release(now: float) -> None:
+        """Fuse the steps ready at ``now`` one at a time, each planned (with a world) before the next."""
+        tick = Tick(now, max_steps=1)
+        while True:
+            carry_out(engine.feed(tick))
+            if world is not None:
+                carry_out(engine.feed(PlannerFree(now)))
+            if not engine.released:
+                return
+            tick = Tick(now, timeouts=False, max_steps=1)
 
     now = 0.0
     for record in read_recording(path):
         kind, ident = _kind(record.key)
         now = record.log_time_ns / NS_PER_S
-        if kind == "alive" and record.encoding == LIVELINESS_ENCODING:  # as the daemon's registry saw it
-            registry.on_liveliness(ident, record.payload == b"alive", now)
-            continue
-        if kind not in ("report", "nav", "truth"):
-            continue  # the daemon's own outputs
-        message = ingest.accept(Received("sample", record.key, record.payload, record.encoding, record.log_time_ns))
-        if isinstance(message, NavReport):
-            registry.on_nav(message)
-            if navigator is None:
-                continue
-            navigator.add(message)
-            steps.add_nav(message.vehicle_id, message.stamp_ns)
-        elif isinstance(message, SensorReport):
-            registry.on_report(message)
-            reporters.add(message.vehicle_id)
-            steps.add(message, now)
+        if kind in ("alive", "report", "nav", "truth"):
+            release(now)  # what timed out before it came in: the live loop, idle, released it before
+        if kind == "alive" and record.encoding == HEARTBEAT_ENCODING:
+            engine.feed(Heartbeat(ident, now))
+        elif kind == "alive" and record.encoding == LIVELINESS_ENCODING:  # as the daemon's registry saw it
+            engine.feed(Arrived("alive" if record.payload == b"alive" else "gone", record.key, b"", "",
+                                record.log_time_ns, now))
+        elif kind in ("report", "nav", "truth"):
+            engine.feed(Arrived("sample", record.key, record.payload, record.encoding, record.log_time_ns, now))
         else:
-            continue
-        alive = {v for v, entry in registry.entries.items() if entry.token}
-        release(steps.ready((alive | reporters) - ingest.off_clock, now), now)
-    release(steps.ready(reporters, math.inf), now)
-    counters = Counter(ingest.counters) + steps.counters + diverged
-    return tracks, plans, counters + (navigator.counters if navigator is not None else Counter())
+            continue  # the daemon's own outputs
+        release(now)
+    release(now + HOLD_WAITS * max_wait_s + 1.0)  # past every open step's deadline
+    return tracks, plans, engine.counters_now()
 
 
 def truth_error(path: Path, tracks: list[TrackEstimate], step_ns: int) -> tuple[float | None, int]:
@@ -246,9 +221,10 @@ def write_outputs(tracks: list[TrackEstimate], plans: list[PlanCommand], out: Pa
 # -------------------------------------------------------------- republish
 
 def _inputs(path: Path) -> Iterator[tuple[Recorded, str, str]]:
+    """The recorded inputs that travel on Zenoh (MAVLink heartbeats the daemon heard do not)."""
     for record in read_recording(path):
         kind, ident = _kind(record.key)
-        if kind in INPUT_KINDS:
+        if kind in INPUT_KINDS and record.encoding != HEARTBEAT_ENCODING:
             yield record, kind, ident
 
 

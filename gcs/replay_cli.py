@@ -15,7 +15,7 @@ from gcs.adapters.recording import RecordingError, check_mcap
 from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, ZenohSettings, add_zenoh_arguments, required_settings
 from gcs.cli_errors import UsageError, existing_file, one_line, positive, set_command, stop_on_signals, writable_file
-from gcs.daemon.cli import add_navigation_argument
+from gcs.daemon.cli import add_acceptance_arguments, add_navigation_argument
 from gcs.replay import NS_PER_S, process, republish, summarise, truth_error, write_outputs
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
 from gcs.world_loader import build_world
@@ -44,6 +44,7 @@ def add_replay(sub: argparse._SubParsersAction) -> None:
                              ".mcap --out")
     parser.add_argument("--seed", type=int, default=0, help="--process --plan: the planner's seed (default 0)")
     add_navigation_argument(parser)
+    add_acceptance_arguments(parser, "--process: ")
     parser.add_argument("--json", action="store_true", help="--info: print JSON")
     parser.add_argument("--view", action="store_true",
                         help="show the recording on the live map (play/pause, speed; --rate is the starting speed, "
@@ -71,6 +72,7 @@ def check_replay(args: argparse.Namespace) -> ZenohSettings | None:
         raise UsageError("--view needs --http ADDRESS (or --foxglove ADDRESS)")
     if not args.fast:
         positive(args.rate, "--rate")
+    positive(args.max_wait, "--max-wait")
     writable_file(args.out, "--out")
     writable_file(args.foxglove_mcap, "--foxglove-mcap")
     try:
@@ -127,7 +129,8 @@ def _print_info(info: dict, as_json: bool) -> None:
 def _process(args: argparse.Namespace) -> None:
     scenario = load_scenario(args.scenario)
     world = build_world(scenario, scenario_base_dir(args.scenario)) if args.plan else None
-    tracks, plans, counters = process(args.file, scenario, args.prefix, world, args.seed, args.navigation)
+    tracks, plans, counters = process(args.file, scenario, args.prefix, world, args.seed, args.navigation,
+                                      accept_unlisted=args.accept_unlisted, max_wait_s=args.max_wait)
     if args.out is not None:
         write_outputs(tracks, plans, args.out, args.prefix)
     print(f"{len(tracks)} track estimates" + (f" and {len(plans)} plan commands" if args.plan else "")

@@ -397,6 +397,10 @@ class VehicleStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=Tr
     control: Text | None = None
 
 
+CommandAgeMs = Annotated[float, Meta(ge=-1e9, le=1e12, description="milliseconds")]
+"""A command's age (vehicle time flown less its decision step's stamp), ms: finite, within about 30 years."""
+
+
 class DaemonStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """Health of the ``gcs`` daemon (published and queryable).
 
@@ -413,10 +417,15 @@ class DaemonStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=Tru
         Accepted and rejected message counts by reason (non-negative).
     last_track_stamp_ns : int or None
         ``stamp_ns`` of the last published track, if any.
+    command_age_ms_median, command_age_ms_p99 : float or None
+        Median and 99th percentile of the steering commands' age, ms: the vehicle time at which a
+        command was flown less the stamp of the decision step its plan came from, over the newest
+        commands (:class:`gcs.engine.memory.CommandAges`); None before the first command.
     """
 
-    VERSION: ClassVar[int] = 2
-    """Version 2: :class:`VehicleStatus` says the heartbeat, the liveliness and who flies the vehicle."""
+    VERSION: ClassVar[int] = 3
+    """Version 2: :class:`VehicleStatus` says the heartbeat, the liveliness and who flies the vehicle.
+    Version 3: the steering commands' age (``command_age_ms_median``, ``command_age_ms_p99``)."""
 
     stamp_ns: StampNs
     uptime_s: UptimeS
@@ -424,6 +433,8 @@ class DaemonStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=Tru
     vehicles: Annotated[tuple[VehicleStatus, ...], Meta(max_length=256)]
     counters: dict[CounterName, Count] = msgspec.field(default_factory=dict)
     last_track_stamp_ns: StampNs | None = None
+    command_age_ms_median: CommandAgeMs | None = None
+    command_age_ms_p99: CommandAgeMs | None = None
 
 
 #: Every message type the codec knows, top-level and nested.

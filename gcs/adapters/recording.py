@@ -6,7 +6,10 @@ the message type (``protocols.codec.json_schema``) as their schema, named
 ``gcs.<Type>/<version>``. ``log_time`` is the receive time and ``publish_time``
 the message's ``stamp_ns`` (the receive time when the payload has none).
 Liveliness changes are recorded too, on the token's key with the encoding
-:data:`LIVELINESS_ENCODING` and payload ``alive`` or ``gone``. Chunks are small
+:data:`LIVELINESS_ENCODING` and payload ``alive`` or ``gone``; so are the MAVLink
+heartbeats the daemon hears (a vehicle is alive by its token or its heartbeat, and
+``gcs replay --process`` must see what the daemon saw), on the vehicle's liveliness
+key with the encoding :data:`HEARTBEAT_ENCODING` and payload ``heartbeat``. Chunks are small
 (:data:`CHUNK_BYTES`) and flushed as they fill, so a writer that is killed
 loses at most the last chunk; :meth:`Recorder.finish` writes the summary.
 
@@ -43,7 +46,8 @@ from mcap.writer import CompressionType, Writer
 from protocols.codec import json_schema, parse_encoding
 from protocols.errors import ProtocolError
 
-__all__ = ["CHUNK_BYTES", "LIVELINESS_ENCODING", "MCAP_MAGIC", "Recorded", "Recorder", "RecordingError",
+__all__ = ["CHUNK_BYTES", "HEARTBEAT_ENCODING", "LIVELINESS_ENCODING", "MCAP_MAGIC", "Recorded", "Recorder",
+           "RecordingError",
            "read_recording", "check_mcap"]
 
 log = logging.getLogger(__name__)
@@ -54,6 +58,8 @@ CHUNK_BYTES = 64 * 1024
 """Chunk size: at most this much is lost when the writer is killed."""
 LIVELINESS_ENCODING = "gcs/liveliness"
 """Encoding of recorded liveliness changes (payload ``alive`` or ``gone``)."""
+HEARTBEAT_ENCODING = "gcs/heartbeat"
+"""Encoding of a recorded MAVLink heartbeat from a vehicle (payload ``heartbeat``, on its liveliness key)."""
 MESSAGE_ENCODING = "json"
 SCHEMA_ENCODING = "jsonschema"
 
@@ -106,7 +112,7 @@ class Recorder:
         self.finished = False
 
     def _schema_id(self, encoding: str) -> int:
-        if encoding == LIVELINESS_ENCODING:
+        if encoding in (LIVELINESS_ENCODING, HEARTBEAT_ENCODING):
             return 0
         try:
             message_type = parse_encoding(encoding)
@@ -137,6 +143,10 @@ class Recorder:
     def write_liveliness(self, key: str, alive: bool, log_time_ns: int) -> None:
         """Record a liveliness token appearing or going."""
         self.write(key, b"alive" if alive else b"gone", LIVELINESS_ENCODING, log_time_ns)
+
+    def write_heartbeat(self, key: str, log_time_ns: int) -> None:
+        """Record a MAVLink heartbeat heard from the vehicle whose liveliness key is ``key``."""
+        self.write(key, b"heartbeat", HEARTBEAT_ENCODING, log_time_ns)
 
     def finish(self) -> None:
         """Write the summary and close the file (idempotent)."""
@@ -285,7 +295,7 @@ def _checked_channel(path: Path, channel: Channel, schemas: dict[int, Schema], o
     if encoding is None:
         raise RecordingError(f"{where}: no zenoh_encoding in its metadata (not a gcs recording?)")
     if channel.schema_id == 0:
-        return channel  # liveliness, or a payload recorded exactly as an unknown encoding arrived
+        return channel  # liveliness, heartbeats, or a payload recorded exactly as an unknown encoding arrived
     schema = schemas.get(channel.schema_id)
     if schema is None:
         raise RecordingError(f"{where}: unknown schema id {channel.schema_id}")

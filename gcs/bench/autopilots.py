@@ -7,10 +7,14 @@ and the ground station's side is the daemon's own code: telemetry through
 :func:`~gcs.adapters.mavlink_link.update_from_message`, the steering along the
 planned paths (:func:`gcs.core.steering.follow`, :data:`STEER_RATE_HZ` a
 second), what is sent and when (:func:`~gcs.adapters.mavlink_commands.due_actions`),
-and each decision step's fusion and plan (:func:`gcs.daemon.fusion.fuse_step`,
-:func:`gcs.core.tracker.plan`, from the positions the reports carry). Every
-message is packed and parsed as on the wire. What is not the daemon's: no
-sockets, no planner process (a plan is made at once), no clock.
+and every decision: the daemon's engine (:class:`gcs.engine.engine.Engine`) takes the
+scene's liveliness, reports, nav reports and truth as the daemon receives them (encoded as
+on the wire), releases and fuses the steps, hands over the plans and gives each vehicle
+the path to steer along. Every MAVLink message is packed and parsed as on the wire. What
+is not the daemon's: no sockets, no planner process (each job is planned at once, without
+deadline: :func:`gcs.engine.inline.plan_at_once`), no clock (simulation time is the
+engine's). Who saw the target at each step and the fused position's error against the
+truth are the engine's step records.
 
 Steering encodings (``steering``): ``lead`` is the daemon's; ``pursuit``
 commands the course toward the planned position :data:`PURSUIT_STEPS` steps on,
@@ -24,7 +28,7 @@ GUIDED_CHANGE_HEADING, as ``gcs bench autopilots --identify`` prints them.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import msgspec
 import numpy as np
@@ -38,13 +42,14 @@ from gcs.adapters.mavlink_wire import ARDUPLANE_MODES, GCS_SYSID, mavlink, ned_y
 from gcs.config import Scenario
 from gcs.config.simulation import AirframeConfig
 from gcs.core.geometry import LocalFrame, wrap_angle
-from gcs.core.kinematics import VehicleState
 from gcs.core.steering import SAMPLES_PER_STEP, CourseLoop, PlannedPath, course_loop, follow
-from gcs.core.tracker import TrackerState, plan
 from gcs.core.world import World
-from gcs.daemon.fusion import FusionDiverged, fuse_step
-from gcs.daemon.steps import ReadyStep
-from gcs.tracking import scenario_planner, tracker_config
+from gcs.daemon.steps import HOLD_WAITS
+from gcs.engine.engine import Engine, EngineOptions
+from gcs.engine.events import Arrived, PlannerFree, SubmitPlan, Tick
+from gcs.engine.inline import plan_at_once
+from protocols.codec import encode
+from protocols.keys import alive_key, nav_key, report_key, truth_key
 from sim_vehicles.personalities import make_autopilot
 from sim_vehicles.scene import Scene
 from sim_vehicles.truth.fixed_wing import Airframe, AirframeState
@@ -52,7 +57,7 @@ from sim_vehicles.truth.fixed_wing import Airframe, AirframeState
 __all__ = ["FlightRecord", "STEERINGS", "fly", "identify", "step_response", "with_autopilot"]
 
 STEER_RATE_HZ = 4.0
-"""The daemon's steering rate (:data:`gcs.app.STEER_RATE_HZ`), per second of vehicle time."""
+"""The daemon's steering rate (:data:`gcs.engine.memory.STEER_RATE_HZ`), per second of vehicle time."""
 STREAM_RATE_HZ = 5.0
 """The telemetry rate the daemon asks for (:data:`gcs.adapters.mavlink_commands.DEFAULT_STREAM_RATE_HZ`)."""
 SETTLE_S = 10.0
@@ -145,12 +150,13 @@ def fly(scenario: Scenario, world: World, personality: str, seed: int, duration_
     dt, step_s = sim.physics_step_s, scenario.time.step_s
     steps = int(round((duration_s or scenario.time.duration_s) / step_s))
     per_step = int(round(step_s / dt))
+    per_nav = max(1, int(round(1.0 / (sim.nav_rate_hz * dt))))
     per_steer = max(1, int(round(1.0 / (STEER_RATE_HZ * dt))))
     per_heartbeat = int(round(1.0 / dt))
     scene = Scene(scenario, world, seed)
-    config = tracker_config(scenario, world, planner or scenario_planner(scenario))
+    engine = Engine(scenario, world, EngineOptions(planner=planner))
     plan_rng = np.random.default_rng([seed, 3])
-    roster = [v.id for v in scenario.vehicles]
+    roster = engine.roster
     gcs = mavlink.MAVLink(None, srcSystem=GCS_SYSID, srcComponent=mavlink.MAV_COMP_ID_MISSIONPLANNER)
     wire = _Wire()
     vehicles: dict[str, _Vehicle] = {}
@@ -160,9 +166,17 @@ def fly(scenario: Scenario, world: World, personality: str, seed: int, duration_
                                    encoder, sim.telemetry_rate_hz)
         autopilot.start(scene.vehicles[cfg.id].state)
         vehicles[cfg.id] = _Vehicle(autopilot, encoder, VehicleLink(cfg.id, cfg.sysid), course_loop(personality))
-    tracker = TrackerState.start(len(roster))
-    seen = np.zeros((steps, len(roster)), dtype=bool)
-    errors = np.full(steps, np.nan)
+        engine.feed(Arrived("alive", alive_key(cfg.id), b"", "", 0, 0.0))  # as each simulated vehicle's token
+
+    def carry_out(actions: list) -> None:
+        for action in actions:
+            if isinstance(action, SubmitPlan):
+                carry_out(plan_at_once(engine, action.job, plan_rng))
+
+    def send(key: str, message, now: float) -> None:
+        payload, encoding = encode(message)
+        engine.feed(Arrived("sample", key, payload, encoding, scene.stamp_ns, now))
+
     first_plan_s: float | None = None
     for tick in range(steps * per_step):
         now = scene.elapsed_s
@@ -172,28 +186,21 @@ def fly(scenario: Scenario, world: World, personality: str, seed: int, duration_
             outgoing += vehicle.autopilot.streams(now, truth.state, truth.gps, scene.wind)
             for message in outgoing:
                 update_from_message(vehicle.link, wire(message, vehicle.encoder), now, scene.frame)
+        if tick % per_nav == 0:
+            for vid in roster:
+                send(nav_key(vid), scene.nav_report(vid), now)
         if tick % per_step == 0:
-            k = tick // per_step
-            reports = tuple(scene.sensor_report(v) for v in roster)
-            seen[k] = [r.detected for r in reports]
-            try:
-                estimate, _ = fuse_step(config, tracker.estimate, ReadyStep(k, scene.stamp_ns, reports), roster)
-            except FusionDiverged:
-                estimate = tracker.estimate
-            believed = VehicleState(np.array([r.vehicle_position_enu_m[:2] for r in reports]),
-                                    np.array([scene.vehicles[v].nav_heading_rad for v in roster]),
-                                    np.array([v.speed_mps for v in scenario.vehicles]),
-                                    np.array([v.altitude_m for v in scenario.vehicles]))
-            tracker, _, _ = plan(config, replace(tracker, estimate=estimate), believed, plan_rng)
-            if tracker.plan is not None:
-                first_plan_s = now if first_plan_s is None else first_plan_s
-                for slot, vid in enumerate(roster):
-                    vehicles[vid].path = PlannedPath.from_plan(believed.subset(slot), tracker.plan[slot], step_s,
-                                                               float(config.max_turn_rate[slot]))
-            if tracker.estimate is not None:
-                errors[k] = float(np.hypot(*(tracker.estimate.mean[:2] - scene.target.position)))
+            for vid in roster:
+                send(report_key(vid), scene.sensor_report(vid), now)
+            send(truth_key(scenario.target.id), scene.truth(), now)
+        carry_out(engine.feed(Tick(now)))
+        carry_out(engine.feed(PlannerFree(now)))
+        if first_plan_s is None and engine.loop.paths:
+            first_plan_s = now
         if tick % per_steer == 0:
+            paths = dict(engine.steer())
             for vid, vehicle in vehicles.items():
+                vehicle.path = paths.get(vid)
                 command = _steer(vehicle, steering)
                 if command is not None:
                     vehicle.link.command = command
@@ -212,6 +219,13 @@ def fly(scenario: Scenario, world: World, personality: str, seed: int, duration_
                     update_from_message(vehicle.link, wire(reply, vehicle.encoder), now, scene.frame)
             vehicle.autopilot.update(now, truth.state, scene.wind)
         scene.advance(dt, {vid: v.autopilot.guidance for vid, v in vehicles.items() if v.autopilot.guidance is not None})
+    carry_out(engine.feed(Tick(scene.elapsed_s + HOLD_WAITS * engine.options.max_wait_s + 1.0)))  # the last steps
+    engine.flush()
+    seen = np.zeros((steps, len(roster)), dtype=bool)
+    errors = np.full(steps, np.nan)
+    for record in engine.records:
+        seen[record.index] = [record.seen[v] for v in roster]
+        errors[record.index] = np.nan if record.error_m is None else record.error_m
     return FlightRecord(personality, steering, seed, seen, errors, [v.course_errors for v in vehicles.values()])
 
 

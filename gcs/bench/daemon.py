@@ -1,4 +1,4 @@
-"""``gcs bench daemon``: the daemon's report-to-command latency and the highest report rate it keeps up with.
+"""``gcs bench daemon``: the daemon's report-to-command latency, its commands' age, the report rate it keeps up with.
 
 Two processes on 127.0.0.1, joined by a Zenoh TCP link (peers, multicast off,
 a free port; no MAVLink): the **load** (:mod:`gcs.bench.daemon_load`, a spawned
@@ -29,7 +29,11 @@ For each vehicle count:
    so a step fused while it was busy is served by the next plan for a newer step. Quoted from the trial at the goal rate (5,000
    reports/s) when it passed, else from the fastest passing trial; also with
    the planner's share kept in, and report to ``TrackEstimate``.
-3. **Solve time** of the GA (the scenario's planner, ``ga_k5`` by default) from
+3. **Command age** (``command_age_ms_median``, ``command_age_ms_p99``): the vehicle (data) time at which
+   each steering command is flown less the stamp of the decision step its plan came from
+   (:class:`gcs.engine.memory.CommandAges`; no MAVLink here: the age of the plan each vehicle would be
+   steered along, :data:`~gcs.engine.memory.STEER_RATE_HZ` times a second of data time), per trial;
+4. **Solve time** of the GA (the scenario's planner, ``ga_k5`` by default) from
    a second daemon fed in real time (one burst of N reports per decision step
    of wall time, so that the GA gets its real deadline); the latency there is
    the daemon's at its real operating point.
@@ -38,18 +42,13 @@ For each vehicle count:
 from __future__ import annotations
 
 import cProfile
-import json
-import math
 import multiprocessing
 import os
 import platform
 import time
 from collections import Counter
-from collections.abc import Callable, Generator, Iterable, Sequence
-from dataclasses import asdict, dataclass
-from pathlib import Path
-
-import numpy as np
+from collections.abc import Callable, Generator, Sequence
+from dataclasses import asdict
 
 from gcs.adapters.ports import LOCALHOST
 from gcs.adapters.zenoh_session import ZenohSettings
@@ -58,6 +57,8 @@ from gcs.daemon.records import PlanRecord, StepRecord
 from gcs.daemon.navigation import runs_skf
 from gcs.daemon.planning import START_TIMEOUT_S
 from gcs.bench.daemon_load import LOAD_NICENESS, Fleet, publisher_main
+from gcs.bench.daemon_report import fmt, format_report, write_json
+from gcs.bench.daemon_timing import PlanTiming, StepTiming, Trial, percentiles, step_latencies_ms, track_latencies_ms
 from gcs.bench.urban import with_vehicles
 from gcs.config import Scenario
 from gcs.core.world import World
@@ -78,92 +79,6 @@ RESOLUTION = 1.15
 """The rate search stops when the slowest failing rate is within 15% of the fastest passing one."""
 MAX_TRIALS = 9
 LATENCY_PLANNER = "orbit"
-
-
-@dataclass(frozen=True)
-class Trial:
-    """One trial at one target rate (times in ms; None where there was nothing to measure)."""
-
-    rate_per_s: float
-    achieved_per_s: float
-    published: int
-    accepted: int
-    rejected: int
-    late: int
-    decision_errors: int
-    lag_s: float | None
-    daemon_cpu: float
-    load_cpu: float
-    steps: int
-    planned_steps: int
-    latency_ms_p50: float | None
-    latency_ms_p99: float | None
-    latency_with_planner_ms_p50: float | None
-    latency_with_planner_ms_p99: float | None
-    track_latency_ms_p50: float | None
-    track_latency_ms_p99: float | None
-    visibility_ms_median: float | None
-    solve_ms_median: float | None
-    solve_ms_p99: float | None
-    passed: bool | None
-
-
-@dataclass(frozen=True)
-class StepTiming:
-    """One decision step as the daemon's ``on_step`` saw it: fused and its track published at ``fused_ns``."""
-
-    stamp_ns: int
-    fused_ns: int
-
-
-@dataclass(frozen=True)
-class PlanTiming:
-    """One plan as the daemon's ``on_plan`` saw it: the planner finished at ``finished_ns``, and
-    the loop put its commands at ``put_ns``; ``solve_s`` and ``planning_s`` (visibility regions
-    and solve) for the table."""
-
-    stamp_ns: int
-    finished_ns: int
-    put_ns: int
-    planning_s: float
-    solve_s: float
-
-
-def step_latencies_ms(last_sent_ns: dict[int, int], steps: Iterable[StepTiming], plans: Iterable[PlanTiming],
-                      planner: bool = False) -> list[float]:
-    """Report-to-command latency (ms) of every step of ``last_sent_ns`` (stamp -> send time of its last report).
-
-    A step is served by the first plan, in the order their commands were put, for
-    it or a newer step (the planner thread plans the newest fused step only). The
-    path from the step's last report to its commands is: sent -> fused (the
-    ``TrackEstimate`` put; its planning waits in the loop for the planner) -> the planner's
-    share (waiting for a plan of it or of a newer step, then planning) -> the plan
-    taken by the loop and its commands put. Latency without the planner is the
-    first and last legs, ``(fused - sent) + (put - finished)``; with it
-    (``planner``), ``put - sent``.
-    """
-    fused = {step.stamp_ns: step.fused_ns for step in steps}
-    pending = sorted((stamp, sent) for stamp, sent in last_sent_ns.items() if stamp in fused)
-    out, first = [], 0
-    for plan in plans:
-        while first < len(pending) and pending[first][0] <= plan.stamp_ns:
-            stamp, sent = pending[first]
-            latency_ns = plan.put_ns - sent if planner else (fused[stamp] - sent) + (plan.put_ns - plan.finished_ns)
-            out.append(latency_ns / 1e6)
-            first += 1
-    return out
-
-
-def track_latencies_ms(last_sent_ns: dict[int, int], steps: Iterable[StepTiming]) -> list[float]:
-    """Report-to-track latency (ms): the step's ``TrackEstimate`` put - the send time of its last report."""
-    return [(step.fused_ns - last_sent_ns[step.stamp_ns]) / 1e6 for step in steps if step.stamp_ns in last_sent_ns]
-
-
-def _percentiles(values: Sequence[float]) -> tuple[float | None, float | None]:
-    """(median, 99th percentile), or (None, None) for no values."""
-    if not values:
-        return None, None
-    return float(np.median(values)), float(np.percentile(values, 99))
 
 
 class _Run:
@@ -262,6 +177,8 @@ class _Run:
         """
         yield from self._call("prepare", rate, seconds, burst)  # the load encodes the trial's reports
         before, first_step, first_plan = self._counts(), len(self.log), len(self.plans)
+        ages = self.daemon.engine.command_ages
+        ages.ages_ms.clear()  # the trial's own commands
         started, cpu = time.perf_counter(), time.process_time()
         reply = yield from self._call("run")
         published, last_sent = reply["published"], reply["last_sent_ns"][-1]
@@ -291,11 +208,12 @@ class _Run:
         return Trial(float(rate), achieved, published, counts["accepted"], counts["rejected"], counts["late"],
                      counts["errors"], lag_s, (time.process_time() - cpu) / wall, reply["cpu_s"] / wall,
                      sum(step.stamp_ns in sent for step in log), len(planned),
-                     *_percentiles(step_latencies_ms(sent, log, planned)),
-                     *_percentiles(step_latencies_ms(sent, log, planned, planner=True)),
-                     *_percentiles(track_latencies_ms(sent, log)),
-                     _percentiles([(plan.planning_s - plan.solve_s) * 1e3 for plan in planned])[0],
-                     *_percentiles([plan.solve_s * 1e3 for plan in planned]), passed if scored else None)
+                     *percentiles(step_latencies_ms(sent, log, planned)),
+                     *percentiles(step_latencies_ms(sent, log, planned, planner=True)),
+                     *percentiles(track_latencies_ms(sent, log)),
+                     percentiles([(plan.planning_s - plan.solve_s) * 1e3 for plan in planned])[0],
+                     *percentiles([plan.solve_s * 1e3 for plan in planned]), passed if scored else None,
+                     command_age_ms_median=ages.median_ms(), command_age_ms_p99=ages.p99_ms())
 
 
 def next_rate(trials: Sequence[Trial], minimum: float) -> float | None:
@@ -322,9 +240,9 @@ def _search(run: _Run, seconds: float, minimum: float, say: Callable[[str], None
         trials.append(trial)
         say(f"{len(run.roster)} vehicles, {trial.rate_per_s:,.0f} reports/s: "
             f"{'kept up' if trial.passed else 'FAILED'} (achieved {trial.achieved_per_s:,.0f}/s, "
-            f"accepted {trial.accepted}/{trial.published}, lag {_fmt(trial.lag_s, 3)} s, "
-            f"latency p50/p99 {_fmt(trial.latency_ms_p50)}/{_fmt(trial.latency_ms_p99)} ms, "
-            f"visibility {_fmt(trial.visibility_ms_median, 1)} ms, "
+            f"accepted {trial.accepted}/{trial.published}, lag {fmt(trial.lag_s, 3)} s, "
+            f"latency p50/p99 {fmt(trial.latency_ms_p50)}/{fmt(trial.latency_ms_p99)} ms, "
+            f"visibility {fmt(trial.visibility_ms_median, 1)} ms, "
             f"CPU cores daemon {trial.daemon_cpu:.2f} load {trial.load_cpu:.2f})")
     return trials
 
@@ -333,10 +251,6 @@ def _realtime(run: _Run, steps: int, step_s: float) -> Generator[bool, None, Tri
     yield from run.warm_up()
     yield from run.pause(step_s)  # so that data time advances as fast as wall time from the first step on
     return (yield from run.trial(len(run.roster) / step_s, steps * step_s, burst=True, scored=False))
-
-
-def _fmt(value: float | None, digits: int = 2) -> str:
-    return "-" if value is None else f"{value:.{digits}f}"
 
 
 def _measure(scenario: Scenario, world: World, seconds: float, solve_steps: int, ga_planner: str,
@@ -365,9 +279,9 @@ def _measure(scenario: Scenario, world: World, seconds: float, solve_steps: int,
         if solve_steps > 0:
             realtime = _Run(scenario, world, ga_planner, endpoint, ours, navigation=navigation)
             ga = realtime.run(_realtime(realtime, solve_steps, scenario.time.step_s))
-            say(f"{count} vehicles, {ga_planner} in real time: solve median {_fmt(ga.solve_ms_median, 1)} ms, "
-                f"p99 {_fmt(ga.solve_ms_p99, 1)} ms over {ga.planned_steps} steps; latency p50/p99 "
-                f"{_fmt(ga.latency_ms_p50)}/{_fmt(ga.latency_ms_p99)} ms")
+            say(f"{count} vehicles, {ga_planner} in real time: solve median {fmt(ga.solve_ms_median, 1)} ms, "
+                f"p99 {fmt(ga.solve_ms_p99, 1)} ms over {ga.planned_steps} steps; latency p50/p99 "
+                f"{fmt(ga.latency_ms_p50)}/{fmt(ga.latency_ms_p99)} ms")
         ours.send(("stop",))
         load.join(10.0)
     finally:
@@ -395,6 +309,10 @@ def _summary(trials: list[Trial], ga: Trial | None) -> dict:
         "track_latency_ms_p99": quoted.track_latency_ms_p99 if quoted else None,
         "visibility_ms_median": quoted.visibility_ms_median if quoted else None,
         "latency_ms_p99_at_max": best.latency_ms_p99 if best else None,
+        "command_age_ms_median": quoted.command_age_ms_median if quoted else None,
+        "command_age_ms_p99": quoted.command_age_ms_p99 if quoted else None,
+        "realtime_command_age_ms_median": ga.command_age_ms_median if ga else None,
+        "realtime_command_age_ms_p99": ga.command_age_ms_p99 if ga else None,
         "solve_ms_median": ga.solve_ms_median if ga else None,
         "solve_ms_p99": ga.solve_ms_p99 if ga else None,
         "solve_steps": ga.planned_steps if ga else 0,
@@ -460,68 +378,3 @@ def run_benchmark(scenario: Scenario, world: World, vehicle_counts: Sequence[int
                   "rate_met": min(best_rates) >= GOAL_REPORTS_PER_S,
                   "latency_met": all(at_goal) and all(p is not None and p <= GOAL_LATENCY_MS_P99 for p in p99s)},
     }
-
-
-def format_report(report: dict) -> str:
-    """The table, the goals, and what was measured how, on what."""
-    lines = [
-        f"daemon benchmark: {report['command'] or 'gcs bench daemon'}",
-        f"machine: {report['machine']}; load average {report['load_average']['start']} at start, "
-        f"{report['load_average']['end']} at the end (1/5/15 min)",
-        f"scenario {report['scenario']}; daemon --navigation {report.get('navigation', 'reported')}"
-        f"{' (SKF: a NavReport per vehicle per round too)' if report.get('nav_per_round') else ''}; "
-        f"load in a separate process (nice +{report.get('load_niceness', 0)}) over Zenoh TCP on 127.0.0.1; "
-        f"{report['seconds_per_trial']:g} s per trial; no loss = every report accepted and the daemon within "
-        f"{report['grace_s']:g} s of the last one; latency = last report of a step sent -> its commands put, "
-        f"less the planner thread's share ({report['latency_planner']} planner; at 5,000 reports/s, else at the "
-        f"max); solve time of {report['solve_planner']} with reports in real time",
-        "",
-        "latency p50/p99 excludes the planner thread's share (the wait for its previous plan, the visibility "
-        "regions and the search); 'with planner' keeps it in; 'track' is report -> TrackEstimate put",
-        f"{'vehicles':>8}{'max reports/s':>15}{'latency p50':>13}{'p99 ms':>8}{'at reports/s':>14}"
-        f"{'with planner':>14}{'track p50/p99':>15}{'visibility ms':>15}{'solve ms median':>17}{'p99':>8}",
-    ]
-    for count, row in report["vehicles"].items():
-        with_planner = "/".join(_fmt(row[f"latency_with_planner_ms_{q}"], 1) for q in ("p50", "p99"))
-        track = "/".join(_fmt(row[f"track_latency_ms_{q}"], 1) for q in ("p50", "p99"))
-        lines.append(f"{count:>8}{row['max_reports_per_s_no_loss']:>15,.0f}{_fmt(row['latency_ms_p50']):>13}"
-                     f"{_fmt(row['latency_ms_p99']):>8}{_fmt(row['latency_at_reports_per_s'], 0):>14}"
-                     f"{with_planner:>14}{track:>15}{_fmt(row['visibility_ms_median'], 1):>15}"
-                     f"{_fmt(row['solve_ms_median'], 1):>17}{_fmt(row['solve_ms_p99'], 1):>8}")
-    realtime = {count: row["realtime_trial"] for count, row in report["vehicles"].items() if row["realtime_trial"]}
-    if realtime:
-        lines += ["", f"in real time (one round per decision step), {report['solve_planner']}: latency less the "
-                      "planner thread's share, with it, and report -> track",
-                  f"{'vehicles':>8}{'latency p50':>13}{'p99 ms':>8}{'with planner':>14}{'track p50/p99':>15}"
-                  f"{'visibility ms':>15}"]
-    for count, trial in realtime.items():
-        with_planner = "/".join(_fmt(trial[f"latency_with_planner_ms_{q}"], 1) for q in ("p50", "p99"))
-        track = "/".join(_fmt(trial[f"track_latency_ms_{q}"], 1) for q in ("p50", "p99"))
-        lines.append(f"{count:>8}{_fmt(trial['latency_ms_p50']):>13}{_fmt(trial['latency_ms_p99']):>8}"
-                     f"{with_planner:>14}{track:>15}{_fmt(trial['visibility_ms_median'], 1):>15}")
-    goals = report["goals"]
-    lines += [
-        "",
-        f"goal >= {goals['reports_per_s']:,} reports/s with no loss at every count: "
-        f"{'met' if goals['rate_met'] else 'NOT met'} (lowest max {report['max_reports_per_s_no_loss']:,.0f}/s)",
-        f"goal p99 <= {goals['latency_ms_p99']:g} ms at {goals['reports_per_s']:,} reports/s: "
-        f"{'met' if goals['latency_met'] else 'NOT met'} ({_worst_latency(report)})",
-    ]
-    return "\n".join(lines)
-
-
-def _worst_latency(report: dict) -> str:
-    """The team size with the highest p99 (a missing p99 counts as the worst), for the goal's line."""
-    def p99(item: tuple[str, dict]) -> float:
-        return math.inf if item[1]["latency_ms_p99"] is None else item[1]["latency_ms_p99"]
-
-    count, row = max(report["vehicles"].items(), key=p99)
-    at = row["latency_at_reports_per_s"]
-    where = "" if at == report["goals"]["reports_per_s"] else f" at {_fmt(at, 0)} reports/s"
-    return (f"worst at {count} vehicles{where}: p50 {_fmt(row['latency_ms_p50'])} ms, "
-            f"p99 {_fmt(row['latency_ms_p99'])} ms")
-
-
-def write_json(report: dict, path: Path) -> None:
-    """JSON with ``max_reports_per_s_no_loss``, ``latency_ms_p50``, ``latency_ms_p99`` and ``vehicles.<n>.*``."""
-    path.write_text(json.dumps(report, indent=2) + "\n")

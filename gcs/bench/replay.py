@@ -29,7 +29,7 @@ from gcs.core.world import World
 from gcs.daemon.navigation import runs_skf
 from gcs.replay import process
 from protocols.codec import encode
-from protocols.keys import nav_key, report_key, truth_key
+from protocols.keys import alive_key, nav_key, report_key, truth_key
 
 __all__ = ["make_recording", "run_benchmark", "format_report", "write_plots"]
 
@@ -37,7 +37,9 @@ NS_PER_S = 1_000_000_000
 
 
 def make_recording(scenario: Scenario, world: World, path: Path, duration_s: float, seed: int) -> dict:
-    """Simulate ``duration_s`` of the scenario's inputs into an MCAP file; returns message counts."""
+    """Simulate ``duration_s`` of the scenario's inputs into an MCAP file, as ``gcs run --record`` records
+    simulated vehicles (their liveliness tokens first, then reports, nav and truth, received at their
+    stamps); returns message counts."""
     from sim_vehicles.scene import Scene
 
     scene = Scene(scenario, world, seed=seed, epoch_ns=NS_PER_S)
@@ -46,6 +48,8 @@ def make_recording(scenario: Scenario, world: World, path: Path, duration_s: flo
     report_every, nav_every = round(1.0 / sim.report_rate_hz / dt), round(1.0 / sim.nav_rate_hz / dt)
     counts = {"report": 0, "nav": 0, "truth": 0}
     with Recorder(path) as recorder:
+        for vehicle_id in scene.vehicles:  # each simulated vehicle declares its token before it sends anything
+            recorder.write_liveliness(alive_key(vehicle_id), True, scene.stamp_ns - 1)
         for step in range(round(duration_s / dt)):
             if step % nav_every == 0:
                 for vehicle_id in scene.vehicles:

@@ -23,6 +23,13 @@ maps, search and the airspace guard; wall clock), and which UAVs were inside
 restricted airspace at any of ``VIOLATION_SAMPLES`` points of the arc they
 flew. Planners run to their full budget with no deadline, so a run's result
 depends on its seed alone, not on the machine or on what else runs beside it.
+
+This loop does not drive the daemon's engine (:mod:`gcs.engine`, which ``gcs bench
+autopilots`` does): it is the paper's experiment on the true kinematics, every UAV
+flying its planned turn rate exactly (eq. 1) and every detection made in process, so
+there are no reports to validate, no steps to assemble and no autopilot to steer; going
+through report decoding and step release would add the wire and the ground station's
+timing to what is a measurement of the estimator and the planners against wang2012.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""The daemon's parts: ingest validation, decision-step assembly, the vehicle registry.
+"""The daemon's parts: ingest validation, decision-step assembly, the vehicle registry, fusion, planning.
 
-The loop that ties them to Zenoh, MAVLink and the pure tracker step lives in
-:mod:`gcs.app`.
+The engine that ties them into the ground station's decisions is :mod:`gcs.engine`; the
+shell that feeds it from Zenoh and MAVLink is :mod:`gcs.app`.
 """

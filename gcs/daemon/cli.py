@@ -25,7 +25,7 @@ from protocols.errors import ProtocolError
 from protocols.keys import validate_prefix
 
 __all__ = ["add_run", "add_status", "query_status", "format_status", "DEFAULT_GCS_MAVLINK", "build_daemon",
-           "add_navigation_argument", "check_run", "run_daemon"]
+           "add_navigation_argument", "add_acceptance_arguments", "check_run", "run_daemon"]
 
 log = logging.getLogger(__name__)
 
@@ -51,11 +51,21 @@ def add_daemon_arguments(parser: argparse.ArgumentParser) -> None:
                                           "price of plans cut short on a busy machine)")
     add_http_argument(parser, "the live map (vehicles, track, plans, status)")
     add_foxglove_arguments(parser)
-    parser.add_argument("--accept-unlisted", action="store_true",
-                        help="also accept and fuse reports from vehicles outside the scenario's roster (default: "
-                             "rejected and counted as rejected.unknown_vehicle); they are never commanded")
+    add_acceptance_arguments(parser)
     add_navigation_argument(parser)
     add_control_arguments(parser)
+
+
+def add_acceptance_arguments(parser: argparse.ArgumentParser, scope: str = "") -> None:
+    """``--accept-unlisted`` and ``--max-wait``, what the engine accepts and how long a step waits, shared by
+    ``gcs run``, ``gcs demo`` and ``gcs replay --process`` (``scope`` prefixes their help)."""
+    parser.add_argument("--accept-unlisted", action="store_true",
+                        help=scope + "also accept and fuse reports from vehicles outside the scenario's roster "
+                                     "(default: rejected and counted as rejected.unknown_vehicle); they are never "
+                                     "commanded")
+    parser.add_argument("--max-wait", type=float, default=0.5, metavar="S",
+                        help=scope + "how long a decision step waits for missing vehicles' reports once half "
+                                     "have reported, in seconds of receive time (default 0.5)")
 
 
 def add_control_arguments(parser: argparse.ArgumentParser) -> None:
@@ -131,6 +141,7 @@ def build_daemon(args: argparse.Namespace, **kwargs):
                                 record=args.record, planner_mode=args.planner_mode,
                                 planner_niceness=args.planner_niceness, http=args.http,
                                 foxglove=foxglove_options(args), accept_unlisted=args.accept_unlisted,
+                                max_wait_s=positive(args.max_wait, "--max-wait"),
                                 navigation=args.navigation, **_control_options(args))
     except (ValueError, FoxgloveMissing) as error:
         raise UsageError(error) from None

@@ -96,6 +96,12 @@ class Ingest:
         self._keys: dict[str, ParsedKey] = {}
         self._newest_ns: int | None = None
 
+    @property
+    def newest_ns(self) -> int | None:
+        """The newest stamp accepted from any source (the vehicles' clock: simulation time against
+        simulated vehicles); None before the first."""
+        return self._newest_ns
+
     def reject(self, reason: str, detail: str) -> None:
         """Count and log one rejection."""
         name = f"rejected.{reason}"

@@ -54,7 +54,7 @@ class PlanRecord:
 
     ``waited_s``: from the step's fusion to the planner starting on it (the planner
     was busy with the previous plan, and a job is handed over at most every
-    ``gcs.app.plan_interval_s``); ``planning_s``: visibility regions and
+    ``gcs.engine.memory.plan_interval_s``); ``planning_s``: visibility regions and
     solve; ``solve_s``: the planner's solve alone; ``finished_ns``: ``time.time_ns``
     when the planner finished (the commands were put after it, when the loop took the plan).
     """

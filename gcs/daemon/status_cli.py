@@ -47,6 +47,9 @@ def format_status(status: DaemonStatus) -> list[str]:
     """Human-readable lines."""
     lines = [f"scenario {status.scenario}, up {status.uptime_s:.0f} s, last track stamp "
              f"{status.last_track_stamp_ns if status.last_track_stamp_ns is not None else 'none'}"]
+    if status.command_age_ms_median is not None:
+        lines.append(f"command age median {status.command_age_ms_median:.0f} ms, p99 "
+                     f"{status.command_age_ms_p99:.0f} ms (vehicle time flown less the decision step's stamp)")
     for vehicle in status.vehicles:
         lines.append(f"  {vehicle.vehicle_id:<10} sysid {vehicle.sysid or '-':>3}  link {vehicle.link:<7} "
                      f"(heartbeat {vehicle.heartbeat or '-'}, liveliness {vehicle.liveliness or '-'})  "

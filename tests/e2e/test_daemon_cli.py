@@ -28,6 +28,9 @@ def test_demo_runs_daemon_and_vehicles_and_writes_the_summary(tmp_path) -> None:
     floor_m, one_detection_m = track_error_window(load_scenario("wang2012_urban"))  # tests/figures.py
     assert floor_m < summary["rmse_m"] < one_detection_m, (floor_m, summary["rmse_m"], one_detection_m)
     assert "seen by at least one UAV" in done.stdout and "demo: wang2012_urban" in done.stdout
+    # a command is flown at least the steps' wait after its step (vehicle time), and within the plan's horizon
+    assert 0.0 < summary["command_age_ms_median"] <= summary["command_age_ms_p99"] < 15_000.0, summary
+    assert "command age (vehicle time flown less the decision step's stamp) median" in done.stdout
     assert "live map: http://127.0.0.1:" in done.stdout and "foxglove: ws://127.0.0.1:" in done.stdout
     with open(foxglove, "rb") as stream:  # the map's channels, in Foxglove's schemas
         channels = {c.topic: c for c in make_reader(stream).get_summary().channels.values()}

@@ -8,7 +8,8 @@ from dataclasses import fields
 
 import pytest
 
-from gcs.bench.daemon import (GOAL_REPORTS_PER_S, MAX_TRIALS, _worst_latency, PlanTiming, StepTiming, Trial, next_rate,
+from gcs.bench.daemon_report import worst_latency
+from gcs.bench.daemon import (GOAL_REPORTS_PER_S, MAX_TRIALS, PlanTiming, StepTiming, Trial, next_rate,
                               step_latencies_ms, track_latencies_ms)
 from gcs.bench.daemon_load import Fleet, Load
 from gcs.bench.urban import with_vehicles
@@ -98,9 +99,9 @@ def test_the_latency_goals_line_names_the_team_size_that_missed_it() -> None:
 
     report = {"goals": {"reports_per_s": GOAL_REPORTS_PER_S},
               "vehicles": {"10": row(12.6), "50": row(21.4), "100": row(18.6)}}
-    assert _worst_latency(report) == "worst at 50 vehicles: p50 5.00 ms, p99 21.40 ms"
+    assert worst_latency(report) == "worst at 50 vehicles: p50 5.00 ms, p99 21.40 ms"
     report["vehicles"]["10"] = row(None, 2500)  # never reached the goal's rate: the worst
-    assert _worst_latency(report).startswith("worst at 10 vehicles at 2500 reports/s")
+    assert worst_latency(report).startswith("worst at 10 vehicles at 2500 reports/s")
 
 
 class _TimedPublisher:

@@ -35,7 +35,7 @@ def test_vehicles_are_let_go_of_after_the_target_is_lost_for_long_and_steered_ag
     daemon.loop.paths = {"uav1": straight}
 
     def step(k: int, seen: bool) -> None:
-        daemon._watch_target(ReadyStep(k, k * NS, ()), seen)
+        daemon._carry_out(daemon.engine.watch_target(ReadyStep(k, k * NS, ()), seen))
 
     step(0, True)
     for k in range(1, 5):  # 4 s unseen: still steering

@@ -178,6 +178,8 @@ daemon_statuses = st.builds(
         st.from_regex(r"[A-Za-z0-9_.:-]{1,64}", fullmatch=True), st.integers(0, INT64_MAX), max_size=5
     ),
     last_track_stamp_ns=st.none() | stamps,
+    command_age_ms_median=st.none() | floats(-1e9, 1e12),
+    command_age_ms_p99=st.none() | floats(-1e9, 1e12),
 )
 target_truths = st.builds(
     TargetTruth,
@@ -215,7 +217,7 @@ def test_every_message_type_has_a_strategy() -> None:
 def test_round_trip(tp: type, data: st.DataObject) -> None:
     msg = data.draw(STRATEGIES[tp])
     payload, encoding = encode(msg)
-    version = 2 if tp.__name__ == "DaemonStatus" else 1  # DaemonStatus 2: heartbeat, liveliness, control
+    version = 3 if tp.__name__ == "DaemonStatus" else 1  # DaemonStatus 2: heartbeat, liveliness, control; 3: age
     assert encoding == f"application/json;gcs.{tp.__name__}/{version}"
     assert len(payload) <= MAX_PAYLOAD_BYTES
     back = decode(payload, encoding, expected=tp)

@@ -147,7 +147,7 @@ def test_track_estimate_models() -> None:
 def test_struct_config(tp: type[msgspec.Struct]) -> None:
     config = tp.__struct_config__
     assert config.frozen and config.forbid_unknown_fields
-    version = 2 if tp is DaemonStatus else 1  # DaemonStatus 2: the vehicles' heartbeat, liveliness and control
+    version = 3 if tp is DaemonStatus else 1  # DaemonStatus 2: heartbeat, liveliness and control; 3: command age
     assert tp.VERSION == version  # type: ignore[attr-defined]
     assert "VERSION" not in tp.__struct_fields__
     with pytest.raises(TypeError, match="positional"):

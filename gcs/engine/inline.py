@@ -1,0 +1,26 @@
+"""Plans made at once, with no deadline, for shells without a planner of their own: replay and the benches.
+
+``gcs replay --plan`` (:mod:`gcs.replay`) and ``gcs bench autopilots`` (:mod:`gcs.bench.autopilots`)
+plan each job the engine submits (:class:`~gcs.engine.events.SubmitPlan`) before the next input, to
+the end of every generation (the planner's ``now`` is None: no deadline), so that their plans are a
+function of the inputs and the seed alone; the daemon's planner stops at its deadline instead
+(:mod:`gcs.daemon.planning`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from gcs.core.tracker import plan
+from gcs.daemon.planning import PlanJob, PlanOutcome
+from gcs.engine.engine import Engine
+from gcs.engine.events import Action, PlanDone
+
+__all__ = ["plan_at_once"]
+
+
+def plan_at_once(engine: Engine, job: PlanJob, rng: np.random.Generator) -> list[Action]:
+    """Plan ``job`` with the engine's tracker for its vehicles, no deadline; the actions of the finished plan."""
+    state, turn_rates, diagnostics = plan(engine.subset(job.indices), job.state, job.vehicles, rng,
+                                          predicted=job.predicted)
+    return engine.feed(PlanDone(PlanOutcome(job, state, turn_rates, diagnostics.plan, 0.0, 0.0, 0)))
