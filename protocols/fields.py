@@ -54,6 +54,7 @@ __all__ = [
     "StdRad",
     "Text",
     "UptimeS",
+    "CommandAgeMs",
     "VelocityMps",
 ]
 
@@ -102,6 +103,8 @@ VelocityMps = Annotated[float, Meta(ge=-1e4, le=1e4, description="metres per sec
 AirspeedMps = Annotated[float, Meta(gt=0.0, le=1e3, description="metres per second")]
 DurationS = Annotated[float, Meta(gt=0.0, le=3600.0, description="seconds")]
 UptimeS = Annotated[float, Meta(ge=0.0, le=1e10, description="seconds")]
+CommandAgeMs = Annotated[float, Meta(ge=-1e9, le=1e12, description="milliseconds")]
+"""A command's age (vehicle time flown less its decision step's stamp), ms: finite, within about 30 years."""
 
 LatDeg = Annotated[float, Meta(ge=-90.0, le=90.0, description="WGS84 latitude, degrees")]
 LonDeg = Annotated[float, Meta(ge=-180.0, le=180.0, description="WGS84 longitude, degrees")]

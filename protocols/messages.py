@@ -61,6 +61,7 @@ from protocols.fields import (
     StdRad,
     Text,
     UptimeS,
+    CommandAgeMs,
     VelocityMps,
     check_covariance,
 )
@@ -395,10 +396,6 @@ class VehicleStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=Tr
     heartbeat: Literal["ok", "lost", "unknown"] | None = None
     liveliness: Literal["ok", "lost", "unknown"] | None = None
     control: Text | None = None
-
-
-CommandAgeMs = Annotated[float, Meta(ge=-1e9, le=1e12, description="milliseconds")]
-"""A command's age (vehicle time flown less its decision step's stamp), ms: finite, within about 30 years."""
 
 
 class DaemonStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=True):
