@@ -34,13 +34,14 @@ import time
 from collections.abc import Callable
 
 from gcs import __version__
-from gcs.adapters.mavlink_io import HeadingCommand, MavlinkCommander
+from gcs.adapters.mavlink_io import MavlinkCommander
+from gcs.adapters.mavlink_link import HeadingCommand, steering_command
 from gcs.adapters.recording import Recorder
 from gcs.adapters.zenoh_io import Received, ZenohIO
 from gcs.adapters.zenoh_session import listening_endpoints
 from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
-from gcs.core.steering import SAMPLES_PER_STEP, course_loop, follow
+from gcs.core.steering import SAMPLES_PER_STEP, course_loop
 from gcs.core.world import World
 from gcs.daemon.live import LiveMap
 from gcs.daemon.options import DaemonOptions
@@ -353,16 +354,13 @@ class Daemon:
             return
         for vehicle_id, path in steered:
             link = self.commander.link(vehicle_id)
-            course, speed = link.course_rad(), link.ground_speed_mps()
-            if link.position_enu_m is None or course is None or speed is None:
+            heard_s = link.position_stamp_s if link.position_stamp_s is not None else now
+            latency = max(now - heard_s, 0.0) * self.loop.data_rate
+            command = steering_command(link, path, self.course_loops[vehicle_id], period, latency)
+            if command is None:
                 fallback = float(path.courses[min(SAMPLES_PER_STEP, len(path.courses) - 1)])
-                self.commander.command(vehicle_id, HeadingCommand(fallback, path.altitude_m, path.airspeed_mps))
-                continue
-            latency = max(now - link.position_stamp_s, 0.0) * self.loop.data_rate
-            steering = follow(path, link.position_enu_m, course, speed, self.course_loops[vehicle_id],
-                              period_s=period, latency_s=latency)
-            self.commander.command(vehicle_id, HeadingCommand(steering.command_course_rad, path.altitude_m,
-                                                              path.airspeed_mps))
+                command = HeadingCommand(fallback, path.altitude_m, path.airspeed_mps)
+            self.commander.command(vehicle_id, command)
 
     # ----------------------------------------------------------------- status
 

@@ -30,7 +30,7 @@ from gcs.cli_errors import one_line, positive, set_command
 from gcs.daemon.records import PlanRecord, StepRecord
 from gcs.daemon.cli import add_daemon_arguments, build_daemon
 
-__all__ = ["add_demo", "summarise", "check_demo"]
+__all__ = ["add_demo", "summarise", "check_demo", "simulator_command", "run_together"]
 
 log = logging.getLogger(__name__)
 
@@ -128,11 +128,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         return 1
     (endpoint,) = daemon.zenoh_listening
     (mavlink,) = set(daemon.mavlink_bound.values())  # one port, shared by the vehicles
-    mavlink_port = mavlink.rsplit(":", 1)[1]
-    log_file = Path(tempfile.gettempdir()) / f"gcs-demo-sim-vehicles-{mavlink_port}.log"
-    command = [sys.executable, "-m", "sim_vehicles.cli", "--log-level", "WARNING", "run", "--scenario", args.scenario,
-               "--rate", str(args.rate), "--duration", str(duration), "--seed", str(args.seed),
-               "--mavlink", f"udpout:127.0.0.1:{mavlink_port}", "--zenoh-connect", endpoint]
+    command = simulator_command(daemon, args.scenario, args.rate, duration, args.seed)
+    log_file = Path(tempfile.gettempdir()) / f"gcs-demo-sim-vehicles-{mavlink.rsplit(':', 1)[1]}.log"
     print(f"demo: {daemon.scenario.name}, {len(daemon.scenario.vehicles)} UAVs, {duration:g} s at {args.rate:g}x; "
           f"zenoh {endpoint}, MAVLink {mavlink}; simulator log {log_file}", flush=True)
     live = daemon.live
@@ -140,7 +137,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     if live is not None and live.foxglove is not None:
         print(f"foxglove: {live.foxglove.url or 'no server'}" + (f", MCAP {args.foxglove_mcap}" if args.foxglove_mcap
                                                                 else ""), flush=True)
-    stopped = _run_together(daemon, command, log_file)
+    stopped = run_together(daemon, command, log_file)
     progress.end()
     summary = summarise(daemon.records, daemon.plans, daemon.roster)
     counters = daemon.status(time.monotonic()).counters
@@ -156,7 +153,19 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     return 130 if stopped else 0
 
 
-def _run_together(daemon: Daemon, command: list[str], log_file: Path) -> bool:
+def simulator_command(daemon: Daemon, scenario: str, rate: float, duration_s: float, seed: int,
+                      extra: tuple[str, ...] = ()) -> list[str]:
+    """The ``sim-vehicles run`` command line that flies ``scenario`` against the opened ``daemon``: its MAVLink
+    port (one, shared by the vehicles) and its Zenoh endpoint, at ``rate`` for ``duration_s``, ``extra``
+    options appended."""
+    (endpoint,) = daemon.zenoh_listening
+    (mavlink,) = set(daemon.mavlink_bound.values())
+    return [sys.executable, "-m", "sim_vehicles.cli", "--log-level", "WARNING", "run", "--scenario", scenario,
+            "--rate", str(rate), "--duration", str(duration_s), "--seed", str(seed),
+            "--mavlink", f"udpout:127.0.0.1:{mavlink.rsplit(':', 1)[1]}", "--zenoh-connect", endpoint, *extra]
+
+
+def run_together(daemon: Daemon, command: list[str], log_file: Path) -> bool:
     """Run the simulator process and the daemon until the simulator ends; True if interrupted."""
     interrupted = []
 

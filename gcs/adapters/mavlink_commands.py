@@ -326,13 +326,13 @@ def stream_requests(link: VehicleLink, memory: SendMemory, now_s: float, rate_hz
     """The SET_MESSAGE_INTERVAL requests due: at once for a new link, then again at each
     :data:`STREAM_CHECK_PERIOD_S` check that finds a stream below :data:`STREAM_ARRIVAL_FRACTION` of
     ``rate_hz`` (measured since the previous check, on the clock of ``now_s``)."""
+    if memory.streams_asked_s is not None and now_s - memory.streams_asked_s < STREAM_CHECK_PERIOD_S:
+        return [], memory  # between two checks (every pass of the daemon's loop): nothing to build
     counts = tuple(link.arrivals[name] for name in STREAMED_TELEMETRY)
     requests: list[Action] = [MessageInterval(message_id, 1e6 / rate_hz) for message_id in STREAMED_TELEMETRY.values()]
     if memory.streams_asked_s is None:
         return requests, replace(memory, streams_asked_s=now_s, arrivals_when_asked=counts)
     elapsed = now_s - memory.streams_asked_s
-    if elapsed < STREAM_CHECK_PERIOD_S:
-        return [], memory
     rates = tuple((now - before) / elapsed for now, before in zip(counts, memory.arrivals_when_asked))
     memory = replace(memory, streams_asked_s=now_s, arrivals_when_asked=counts, stream_rates_hz=rates)
     if min(rates) < STREAM_ARRIVAL_FRACTION * rate_hz:

@@ -19,9 +19,10 @@ from numpy.typing import NDArray
 
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODE_NAMES, ARDUPLANE_MODES, mavlink, ned_yaw_from_enu_heading
 from gcs.core.geometry import LocalFrame
+from gcs.core.steering import CourseLoop, PlannedPath, follow
 
 __all__ = ["GUIDED", "MAX_ABS_ALTITUDE_M", "PX4_OFFBOARD_MAIN_MODE", "STREAMED_TELEMETRY", "HeadingCommand",
-           "VehicleLink", "in_guided_mode", "update_from_message"]
+           "VehicleLink", "in_guided_mode", "steering_command", "update_from_message"]
 
 GUIDED = ARDUPLANE_MODES["GUIDED"]
 PX4_OFFBOARD_MAIN_MODE = 6
@@ -153,3 +154,14 @@ def in_guided_mode(autopilot: int | None, custom_mode: int | None) -> bool:
     if autopilot == mavlink.MAV_AUTOPILOT_PX4:
         return (custom_mode >> 16) & 0xFF == PX4_OFFBOARD_MAIN_MODE
     return custom_mode == GUIDED
+
+
+def steering_command(link: VehicleLink, path: PlannedPath, loop: CourseLoop, period_s: float,
+                     latency_s: float = 0.0) -> HeadingCommand | None:
+    """The command that steers the vehicle along ``path`` from its latest telemetry (:func:`gcs.core.steering.follow`
+    with the lead of ``loop``), or None before a position, a course and a speed are known."""
+    course, speed = link.course_rad(), link.ground_speed_mps()
+    if link.position_enu_m is None or course is None or speed is None:
+        return None
+    steering = follow(path, link.position_enu_m, course, speed, loop, period_s=period_s, latency_s=latency_s)
+    return HeadingCommand(steering.command_course_rad, path.altitude_m, path.airspeed_mps)

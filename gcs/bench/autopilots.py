@@ -37,12 +37,12 @@ from scipy.linalg import expm
 from scipy.optimize import least_squares
 
 from gcs.adapters.mavlink_commands import SendMemory, due_actions
-from gcs.adapters.mavlink_link import HeadingCommand, VehicleLink, update_from_message
+from gcs.adapters.mavlink_link import HeadingCommand, VehicleLink, steering_command, update_from_message
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODES, GCS_SYSID, mavlink, ned_yaw_from_enu_heading
 from gcs.config import Scenario
 from gcs.config.simulation import AirframeConfig
 from gcs.core.geometry import LocalFrame, wrap_angle
-from gcs.core.steering import SAMPLES_PER_STEP, CourseLoop, PlannedPath, course_loop, follow
+from gcs.core.steering import SAMPLES_PER_STEP, CourseLoop, PlannedPath, course_loop
 from gcs.core.world import World
 from gcs.daemon.steps import HOLD_WAITS
 from gcs.engine.engine import Engine, EngineOptions
@@ -129,15 +129,15 @@ class _Vehicle:
 def _steer(vehicle: _Vehicle, steering: str) -> HeadingCommand | None:
     """The command the daemon's steering (``lead``) or the pursuit of a point on the plan gives."""
     path, link = vehicle.path, vehicle.link
-    course, speed = link.course_rad(), link.ground_speed_mps()
-    if path is None or link.position_enu_m is None or course is None or speed is None:
+    if path is None:
         return None
-    if steering == "pursuit":
-        aim = path.points[min(PURSUIT_STEPS * SAMPLES_PER_STEP, len(path.points) - 1)]
-        heading = math.atan2(aim[1] - link.position_enu_m[1], aim[0] - link.position_enu_m[0])
-        return HeadingCommand(heading, path.altitude_m, path.airspeed_mps)
-    result = follow(path, link.position_enu_m, course, speed, vehicle.loop, period_s=1.0 / STEER_RATE_HZ)
-    return HeadingCommand(result.command_course_rad, path.altitude_m, path.airspeed_mps)
+    if steering == "lead":
+        return steering_command(link, path, vehicle.loop, 1.0 / STEER_RATE_HZ)
+    if link.position_enu_m is None or link.course_rad() is None or link.ground_speed_mps() is None:
+        return None
+    aim = path.points[min(PURSUIT_STEPS * SAMPLES_PER_STEP, len(path.points) - 1)]
+    heading = math.atan2(aim[1] - link.position_enu_m[1], aim[0] - link.position_enu_m[0])
+    return HeadingCommand(heading, path.altitude_m, path.airspeed_mps)
 
 
 def fly(scenario: Scenario, world: World, personality: str, seed: int, duration_s: float | None = None,

@@ -21,7 +21,6 @@ different flight), so only the means over seeds compare.
 from __future__ import annotations
 
 import json
-import sys
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -45,16 +44,11 @@ def _demo_run(seed: int, rate: float, duration_s: float | None, wait_for_plans: 
     daemon = demo.check_demo(args)
     daemon.open()
     duration = duration_s if duration_s is not None else daemon.scenario.time.duration_s
-    (endpoint,) = daemon.zenoh_listening
+    command = demo.simulator_command(daemon, args.scenario, rate, duration, seed,
+                                     ("--wait-for-plans",) if wait_for_plans else ())
     (mavlink,) = set(daemon.mavlink_bound.values())
-    port = mavlink.rsplit(":", 1)[1]
-    command = [sys.executable, "-m", "sim_vehicles.cli", "--log-level", "WARNING", "run", "--scenario",
-               args.scenario, "--rate", str(rate), "--duration", str(duration), "--seed", str(seed),
-               "--mavlink", f"udpout:127.0.0.1:{port}", "--zenoh-connect", endpoint]
-    if wait_for_plans:
-        command.append("--wait-for-plans")
-    log_file = Path(tempfile.gettempdir()) / f"gcs-bench-demo-{port}.log"
-    demo._run_together(daemon, command, log_file)
+    log_file = Path(tempfile.gettempdir()) / f"gcs-bench-demo-{mavlink.rsplit(':', 1)[1]}.log"
+    demo.run_together(daemon, command, log_file)
     summary = demo.summarise(daemon.records, daemon.plans, daemon.roster)
     return {"seen_any": summary["seen_any"], "seen_per_uav": list(summary["seen_per_uav"].values()),
             "rmse_m": summary["rmse_m"], "steps": summary["steps"]}
