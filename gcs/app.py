@@ -45,7 +45,8 @@ from gcs.core.steering import SAMPLES_PER_STEP, course_loop
 from gcs.core.world import World
 from gcs.daemon.live import LiveMap
 from gcs.daemon.options import DaemonOptions
-from gcs.daemon.planning import Planner, start_planner
+from gcs.daemon.planning import Planner
+from gcs.daemon.planner_start import start_planner
 from gcs.daemon.records import PlanRecord, StepRecord
 from gcs.daemon.registry import LOST_AFTER_S
 from gcs.engine.engine import ALIVE_REFRESH_S, Engine, EngineOptions

@@ -56,9 +56,15 @@ def _add_scenario(sub: argparse._SubParsersAction) -> None:
 
 
 SUBCOMMANDS: tuple[tuple[str, str], ...] = (
-    ("demo", "gcs.demo:add_demo"), ("run", "gcs.daemon.cli:add_run"), ("status", "gcs.daemon.status_cli:add_status"),
-    ("record", "gcs.record:add_record"), ("replay", "gcs.replay_cli:add_replay"), ("router", "gcs.router:add_router"),
-    ("scenario", "gcs.cli:_add_scenario"), ("bench", "gcs.bench.cli:add_bench"))
+    ("demo", "gcs.daemon.demo:add_demo"),
+    ("run", "gcs.daemon.cli:add_run"),
+    ("status", "gcs.daemon.status_cli:add_status"),
+    ("record", "gcs.recordings.record:add_record"),
+    ("replay", "gcs.recordings.replay_cli:add_replay"),
+    ("router", "gcs.adapters.zenoh_router:add_router"),
+    ("scenario", "gcs.cli:_add_scenario"),
+    ("bench", "gcs.bench.cli:add_bench"),
+)
 """Each subcommand and its registration function (``module:function``), in the order ``--help`` lists them.
 Registration modules are imported only when needed: ``gcs status`` (Docker's healthcheck) need not load SciPy."""
 

@@ -2,7 +2,8 @@
 
 Imports only the standard library and msgspec; no numpy, no I/O, no Zenoh.
 
-- :mod:`protocols.messages`: frozen msgspec Structs (frames and units documented there).
+- :mod:`protocols.messages`: frozen msgspec Structs (frames and units documented there);
+  :mod:`protocols.status` holds the daemon's health and :mod:`protocols.base` their common base.
 - :mod:`protocols.keys`: the Zenoh key space, builders, selectors and :func:`parse_key`.
 - :mod:`protocols.codec`: :func:`encode` / :func:`decode` with the Zenoh encoding
   ``application/json;gcs.<TypeName>/<VERSION>``.

@@ -31,11 +31,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from types import MappingProxyType
-from typing import Annotated, ClassVar, Literal
+from typing import Annotated
 
-import msgspec
 from msgspec import Meta
 
+from protocols.base import Message
 from protocols.errors import ProtocolError
 from protocols.fields import (
     COVARIANCE_SYMMETRY_RTOL,
@@ -43,8 +43,6 @@ from protocols.fields import (
     AltitudeM,
     AngleIncrementRad,
     AngleRad,
-    Count,
-    CounterName,
     CovarianceEntry,
     DistanceM,
     DurationS,
@@ -59,12 +57,10 @@ from protocols.fields import (
     StateValue,
     StdM,
     StdRad,
-    Text,
-    UptimeS,
-    CommandAgeMs,
     VelocityMps,
     check_covariance,
 )
+from protocols.status import DaemonStatus, VehicleStatus
 
 __all__ = [
     "COVARIANCE_SYMMETRY_RTOL",
@@ -89,12 +85,6 @@ MAX_STATE_DIM = 16
 #: State dimension of the known target models; other model names are accepted with
 #: any dimension up to MAX_STATE_DIM.
 TRACK_MODEL_DIMS: Mapping[str, int] = MappingProxyType({"cv2d": 4, "ca2d": 6})
-
-
-class Message(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
-    """Base of every wire message; ``VERSION`` is the wire version of the type."""
-
-    VERSION: ClassVar[int] = 1
 
 
 class SensorReport(Message, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -360,78 +350,6 @@ class TargetTruth(Message, frozen=True, forbid_unknown_fields=True, kw_only=True
     stamp_ns: StampNs
     position_enu_m: tuple[PositionM, PositionM]
     velocity_enu_mps: tuple[VelocityMps, VelocityMps]
-
-
-class VehicleStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=True):
-    """The daemon's view of one vehicle, part of :class:`DaemonStatus`.
-
-    Attributes
-    ----------
-    vehicle_id : str
-    sysid : int or None
-        MAVLink system id (1..250), if a MAVLink link is configured.
-    link : {"ok", "lost", "unknown"}
-        The vehicle is alive: its liveliness token is declared or its MAVLink heartbeat recent.
-    last_report_stamp_ns : int or None
-        ``stamp_ns`` of the last accepted report, if any.
-    reports : int
-        Accepted reports so far.
-    autopilot : str or None
-        Autopilot description, if known (e.g. ``"ArduPilot"``, ``"PX4"``).
-    heartbeat : {"ok", "lost", "unknown"} or None
-        The MAVLink heartbeat alone (within 5 s), if a MAVLink link is configured.
-    liveliness : {"ok", "lost", "unknown"} or None
-        The Zenoh liveliness token alone (declared, withdrawn, never seen).
-    control : str or None
-        Who flies it, if a MAVLink link is configured: ``daemon``, ``switching``, ``waiting: REASON``
-        (held back by the takeover guard), ``handed back: WHY`` or ``pilot``.
-    """
-
-    vehicle_id: Ident
-    sysid: Annotated[int, Meta(ge=1, le=250)] | None = None
-    link: Literal["ok", "lost", "unknown"]
-    last_report_stamp_ns: StampNs | None = None
-    reports: Count
-    autopilot: Text | None = None
-    heartbeat: Literal["ok", "lost", "unknown"] | None = None
-    liveliness: Literal["ok", "lost", "unknown"] | None = None
-    control: Text | None = None
-
-
-class DaemonStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=True):
-    """Health of the ``gcs`` daemon (published and queryable).
-
-    Attributes
-    ----------
-    stamp_ns : int
-        Time of the status.
-    uptime_s : float
-        Seconds since the daemon started (>= 0).
-    scenario : str
-        Scenario name.
-    vehicles : tuple of VehicleStatus
-    counters : dict of str to int
-        Accepted and rejected message counts by reason (non-negative).
-    last_track_stamp_ns : int or None
-        ``stamp_ns`` of the last published track, if any.
-    command_age_ms_median, command_age_ms_p99 : float or None
-        Median and 99th percentile of the steering commands' age, ms: the vehicle time at which a
-        command was flown less the stamp of the decision step its plan came from, over the newest
-        commands (:class:`gcs.engine.memory.CommandAges`); None before the first command.
-    """
-
-    VERSION: ClassVar[int] = 3
-    """Version 2: :class:`VehicleStatus` says the heartbeat, the liveliness and who flies the vehicle.
-    Version 3: the steering commands' age (``command_age_ms_median``, ``command_age_ms_p99``)."""
-
-    stamp_ns: StampNs
-    uptime_s: UptimeS
-    scenario: Text
-    vehicles: Annotated[tuple[VehicleStatus, ...], Meta(max_length=256)]
-    counters: dict[CounterName, Count] = msgspec.field(default_factory=dict)
-    last_track_stamp_ns: StampNs | None = None
-    command_age_ms_median: CommandAgeMs | None = None
-    command_age_ms_p99: CommandAgeMs | None = None
 
 
 #: Every message type the codec knows, top-level and nested.

@@ -36,7 +36,7 @@ from gcs.adapters.zenoh_session import (DEFAULT_ENDPOINT, ZenohSettings, add_zen
                                         required_settings)
 from gcs.cli_errors import UsageError, one_line, positive, set_command, stop_on_signals
 from gcs.scenarios import load_scenario, scenario_base_dir
-from gcs.world_loader import build_world
+from gcs.config.world import build_world
 from protocols.errors import ProtocolError
 from protocols.keys import alive_key, validate_prefix
 from sim_vehicles.payload import Liveliness, PayloadBridge, Publication, summary_line

@@ -8,7 +8,7 @@ from gcs.adapters.recording import Recorder, read_recording
 from gcs.bench.replay import make_recording
 from gcs.config import Scenario
 from gcs.core.world import World
-from gcs.replay import process
+from gcs.recordings.replay import process
 from protocols.codec import encode
 from protocols.keys import track_key
 

@@ -126,13 +126,17 @@ class _Vehicle:
     course_errors: list[float] = field(default_factory=list)
 
 
-def _steer(vehicle: _Vehicle, steering: str) -> HeadingCommand | None:
-    """The command the daemon's steering (``lead``) or the pursuit of a point on the plan gives."""
+def _steer(vehicle: _Vehicle, steering: str, now: float) -> HeadingCommand | None:
+    """The command the daemon's steering (``lead``) or the pursuit of a point on the plan gives at ``now``.
+
+    ``lead`` follows the path from the latest telemetry, aged as the daemon ages it (``now`` less the
+    time the position was heard, :meth:`gcs.app.Daemon._steer`)."""
     path, link = vehicle.path, vehicle.link
     if path is None:
         return None
     if steering == "lead":
-        return steering_command(link, path, vehicle.loop, 1.0 / STEER_RATE_HZ)
+        heard_s = link.position_stamp_s if link.position_stamp_s is not None else now
+        return steering_command(link, path, vehicle.loop, 1.0 / STEER_RATE_HZ, max(now - heard_s, 0.0))
     if link.position_enu_m is None or link.course_rad() is None or link.ground_speed_mps() is None:
         return None
     aim = path.points[min(PURSUIT_STEPS * SAMPLES_PER_STEP, len(path.points) - 1)]
@@ -201,7 +205,7 @@ def fly(scenario: Scenario, world: World, personality: str, seed: int, duration_
             paths = dict(engine.steer())
             for vid, vehicle in vehicles.items():
                 vehicle.path = paths.get(vid)
-                command = _steer(vehicle, steering)
+                command = _steer(vehicle, steering, now)
                 if command is not None:
                     vehicle.link.command = command
                 if vehicle.path is not None and first_plan_s is not None and now - first_plan_s >= SETTLE_S:

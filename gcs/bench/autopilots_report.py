@@ -41,7 +41,7 @@ REFERENCE = "ideal"
 @lru_cache(maxsize=4)
 def _loaded(scenario: str):
     from gcs.scenarios import load_scenario
-    from gcs.world_loader import build_world
+    from gcs.config.world import build_world
 
     loaded = load_scenario(scenario)
     return loaded, build_world(loaded)

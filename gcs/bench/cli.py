@@ -12,7 +12,7 @@ from pathlib import Path
 from gcs.bench import PLANNERS, SEARCH_VARIANTS, commands
 from gcs.bench.urban_nav import NAVIGATION_MODES
 from gcs.cli_errors import UsageError, writable_file
-from gcs.niceness import niceness_argument
+from gcs.daemon.niceness import niceness_argument
 
 DAEMON_NAVIGATION = ("auto", "skf", "reported")
 """The daemon's ``--navigation`` choices (:data:`gcs.daemon.navigation.NAVIGATION_MODES`, not imported: the

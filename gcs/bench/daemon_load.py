@@ -41,7 +41,7 @@ import numpy as np
 from gcs.adapters.zenoh_session import ZenohSettings, declare_publisher, listening_endpoints, open_session
 from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
-from gcs.niceness import lower_priority
+from gcs.daemon.niceness import lower_priority
 from protocols.codec import encode
 from protocols.keys import alive_key, nav_key, report_key
 from protocols.messages import GpsFix, NavReport, SensorReport

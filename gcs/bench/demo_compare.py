@@ -27,11 +27,11 @@ from pathlib import Path
 
 import numpy as np
 
-from gcs import demo
+from gcs.daemon import demo
 from gcs.bench.autopilots import fly
 from gcs.cli import build_parser
 from gcs.scenarios import load_scenario
-from gcs.world_loader import build_world
+from gcs.config.world import build_world
 
 __all__ = ["run_benchmark", "format_report", "write_json"]
 

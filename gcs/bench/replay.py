@@ -5,7 +5,7 @@ scenario's simulated vehicles (:class:`sim_vehicles.scene.Scene`, loitering,
 no ground station) produce their reports, nav reports and the target's truth
 for ``duration`` simulated seconds, written with the recorder exactly as
 ``gcs record`` writes them (receive time = stamp). Then
-:func:`gcs.replay.process` runs on the file several times; the figure is the
+:func:`gcs.recordings.replay.process` runs on the file several times; the figure is the
 recording's stamp span divided by the median processing time. Reading the file
 is included (the whole ``--process`` path), planning is not. ``--navigation`` is
 replay's (default ``auto``: the reported positions on the default scenario, which
@@ -27,7 +27,7 @@ from gcs.bench.plots import pyplot, save, write_markdown
 from gcs.config import Scenario
 from gcs.core.world import World
 from gcs.daemon.navigation import runs_skf
-from gcs.replay import process
+from gcs.recordings.replay import process
 from protocols.codec import encode
 from protocols.keys import alive_key, nav_key, report_key, truth_key
 

@@ -17,10 +17,10 @@ from gcs.cli_errors import UsageError, one_line, positive, set_command, stop_on_
 from gcs.daemon.navigation import NAVIGATION_MODES
 from gcs.daemon.status_cli import add_status, format_status, query_status
 from gcs.daemon.planning import PLANNER_MODES, PLANNER_NICENESS
-from gcs.niceness import niceness_argument
+from gcs.daemon.niceness import niceness_argument
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
-from gcs.tracking import PLANNERS
-from gcs.world_loader import build_world
+from gcs.engine.tracking import PLANNERS
+from gcs.config.world import build_world
 from protocols.errors import ProtocolError
 from protocols.keys import validate_prefix
 

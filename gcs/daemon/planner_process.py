@@ -25,7 +25,8 @@ from gcs.config import Scenario
 from gcs.core.tracker import TrackerConfig
 from gcs.core.world import World
 from gcs.daemon.planning import PLANNER_NICENESS, START_TIMEOUT_S, PlanJob, PlanOutcome, Planner, run_job
-from gcs.niceness import check_niceness, lower_priority
+from gcs.daemon.niceness import check_niceness, lower_priority
+from gcs.engine.tracking import subset_config, tracker_config
 
 __all__ = ["ProcessPlanner"]
 
@@ -34,8 +35,6 @@ log = logging.getLogger(__name__)
 
 def _serve(conn, scenario: Scenario, world: World, planner_name: str, seed: int, niceness: int) -> None:
     """The planner process: build the tracker, then plan each job received until told to stop."""
-    from gcs.tracking import subset_config, tracker_config  # the child's own imports
-
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group; the daemon stops us
     lower_priority(niceness)
     try:

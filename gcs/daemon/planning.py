@@ -29,6 +29,8 @@ Three planners share that interface:
     A thread of the daemon's process: no start-up cost, shares the interpreter.
 ``inline`` (:class:`InlinePlanner`)
     Plans inside :meth:`~Planner.submit`, before the loop goes on (deterministic).
+
+:func:`gcs.daemon.planner_start.start_planner` starts the one a mode names.
 """
 
 from __future__ import annotations
@@ -41,15 +43,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gcs.config import Scenario
 from gcs.core.filters.prediction import HorizonPrediction
 from gcs.core.kinematics import VehicleState
 from gcs.core.planners.problem import PlanResult
 from gcs.core.tracker import TrackerConfig, TrackerState, plan
-from gcs.core.world import World
 
 __all__ = ["PLANNER_MODES", "PLANNER_NICENESS", "START_TIMEOUT_S", "PlanJob", "PlanOutcome", "Planner", "InlinePlanner",
-           "ThreadPlanner", "start_planner"]
+           "ThreadPlanner"]
 
 log = logging.getLogger(__name__)
 
@@ -275,18 +275,3 @@ class ThreadPlanner(Planner):
             with self._wakeup:
                 self._done.append(outcome)
                 self._running = False
-
-
-def start_planner(mode: str, scenario: Scenario, world: World, planner_name: str, seed: int,
-                  configs: Callable[[tuple[int, ...]], TrackerConfig], niceness: int = PLANNER_NICENESS) -> Planner:
-    """The planner of a mode in :data:`PLANNER_MODES`; ``configs`` maps roster indices to their tracker;
-    ``niceness``: the process's, below the daemon's."""
-    if mode == "process":
-        from gcs.daemon.planner_process import ProcessPlanner  # it builds on this module
-
-        return ProcessPlanner(scenario, world, planner_name, seed, niceness)
-    if mode == "thread":
-        return ThreadPlanner(configs, np.random.default_rng(seed))
-    if mode == "inline":
-        return InlinePlanner(configs, np.random.default_rng(seed))
-    raise ValueError(f"planner mode must be one of {', '.join(PLANNER_MODES)}, got {mode!r}")

@@ -1,6 +1,6 @@
 """The one loop of the ground station, as an object fed time-stamped inputs that returns actions.
 
-The daemon (:mod:`gcs.app`), ``gcs replay --process/--plan`` (:mod:`gcs.replay`) and the
+The daemon (:mod:`gcs.app`), ``gcs replay --process/--plan`` (:mod:`gcs.recordings.replay`) and the
 in-process closed loop of ``gcs bench autopilots`` (:mod:`gcs.bench.autopilots`) all drive an
 :class:`Engine`; only where the inputs come from (Zenoh and MAVLink, a recording, a simulated
 scene) and where the actions go differ (design.md section 2: "one engine"). Everything that
@@ -52,7 +52,7 @@ from gcs.daemon.steps import ReadyStep, StepAssembler
 from gcs.engine.events import (Action, Arrived, Heartbeat, Input, LetGo, Observed, PlanDone, PlannerFree,
                                PublishPlan, PublishTrack, SubmitPlan, Tick)
 from gcs.engine.memory import CommandAges, LoopMemory, Planning, plan_interval_s
-from gcs.tracking import observer_sensor_model, scenario_planner, subset_config, tracker_config
+from gcs.engine.tracking import observer_sensor_model, scenario_planner, subset_config, tracker_config
 from protocols.keys import parse_key
 from protocols.messages import NavReport, SensorReport, TargetTruth
 

@@ -20,7 +20,7 @@ from gcs.adapters.zenoh_session import ZenohSettings, listening_endpoints, open_
 from gcs.bench.urban import run_closed_loop
 from gcs.daemon.cli import query_status
 from gcs.scenarios import load_scenario
-from gcs.world_loader import build_world
+from gcs.config.world import build_world
 from protocols.codec import decode
 from protocols.keys import reports_selector, tracks_selector, truth_selector
 from protocols.messages import SensorReport, TargetTruth, TrackEstimate

@@ -13,7 +13,7 @@ from mcap.reader import make_reader
 from gcs.adapters.recording import read_recording
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.daemon.cli import query_status
-from gcs.record import NO_PEER_WARN_S
+from gcs.recordings.record import NO_PEER_WARN_S
 from tests.e2e.processes import script, stop
 from tests.loopback import ANY_PORT_ENDPOINT, ANY_UDP, Lines, daemon_up, silent_port
 

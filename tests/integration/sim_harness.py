@@ -13,7 +13,7 @@ import msgspec
 
 from gcs.adapters.mavlink_wire import GCS_SYSID, mavlink, open_connection
 from gcs.scenarios import load_scenario
-from gcs.world_loader import build_world
+from gcs.config.world import build_world
 from sim_vehicles.run_options import RunOptions
 from sim_vehicles.runner import Runner
 

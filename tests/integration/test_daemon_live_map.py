@@ -11,7 +11,7 @@ import urllib.request
 
 import pytest
 
-from gcs.tracking import horizon_steps, scenario_planner
+from gcs.engine.tracking import horizon_steps, scenario_planner
 from gcs.adapters.web.server import LiveMapServer
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.app import Daemon, DaemonOptions

@@ -33,7 +33,7 @@ from gcs.adapters.mavlink_io import MavlinkCommander
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODES, mavlink
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.app import Daemon, DaemonOptions
-from gcs.world_loader import build_world
+from gcs.config.world import build_world
 from sim_vehicles.runner import Runner
 from tests.integration.mavproxy_harness import MavProxy
 from tests.integration.sim_harness import SCENARIO, angle_error_deg, options, running_vehicles

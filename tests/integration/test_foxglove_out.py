@@ -18,13 +18,13 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
-from gcs.tracking import horizon_steps, scenario_planner
+from gcs.engine.tracking import horizon_steps, scenario_planner
 from gcs.adapters.foxglove_out import FoxgloveMissing, FoxgloveOptions, FoxgloveOut, foxglove_options
 from gcs.adapters.recording import read_recording
 from gcs.core.geometry import LocalFrame
-from gcs.replay_view import to_foxglove
+from gcs.recordings.replay_view import to_foxglove
 from gcs.scenarios import load_scenario
-from gcs.world_loader import build_world
+from gcs.config.world import build_world
 from protocols.codec import decode
 from protocols.messages import TargetTruth
 from tests.recordings import run_recording

@@ -46,7 +46,7 @@ def test_gcs_status_loads_neither_scipy_nor_the_daemon() -> None:
     import sys
 
     code = ("import sys; from gcs import cli; cli.build_parser(cli.requested_command(['status'])); "
-            "print(sorted(m for m in ('scipy', 'gcs.app', 'gcs.tracking', 'pymavlink') if m in sys.modules))")
+            "print(sorted(m for m in ('scipy', 'gcs.app', 'gcs.engine.tracking', 'pymavlink') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=60)
     assert out.stdout.strip() == "[]"
 

@@ -10,7 +10,7 @@ from gcs.core.kinematics import VehicleState
 from gcs.core.steering import PlannedPath
 from gcs.daemon.steps import ReadyStep
 from gcs.scenarios import load_scenario
-from gcs.world_loader import build_world
+from gcs.config.world import build_world
 
 SCENARIO = load_scenario("wang2012_urban")
 NS = 1_000_000_000

@@ -18,7 +18,7 @@ from gcs.daemon.fusion import step_detections
 from gcs.daemon.navigation import MAX_EXTRAPOLATION_S, FleetNavigator
 from gcs.daemon.steps import ReadyStep, StepAssembler
 from gcs.scenarios import load_scenario
-from gcs.tracking import tracker_config
+from gcs.engine.tracking import tracker_config
 from protocols.messages import GpsFix, InsIncrement, NavReport, SensorReport
 
 S = 1_000_000_000
@@ -245,8 +245,8 @@ def test_replay_processing_with_delayed_nav_gives_the_tracks_of_the_undelayed_fi
     """Each vehicle's nav reports arrive up to 0.4 s late (in the order it sent them): same tracks, bit for bit."""
     from gcs.adapters.recording import Recorder, read_recording
     from gcs.bench.replay import make_recording
-    from gcs.replay import process
-    from gcs.world_loader import build_world
+    from gcs.recordings.replay import process
+    from gcs.config.world import build_world
 
     scenario = load_scenario("wang2012_gps_denied")
     inputs, delayed = tmp_path / "inputs.mcap", tmp_path / "delayed.mcap"
@@ -273,7 +273,7 @@ def test_replay_processing_with_delayed_nav_gives_the_tracks_of_the_undelayed_fi
     # replay --process's score against the recorded truth: tracks moved 3 m east and 4 m north of it score 5 m
     import msgspec
 
-    from gcs.replay import truth_error
+    from gcs.recordings.replay import truth_error
     from protocols.codec import decode
     from protocols.messages import TargetTruth
 
@@ -292,7 +292,7 @@ def test_against_the_simulators_truth_the_covariance_is_about_right_with_a_fix_a
     import msgspec
 
     from gcs.config.simulation import GpsDeniedZone
-    from gcs.world_loader import build_world
+    from gcs.config.world import build_world
     from sim_vehicles.scene import Scene
 
     scenario = msgspec.structs.replace(SCENARIO, gps_denied=[GpsDeniedZone(

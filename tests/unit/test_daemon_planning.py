@@ -11,10 +11,11 @@ from gcs.core.filters.uif import GaussianEstimate
 from gcs.core.kinematics import VehicleState
 from gcs.core.tracker import TrackerState, prediction
 from gcs.daemon.planner_process import ProcessPlanner
-from gcs.daemon.planning import PLANNER_MODES, PlanJob, start_planner
+from gcs.daemon.planning import PLANNER_MODES, PlanJob
+from gcs.daemon.planner_start import start_planner
 from gcs.scenarios import load_scenario
-from gcs.tracking import subset_config, tracker_config
-from gcs.world_loader import build_world
+from gcs.engine.tracking import subset_config, tracker_config
+from gcs.config.world import build_world
 
 SCENARIO = load_scenario("wang2012_urban")
 WORLD = build_world(SCENARIO)

@@ -15,7 +15,7 @@ from gcs.engine.engine import Engine, EngineOptions
 from gcs.engine.events import Arrived, PlanDone, PlannerFree, PublishPlan, PublishTrack, SubmitPlan, Tick
 from gcs.engine.memory import CommandAges
 from gcs.scenarios import load_scenario
-from gcs.world_loader import build_world
+from gcs.config.world import build_world
 from protocols.codec import encode
 from protocols.keys import alive_key, nav_key, report_key
 from protocols.messages import DaemonStatus, NavReport, SensorReport
@@ -106,7 +106,7 @@ def test_replay_releases_steps_for_the_vehicles_alive_by_their_recorded_heartbea
     """No liveliness tokens, as from vehicles on MAVLink only: with the heartbeats the daemon recorded a step waits
     for every vehicle's report; without them nobody is alive, each step goes with its first report, the rest late."""
     from gcs.adapters.recording import Recorder
-    from gcs.replay import process
+    from gcs.recordings.replay import process
 
     with_beats, without = tmp_path / "heartbeats.mcap", tmp_path / "none.mcap"
     for path, beats in ((with_beats, True), (without, False)):

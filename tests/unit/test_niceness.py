@@ -7,7 +7,7 @@ import os
 
 import pytest
 
-from gcs.niceness import MAX_NICENESS, check_niceness, lower_priority, niceness_argument
+from gcs.daemon.niceness import MAX_NICENESS, check_niceness, lower_priority, niceness_argument
 
 
 @pytest.mark.parametrize("value", [0, 5, MAX_NICENESS])

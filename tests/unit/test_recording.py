@@ -12,7 +12,7 @@ import pytest
 from mcap.writer import Writer
 
 from gcs.adapters.recording import LIVELINESS_ENCODING, Recorder, RecordingError, read_recording
-from gcs.replay import process, summarise
+from gcs.recordings.replay import process, summarise
 from gcs.scenarios import load_scenario
 from protocols.codec import encode, json_schema
 from protocols.keys import report_key

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from gcs.replay_view import MAX_SPEED, ReplayClock
+from gcs.recordings.replay_view import MAX_SPEED, ReplayClock
 
 NS = 1_000_000_000
 

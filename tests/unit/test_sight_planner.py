@@ -19,8 +19,8 @@ from gcs.core.planners.problem import PlanningProblem
 from gcs.core.tracker import TrackerState, plan
 from gcs.core.world import World
 from gcs.scenarios import load_scenario
-from gcs.tracking import tracker_config
-from gcs.world_loader import airspace_from_config, build_world
+from gcs.engine.tracking import tracker_config
+from gcs.config.world import airspace_from_config, build_world
 
 SCENARIO = load_scenario("wang2012_urban")
 WORLD = build_world(SCENARIO)

@@ -8,7 +8,7 @@ from gcs.core.world import World
 from gcs.core.world.buildings import Buildings
 from gcs.core.world.sight_table import HeightField, SightTable
 from gcs.scenarios import load_scenario
-from gcs.world_loader import build_world
+from gcs.config.world import build_world
 
 WORLD = build_world(load_scenario("wang2012_urban"))
 DOWNTOWN = build_world(load_scenario("downtown_dense"))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from gcs.scenarios import load_scenario
-from gcs.world_loader import build_world
+from gcs.config.world import build_world
 from sim_vehicles.run_options import RunOptions
 from sim_vehicles.runner import Runner, _Timer
 from sim_vehicles.scene import Scene

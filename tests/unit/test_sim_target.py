@@ -11,7 +11,7 @@ import pytest
 from gcs.config import CityConfig, TargetConfig
 from gcs.core.world import World
 from gcs.scenarios import load_scenario
-from gcs.world_loader import build_world
+from gcs.config.world import build_world
 from sim_vehicles.truth.target import (
     ScriptedTarget,
     StreetTarget,

@@ -11,8 +11,8 @@ import numpy as np
 
 from gcs.core.world.visibility import VisibilityMaps
 from gcs.scenarios import load_scenario
-from gcs.tracking import tracker_config
-from gcs.world_loader import build_world
+from gcs.engine.tracking import tracker_config
+from gcs.config.world import build_world
 
 SCENARIO = load_scenario("wang2012_urban")
 WORLD = build_world(SCENARIO)

@@ -14,7 +14,7 @@ from gcs.config import Scenario, ScenarioError
 from gcs.core.geometry import LocalFrame
 from gcs.core.world import World, generate_city
 from gcs.scenarios import load_scenario
-from gcs.world_loader import build_world
+from gcs.config.world import build_world
 
 URBAN = load_scenario("wang2012_urban")
 

@@ -59,12 +59,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from gcs.core.filters.estimate import NS_PER_S, GaussianEstimate, NotPositiveDefinite, check_stamp_ns
+from gcs.core.filters.information import InformationContribution, check_estimate, fusion_inputs
 from gcs.core.filters.unscented import SigmaPointParameters
 from gcs.core.geometry import wrap_angle
 from gcs.core.models.motion import LinearMotionModel
@@ -81,53 +82,6 @@ _SIGMA_DIRECTIONS = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [
 def _per_axis(vehicle_cov: NDArray[np.float64], vehicle_xyz: NDArray[np.float64]) -> bool:
     """Whether ``vehicle_cov`` holds per-axis variances (...) rather than covariances (..., 3, 3)."""
     return vehicle_cov.ndim == vehicle_xyz.ndim - 1
-
-
-@dataclass(frozen=True)
-class InformationContribution:
-    """Information contributions of one or more measurements (eq. 13), position block.
-
-    ``H^p`` has zero columns outside the target's position (see
-    :func:`pseudo_measurement`), so ``i`` and ``I`` are zero there too; only
-    their position parts are stored: ``vector`` (..., 2) and ``matrix``
-    (..., 2, 2). A leading axis holds one contribution per vehicle.
-    ``prior`` is the estimate they were computed against (set by
-    :meth:`UnscentedInformationFilter.contribution`): the one they may be fused into.
-    """
-
-    vector: NDArray[np.float64]
-    matrix: NDArray[np.float64]
-    prior: GaussianEstimate | None = field(default=None, repr=False, compare=False)
-
-    def total(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Sum over every leading axis: ``(sum i, sum I)``, the terms of eq. (14)."""
-        if self.vector.ndim == 1:
-            return self.vector, self.matrix
-        if self.vector.ndim == 2:
-            return self.vector.sum(axis=0), self.matrix.sum(axis=0)
-        return self.vector.reshape(-1, 2).sum(axis=0), self.matrix.reshape(-1, 2, 2).sum(axis=0)
-
-    def linearised_about(self, point: GaussianEstimate, prior: GaussianEstimate) -> "InformationContribution":
-        """This information, computed about ``point``, declared for fusion into ``prior``.
-
-        An iterated update (Bell and Cathey 1993) linearises eq. (12) about its own
-        posterior and fuses the result into the original prior; :meth:`UnscentedInformationFilter.update`
-        refuses that mix unless it is said. ValueError when these contributions were not computed
-        against ``point``.
-        """
-        if self.prior is not point:
-            raise ValueError("linearised_about(point, prior): the contributions were computed against another "
-                             "estimate than point")
-        return InformationContribution(self.vector, self.matrix, prior)
-
-    def full(self, n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """``(i, I)`` in the whole n-dimensional state: shapes (..., n) and (..., n, n)."""
-        lead = self.vector.shape[:-1]
-        vector = np.zeros(lead + (n,))
-        matrix = np.zeros(lead + (n, n))
-        vector[..., :2] = self.vector
-        matrix[..., :2, :2] = self.matrix
-        return vector, matrix
 
 
 def pseudo_measurement(
@@ -197,7 +151,7 @@ class UnscentedInformationFilter:
         """Predict to ``stamp_ns`` (integer nanoseconds; eq. 9, 11, 16); the same stamp returns the estimate
         itself. TypeError for a float stamp or another type of estimate, ValueError for a stamp before the
         estimate's or an estimate of another dimension than the motion model's."""
-        _check_estimate(estimate, "estimate")
+        check_estimate(estimate, "estimate")
         stamp_ns = check_stamp_ns(stamp_ns)
         if stamp_ns == estimate.stamp_ns:
             return estimate
@@ -314,7 +268,7 @@ class UnscentedInformationFilter:
 
         so neither ``Y^-`` nor ``Y`` is ever inverted.
         """
-        prior, contributions = _fusion_inputs(prior, contributions)
+        prior, contributions = fusion_inputs(prior, contributions)
         if not contributions:
             return prior
         i_total, a_total = contributions[0].total()
@@ -335,15 +289,10 @@ class UnscentedInformationFilter:
         return GaussianEstimate.computed(mean, cov, prior.stamp_ns, prior.layout)
 
 
-def _check_estimate(estimate: object, name: str) -> None:
-    if not isinstance(estimate, GaussianEstimate):
-        raise TypeError(f"{name} must be a GaussianEstimate, got {type(estimate).__name__}")
-
-
 def _checked_measurements(prior: GaussianEstimate, sensor: SensorModel, z, vehicle_xyz, vehicle_cov
                           ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None]:
     """The arguments of :meth:`UnscentedInformationFilter.contribution` as float64 arrays, shapes checked."""
-    _check_estimate(prior, "prior")
+    check_estimate(prior, "prior")
     if not isinstance(sensor, SensorModel):
         raise TypeError(f"sensor must be a SensorModel, got {type(sensor).__name__}")
     z = np.asarray(z, dtype=np.float64)
@@ -364,43 +313,3 @@ def _checked_measurements(prior: GaussianEstimate, sensor: SensorModel, z, vehic
             raise ValueError(f"vehicle_cov must have shape {vehicle_xyz.shape[:-1]} (per-axis variances) or "
                              f"{vehicle_xyz.shape[:-1] + (3, 3)} (covariances), got {vehicle_cov.shape}")
     return z, vehicle_xyz, vehicle_cov
-
-
-def _fusion_inputs(prior, contributions) -> tuple[GaussianEstimate, Sequence[InformationContribution]]:
-    """The prior and the contributions of :meth:`UnscentedInformationFilter.update`, in either call form."""
-    if contributions is None:
-        contributions, prior = prior, None
-    if type(contributions) is InformationContribution:
-        contributions = [contributions]
-    if type(contributions) is list and contributions:  # the usual calls, checked cheaply
-        common = contributions[0].prior if prior is None else prior
-        if isinstance(common, GaussianEstimate) and common.mean.ndim == 1 and all(
-                type(c) is InformationContribution and c.prior is common for c in contributions):
-            return common, contributions
-    if isinstance(contributions, InformationContribution):
-        contributions = [contributions]
-    if not isinstance(contributions, Sequence) or not all(isinstance(c, InformationContribution)
-                                                          for c in contributions):
-        raise TypeError("contributions must be InformationContribution(s) from contribution(), got "
-                        f"{type(contributions).__name__}")
-    if prior is None:
-        priors = {id(c.prior): c.prior for c in contributions}
-        if not contributions or None in priors.values():
-            raise ValueError("update(contributions) needs contributions made by contribution(), which know their "
-                             "prior; otherwise call update(prior, contributions)")
-        if len(priors) > 1:
-            raise ValueError("the contributions were computed against different priors; fuse each into its own")
-        prior = contributions[0].prior
-    _check_estimate(prior, "prior")
-    if prior.mean.ndim != 1:
-        raise ValueError(f"update fuses into one estimate; the prior has mean shape {prior.mean.shape}")
-    for index, c in enumerate(contributions):
-        if c.prior is not None and c.prior is not prior and not _same(c.prior, prior):
-            raise ValueError(f"contribution {index} was computed against another prior (stamp {c.prior.stamp_ns} "
-                             f"ns) than the one given (stamp {prior.stamp_ns} ns): predict, then contribute "
-                             "against that prediction")
-    return prior, contributions
-
-
-def _same(a: GaussianEstimate, b: GaussianEstimate) -> bool:
-    return a.stamp_ns == b.stamp_ns and np.array_equal(a.mean, b.mean) and np.array_equal(a.cov, b.cov)

@@ -12,7 +12,7 @@ ground at z = 0, a generated city's south-west corner at (0, 0).
 * :class:`SightTable` (where a ground point is seen from, on a height grid,
   for the sight planner) -- :mod:`gcs.core.world.sight_table`
 * :class:`RestrictedAirspace` (eq. 5) -- :mod:`gcs.core.world.airspace`
-* :class:`World` bundles them; ``gcs.world_loader.build_world`` makes one
+* :class:`World` bundles them; ``gcs.config.world.build_world`` makes one
   from a scenario.
 """
 

@@ -6,7 +6,7 @@ floor and a ceiling; a point is restricted when it lies inside the polygon and
 charges W_res for every planned position inside.
 
 The core takes plain ``(polygon, floor_m, ceiling_m)`` tuples; converting the
-scenario's ``[[restricted]]`` tables is done by ``gcs.world_loader``.
+scenario's ``[[restricted]]`` tables is done by ``gcs.config.world``.
 """
 
 from __future__ import annotations

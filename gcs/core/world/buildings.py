@@ -8,7 +8,7 @@ its roof ``z = height``. This is the environment of wang2012 section 2.5 and the
 * :func:`generate_city` builds that city from a ``numpy.random.Generator``:
   a regular street grid with one axis-aligned box per block.
 * :func:`buildings_from_geojson` reads footprints from an already-parsed GeoJSON
-  FeatureCollection (the file is read by ``gcs.world_loader``).
+  FeatureCollection (the file is read by ``gcs.config.world``).
 """
 
 from __future__ import annotations

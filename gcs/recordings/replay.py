@@ -1,12 +1,12 @@
-"""``gcs replay``'s work: a recording (``gcs record``, :mod:`gcs.record`; ``gcs run --record``) summarised,
-processed, or fed back (the command line is :mod:`gcs.replay_cli`).
+"""``gcs replay``'s work: a recording (``gcs record``, :mod:`gcs.recordings.record`; ``gcs run --record``) summarised,
+processed, or fed back (the command line is :mod:`gcs.recordings.replay_cli`).
 
 * ``gcs replay FILE --info`` summarises channels, counts, duration and vehicles.
 * ``gcs replay FILE [--rate R | --fast]`` republishes the recorded inputs
   (reports, nav, truth; liveliness as tokens) so that a running daemon consumes
   them, keeping their recorded spacing divided by ``R``, or as fast as possible.
 * ``gcs replay FILE --view [--rate R] [--http ADDRESS]`` shows it on the live map
-  with play/pause and speed (:mod:`gcs.replay_view`); ``--foxglove-mcap OUT``
+  with play/pause and speed (:mod:`gcs.recordings.replay_view`); ``--foxglove-mcap OUT``
   converts it to an MCAP file of Foxglove's map schemas.
 * ``gcs replay FILE --process [--plan] [--out TRACKS.mcap|.csv]`` runs the
   estimator (and the planner) on the file directly, without Zenoh: the daemon's own engine
@@ -46,7 +46,7 @@ from protocols.errors import ProtocolError
 from protocols.keys import DEFAULT_PREFIX, parse_key, plan_key, track_key
 from protocols.messages import PlanCommand, TargetTruth, TrackEstimate
 
-__all__ = ["process", "summarise", "write_outputs", "truth_error", "republish", "INPUT_KINDS"]
+__all__ = ["process", "summarise", "write_outputs", "truth_error", "republish", "INPUT_KINDS", "key_kind"]
 
 log = logging.getLogger(__name__)
 
@@ -66,7 +66,7 @@ def _prefix_of(key: str) -> str | None:
 
 
 @functools.lru_cache(maxsize=4096)
-def _kind(key: str) -> tuple[str | None, str | None]:
+def key_kind(key: str) -> tuple[str | None, str | None]:
     """Kind and id of a key of the key space under any prefix; (None, None) for other keys."""
     prefix = _prefix_of(key)
     if prefix is None:
@@ -90,7 +90,7 @@ def summarise(path: Path) -> dict:
         channels[(record.key, record.encoding)] += 1
         first = record.log_time_ns if first is None else min(first, record.log_time_ns)
         last = record.log_time_ns if last is None else max(last, record.log_time_ns)
-        kind, ident = _kind(record.key)
+        kind, ident = key_kind(record.key)
         if kind in ("report", "nav", "alive") and ident is not None:
             vehicles.add(ident)
         if kind == "report":
@@ -155,7 +155,7 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
 
     now = 0.0
     for record in read_recording(path):
-        kind, ident = _kind(record.key)
+        kind, ident = key_kind(record.key)
         now = record.log_time_ns / NS_PER_S
         if kind in ("alive", "report", "nav", "truth"):
             release(now)  # what timed out before it came in: the live loop, idle, released it before
@@ -179,7 +179,7 @@ def truth_error(path: Path, tracks: list[TrackEstimate], step_ns: int) -> tuple[
     as the daemon scores its steps); (None, 0) for a recording without truth."""
     truth: dict[int, tuple[float, float]] = {}
     for record in read_recording(path):
-        if _kind(record.key)[0] == "truth":
+        if key_kind(record.key)[0] == "truth":
             try:
                 message = decode(record.payload, record.encoding, TargetTruth)
             except ProtocolError:
@@ -223,7 +223,7 @@ def write_outputs(tracks: list[TrackEstimate], plans: list[PlanCommand], out: Pa
 def _inputs(path: Path) -> Iterator[tuple[Recorded, str, str]]:
     """The recorded inputs that travel on Zenoh (MAVLink heartbeats the daemon heard do not)."""
     for record in read_recording(path):
-        kind, ident = _kind(record.key)
+        kind, ident = key_kind(record.key)
         if kind in INPUT_KINDS and record.encoding != HEARTBEAT_ENCODING:
             yield record, kind, ident
 

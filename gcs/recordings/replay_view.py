@@ -33,9 +33,9 @@ from gcs.config import Scenario
 from gcs.core.world import World
 from gcs.daemon.live import LiveMap
 from gcs.daemon.picture import Picture
-from gcs.replay import _kind
+from gcs.recordings.replay import key_kind
 from gcs.scenarios import load_scenario, scenario_base_dir
-from gcs.world_loader import build_world
+from gcs.config.world import build_world
 
 __all__ = ["ReplayClock", "view", "to_foxglove", "cmd_view", "recording_span_ns", "MAX_SPEED"]
 
@@ -188,7 +188,7 @@ def _play(path: Path, clock: ReplayClock, live: LiveMap, stop: threading.Event, 
 
 
 def _feed(picture: Picture, record, counts: Counter) -> None:
-    kind, ident = _kind(record.key)
+    kind, ident = key_kind(record.key)
     counts[kind or "other"] += 1
     picture.counters[f"replayed.{kind or 'other'}"] = counts[kind or "other"]
     if record.encoding == LIVELINESS_ENCODING:
@@ -225,7 +225,7 @@ def to_foxglove(path: Path, scenario: Scenario, world: World, out: Path, every_s
 
 
 def cmd_view(args: argparse.Namespace) -> int:
-    """``gcs replay FILE --view`` and ``--foxglove-mcap OUT`` (called by :mod:`gcs.replay_cli`'s command once it
+    """``gcs replay FILE --view`` and ``--foxglove-mcap OUT`` (called by :mod:`gcs.recordings.replay_cli`'s command once it
     has checked the options)."""
     foxglove = foxglove_options(args)
     scenario = load_scenario(args.scenario)

@@ -1,6 +1,6 @@
 """``gcs replay``'s command line: what to do with a recording (``--info``, ``--process``, ``--view``,
 republish), its input checked before anything is read (:func:`check_replay`). The work is in
-:mod:`gcs.replay` and :mod:`gcs.replay_view`."""
+:mod:`gcs.recordings.replay` and :mod:`gcs.recordings.replay_view`."""
 
 from __future__ import annotations
 
@@ -16,9 +16,10 @@ from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, ZenohSettings, add_zenoh_arguments, required_settings
 from gcs.cli_errors import UsageError, existing_file, one_line, positive, set_command, stop_on_signals, writable_file
 from gcs.daemon.cli import add_acceptance_arguments, add_navigation_argument
-from gcs.replay import NS_PER_S, process, republish, summarise, truth_error, write_outputs
+from gcs.recordings.replay import NS_PER_S, process, republish, summarise, truth_error, write_outputs
+from gcs.recordings.replay_view import cmd_view
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
-from gcs.world_loader import build_world
+from gcs.config.world import build_world
 from protocols.errors import ProtocolError
 from protocols.keys import validate_prefix
 
@@ -94,8 +95,6 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     settings = check_replay(args)
     try:
         if args.view or args.foxglove_mcap is not None or args.foxglove is not None:
-            from gcs.replay_view import cmd_view
-
             return cmd_view(args)
         if args.info:
             _print_info(summarise(args.file), args.json)
