@@ -80,3 +80,17 @@ def test_sets_cover_empty_and_mismatched_cardinalities():
     sizes = [tuple(len(s) for s in random_sets(seed)) for seed in SEEDS]
     assert any(m == 0 < n for m, n in sizes) and any(n == 0 < m for m, n in sizes)
     assert any(m > n > 0 for m, n in sizes) and any(n > m > 0 for m, n in sizes)
+
+
+def test_metric_axioms_on_random_sets():
+    # GOSPA is a metric for 1 <= p < inf (Rahmathullah et al. 2017): symmetric, with the missed and
+    # false parts exchanged, and obeying the triangle inequality.
+    for seed in SEEDS:
+        x, y = random_sets(seed)
+        z, _ = random_sets(seed + 1000)
+        forward, backward = gospa(x, y, c=20.0, p=2.0), gospa(y, x, c=20.0, p=2.0)
+        assert forward.distance == pytest.approx(backward.distance)
+        assert (forward.missed, forward.false) == pytest.approx((backward.false, backward.missed))
+        via = gospa(x, z, c=20.0, p=2.0).distance + gospa(z, y, c=20.0, p=2.0).distance
+        assert forward.distance <= via + 1e-9
+    assert gospa(x, x, c=20.0).distance == 0.0
