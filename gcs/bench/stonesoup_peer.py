@@ -75,7 +75,8 @@ except ImportError as exc:  # the optional peer: one clear line
 from gcs.core.models.sensor import AZIMUTH, ELEVATION, RANGE, SensorModel
 from gcs.core.tracker import Detection
 
-__all__ = ["PeerConfig", "PeerRun", "Scan", "ground_measurement", "gnn_tracker", "jpda_tracker", "run_peer"]
+__all__ = ["PeerConfig", "PeerRun", "Scan", "clutter_density", "ground_measurement", "gnn_tracker", "jpda_tracker",
+           "run_peer"]
 
 Scan = tuple[int, dict[int, Sequence[Detection]], SensorModel]
 """One scan: ``(stamp_ns, {vehicle_index: [Detection, ...]}, sensor model)``."""
@@ -133,7 +134,7 @@ def ground_measurement(detection: Detection, sensor: SensorModel) -> tuple[float
     dz = float(detection.vehicle_xyz[2]) - sensor.target_height_m
     estimates = []  # (horizontal range, its variance)
     comps = sensor.components
-    var0 = sensor.noise_variance()
+    var0 = np.asarray(sensor.std, dtype=np.float64) ** 2  # at and inside the reference range
     if RANGE in comps:
         rho = values[comps.index(RANGE)]
         h = math.sqrt(max(rho * rho - dz * dz, 1.0))

@@ -74,6 +74,12 @@ def test_ground_measurement_recovers_the_horizontal_range():
     assert h_var > range_only_var * 0.5
     with pytest.raises(ValueError):
         ground_measurement(Detection(0, vehicle, values[1:2]), SensorModel.bearing_only(0.01))
+    # zuo2021 eq. (2): beyond the reference range every variance grows as (rho / rho0)^2
+    far = SensorModel.range_bearing(5.0, 0.01, 0.02, distance_dependent=True, reference_range_m=250.0)
+    scale = (np.hypot(h, 300.0) / 250.0) ** 2
+    _, h_far, az_far, h_var_far = ground_measurement(Detection(0, vehicle, values), far)
+    assert h_far == pytest.approx(h) and az_far == pytest.approx(0.01**2 * scale)
+    assert h_var_far == pytest.approx(h_var * scale)
 
 
 def test_missing_stone_soup_names_the_extra(monkeypatch):

@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
-__all__ = ["GospaResult", "cutoff_distances", "gospa", "as_points"]
+__all__ = ["GospaResult", "cutoff_distances", "gospa", "as_points", "check_parameters"]
 
 
 def as_points(points: ArrayLike) -> NDArray[np.float64]:
@@ -51,7 +51,8 @@ def cutoff_distances(estimates: NDArray[np.float64], truths: NDArray[np.float64]
     return np.minimum(np.sqrt(np.einsum("mnk,mnk->mn", diff, diff)), c)
 
 
-def _check_order(c: float, p: float) -> None:
+def check_parameters(c: float, p: float) -> None:
+    """Raise ValueError unless the cut-off ``c`` is finite and positive and the order ``p >= 1`` (may be inf)."""
     if not (c > 0 and np.isfinite(c)):
         raise ValueError(f"the cut-off c must be finite and > 0, got {c!r}")
     if not (p >= 1):
@@ -89,7 +90,7 @@ def gospa(estimates: ArrayLike, truths: ArrayLike, c: float, p: float = 2.0) -> 
     p : float
         Order, ``1 <= p < inf``.
     """
-    _check_order(c, p)
+    check_parameters(c, p)
     if not np.isfinite(p):
         raise ValueError("GOSPA needs a finite order p")
     x, y = as_points(estimates), as_points(truths)

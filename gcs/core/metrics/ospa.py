@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.optimize import linear_sum_assignment
 
-from gcs.core.metrics.gospa import _check_order, as_points, cutoff_distances
+from gcs.core.metrics.gospa import check_parameters, as_points, cutoff_distances
 
 __all__ = ["ospa"]
 
@@ -36,7 +36,7 @@ def ospa(estimates: ArrayLike, truths: ArrayLike, c: float, p: float = 2.0, assi
     ``assign_on_power`` (default, eq. 3) minimises ``sum d^(c)^p``; False minimises
     ``sum d^(c)`` then sums the p-th powers of that assignment (Stone Soup 1.9).
     """
-    _check_order(c, p)
+    check_parameters(c, p)
     x, y = as_points(estimates), as_points(truths)
     m, n = sorted((len(x), len(y)))
     if n == 0:
