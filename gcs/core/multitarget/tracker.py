@@ -200,7 +200,7 @@ class MultiTargetTracker:
             mean, cov = new_mean, new_cov
         advanced = advance(tracks.with_estimates(mean, cov), hit, self.confirm_m, self.confirm_n, self.max_misses,
                            self.max_position_trace_m2)
-        born = self._initiate(batches, free, state.next_id)
+        born = self._initiate(batches, free, state.next_id, advanced.kept)
         new_state = MultiTargetState(advanced.kept.concat(born), int(stamp_ns), state.next_id + born.size)
         total = sum(b.z.shape[0] for b in batches)
         diagnostics = ScanDiagnostics(
@@ -234,8 +234,15 @@ class MultiTargetTracker:
         counts["associated"] += int(used.sum())
         return a, b, detected, used
 
-    def _initiate(self, batches: Sequence[_Batch], free: Sequence[NDArray[np.bool_]], next_id: int) -> TrackSet:
-        """Tentative tracks from the free detections of range-bearing sensors, merged across vehicles."""
+    def _initiate(self, batches: Sequence[_Batch], free: Sequence[NDArray[np.bool_]], next_id: int,
+                  existing: TrackSet) -> TrackSet:
+        """Tentative tracks from the free detections of range-bearing sensors, merged across vehicles.
+
+        A candidate whose ground position agrees with an existing track's (the
+        2-dof chi-square gate on the difference, covariance ``P_track,pp + P_candidate``)
+        starts nothing: it is that target seen again, left out of the update
+        only because its measurement gate was missed, and a track started from it
+        would be a duplicate."""
         positions, covs, vehicles = [], [], []
         for batch, mask in zip(batches, free):
             if not (mask.any() and starts_tracks(batch.sensor)):
@@ -248,6 +255,13 @@ class MultiTargetTracker:
             return TrackSet.empty()
         p, c = merge_candidates(np.concatenate(positions), np.concatenate(covs), np.concatenate(vehicles),
                                 gate_threshold(self.gate_probability, 2))
+        threshold = gate_threshold(self.gate_probability, 2)
+        if existing.size and p.shape[0]:
+            diff = p[:, None, :] - existing.mean[None, :, :2]  # (k, T, 2)
+            total = c[:, None] + existing.cov[None, :, :2, :2]
+            d2 = np.einsum("kti,kti->kt", diff, np.linalg.solve(total, diff[..., None])[..., 0])
+            keep = ~(d2 <= threshold).any(axis=1)
+            p, c = p[keep], c[keep]
         mean, cov = initial_states(p, c, self.initial_velocity_std_mps)
         ids = np.arange(next_id, next_id + p.shape[0], dtype=np.int64)
         return TrackSet.new(ids, mean, cov, confirm_at_once=self.confirm_m <= 1)
