@@ -1,0 +1,294 @@
+"""The multi-target tracker: one scan of every vehicle's identity-free detections -> a new set of tracks.
+
+``MultiTargetTracker(config...).scan(state, stamp_ns, detections_by_vehicle, sensor)``
+returns ``(new_state, diagnostics)`` and mutates nothing. One scan:
+
+1. predict every track to ``stamp_ns`` (:func:`gcs.core.multitarget.filter.predict`);
+2. for each vehicle, every track against every detection at once: innovations,
+   the chi-square gate (:mod:`~gcs.core.multitarget.gating`) and the association,
+   GNN (:mod:`~gcs.core.multitarget.gnn`) or JPDA (:mod:`~gcs.core.multitarget.jpda`),
+   turned into position-block information contributions per track;
+3. sum the contributions over vehicles and fuse them into every track
+   (wang2012 eq. 14-15, :func:`~gcs.core.multitarget.filter.information_update`);
+4. advance the lifecycle (M-of-N confirmation, deletion; :mod:`~gcs.core.multitarget.tracks`);
+5. start tentative tracks from the detections no track took
+   (:mod:`~gcs.core.multitarget.initiation`), with ids never used before.
+
+A track counts as detected on a scan when some vehicle's association gave it a
+detection: GNN assigned it one, or the JPDA's probability that one of the
+vehicle's detections is the track's, ``1 - beta_t0``, is at least one half.
+"Unassociated" detections, which may start tracks, are those GNN assigned to
+no track, or, for the JPDA, those outside every track's gate (a detection
+inside a gate has already been weighed in that track's update).
+
+JPDA and several vehicles. One vehicle's PDA posterior is always a proper
+Gaussian, but the sum over vehicles of their information contributions can
+fail to be positive definite when the spread-of-innovations terms widen
+several vehicles' posteriors (the contributions are then indefinite). For such
+a track the contributions are averaged over the vehicles instead of summed, a
+convex combination of the vehicles' proper posteriors in information form,
+hence proper; :attr:`ScanDiagnostics.fusion_fallbacks` counts it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from gcs.core.filters.estimate import NS_PER_S
+from gcs.core.models.motion import LinearMotionModel, constant_velocity
+from gcs.core.models.sensor import SensorModel
+from gcs.core.multitarget import filter as batched
+from gcs.core.multitarget.gating import gate, gate_threshold
+from gcs.core.multitarget.gnn import assignment_costs, gnn_assign
+from gcs.core.multitarget.initiation import ground_positions, initial_states, merge_candidates, starts_tracks
+from gcs.core.multitarget.jpda import DEFAULT_MAX_HYPOTHESES, jpda_marginals
+from gcs.core.multitarget.tracks import TrackSet, advance
+from gcs.core.tracker import Detection
+
+__all__ = ["MultiTargetTracker", "MultiTargetState", "ScanDiagnostics"]
+
+ASSOCIATIONS = ("gnn", "jpda")
+
+
+@dataclass(frozen=True)
+class MultiTargetState:
+    """The tracker's memory: the tracks, the stamp they are at (None before the first scan), the next id."""
+
+    tracks: TrackSet = field(default_factory=TrackSet.empty)
+    stamp_ns: int | None = None
+    next_id: int = 1
+
+
+@dataclass(frozen=True)
+class ScanDiagnostics:
+    """Counts of one scan, and the tracks it deleted (status DELETED)."""
+
+    detections: int
+    gated: int
+    """Detections inside at least one track's gate."""
+    associated: int
+    unassociated: int
+    initiated_ids: tuple[int, ...]
+    confirmed_ids: tuple[int, ...]
+    deleted: TrackSet
+    jpda_clusters: int = 0
+    jpda_clusters_over_cap: int = 0
+    fusion_fallbacks: int = 0
+
+    @property
+    def initiations(self) -> int:
+        return len(self.initiated_ids)
+
+    @property
+    def confirmations(self) -> int:
+        return len(self.confirmed_ids)
+
+    @property
+    def deletions(self) -> int:
+        return self.deleted.size
+
+
+@dataclass(frozen=True)
+class _Batch:
+    """One vehicle's detections as arrays."""
+
+    vehicle: int
+    sensor: SensorModel
+    z: NDArray[np.float64]
+    xyz: NDArray[np.float64]
+    pcov: NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class MultiTargetTracker:
+    """Parameters of the multi-target tracker; holds no tracks.
+
+    Parameters
+    ----------
+    association : str
+        ``"gnn"`` or ``"jpda"``.
+    motion : LinearMotionModel
+        The ``cv2d`` white-noise acceleration model.
+    detection_probability, gate_probability : float
+        ``P_D`` and ``P_G``.
+    clutter_density : float
+        ``lambda``: false detections per unit volume of measurement space (the
+        product of the sensor's component units, e.g. m rad^2), > 0.
+    confirm_m, confirm_n : int
+        The M-of-N confirmation rule.
+    max_misses : int
+        Consecutive missed scans that delete a track.
+    max_position_trace_m2 : float
+        A track whose ``tr P_pp`` exceeds this is deleted.
+    initial_velocity_std_mps : float
+        Velocity standard deviation per axis of a new track.
+    max_hypotheses : int
+        JPDA cap per cluster (:mod:`gcs.core.multitarget.jpda`).
+    """
+
+    association: str = "gnn"
+    motion: LinearMotionModel = field(default_factory=lambda: constant_velocity(1.0))
+    detection_probability: float = 0.9
+    gate_probability: float = 0.99
+    clutter_density: float = 1e-6
+    confirm_m: int = 3
+    confirm_n: int = 4
+    max_misses: int = 3
+    max_position_trace_m2: float = 1e6
+    initial_velocity_std_mps: float = 10.0
+    max_hypotheses: int = DEFAULT_MAX_HYPOTHESES
+
+    def __post_init__(self) -> None:
+        if self.association not in ASSOCIATIONS:
+            raise ValueError(f"association must be one of {ASSOCIATIONS}, got {self.association!r}")
+        if not 0.0 < self.detection_probability <= 1.0:
+            raise ValueError(f"detection_probability must be in (0, 1], got {self.detection_probability!r}")
+        gate_threshold(self.gate_probability, 1)
+        if not 1 <= self.confirm_m <= self.confirm_n <= 62:
+            raise ValueError(f"need 1 <= confirm_m <= confirm_n <= 62, got {self.confirm_m} of {self.confirm_n}")
+        if self.max_misses < 1:
+            raise ValueError(f"max_misses must be >= 1, got {self.max_misses}")
+
+    def start(self) -> MultiTargetState:
+        """No tracks yet."""
+        return MultiTargetState()
+
+    def scan(self, state: MultiTargetState, stamp_ns: int,
+             detections_by_vehicle: Mapping[int, Sequence[Detection]] | Sequence[Sequence[Detection]],
+             sensor: SensorModel | Sequence[SensorModel]) -> tuple[MultiTargetState, ScanDiagnostics]:
+        """Fuse one scan: every vehicle's detections taken at ``stamp_ns`` (int, ns).
+
+        ``detections_by_vehicle`` holds one sequence of detections per vehicle (a
+        mapping by vehicle index, or a sequence); ``sensor`` is every vehicle's
+        model, or one per vehicle indexed by :attr:`Detection.vehicle`.
+        """
+        if not isinstance(stamp_ns, (int, np.integer)) or isinstance(stamp_ns, bool):
+            raise TypeError(f"stamp_ns must be an integer number of nanoseconds, got {type(stamp_ns).__name__}")
+        batches = _batches(detections_by_vehicle, sensor)
+        tracks = state.tracks
+        mean, cov = tracks.mean, tracks.cov
+        if state.stamp_ns is not None:
+            dt_s = (int(stamp_ns) - state.stamp_ns) / NS_PER_S
+            if dt_s < 0.0:
+                raise ValueError(f"scan at {stamp_ns} ns is older than the tracks ({state.stamp_ns} ns)")
+            if dt_s > 0.0 and tracks.size:
+                mean, cov = batched.predict(mean, cov, dt_s, self.motion)
+        a_parts, b_parts = [], []
+        hit = np.zeros(tracks.size, dtype=bool)
+        counts = {"gated": 0, "associated": 0, "clusters": 0, "over": 0}
+        free = []  # per batch: detections no track took
+        for batch in batches:
+            a, b, detected, used = self._associate(mean, cov, batch, counts)
+            a_parts.append(a)
+            b_parts.append(b)
+            hit |= detected
+            free.append(~used)
+        fallbacks = 0
+        if a_parts:
+            a_sum, b_sum = np.sum(a_parts, axis=0), np.sum(b_parts, axis=0)
+            new_mean, new_cov = batched.information_update(mean, cov, a_sum, b_sum)
+            bad = ~_position_definite(new_cov)
+            if bad.any():
+                fallbacks = int(bad.sum())
+                a_sum[bad] /= len(a_parts)
+                b_sum[bad] /= len(b_parts)
+                new_mean, new_cov = batched.information_update(mean, cov, a_sum, b_sum)
+            mean, cov = new_mean, new_cov
+        advanced = advance(tracks.with_estimates(mean, cov), hit, self.confirm_m, self.confirm_n, self.max_misses,
+                           self.max_position_trace_m2)
+        born = self._initiate(batches, free, state.next_id, advanced.kept)
+        new_state = MultiTargetState(advanced.kept.concat(born), int(stamp_ns), state.next_id + born.size)
+        total = sum(b.z.shape[0] for b in batches)
+        diagnostics = ScanDiagnostics(
+            detections=total, gated=counts["gated"], associated=counts["associated"],
+            unassociated=total - counts["associated"], initiated_ids=tuple(born.ids.tolist()),
+            confirmed_ids=tuple(advanced.confirmed_ids.tolist()) + tuple(born.confirmed().ids.tolist()),
+            deleted=advanced.deleted, jpda_clusters=counts["clusters"], jpda_clusters_over_cap=counts["over"],
+            fusion_fallbacks=fallbacks)
+        return new_state, diagnostics
+
+    def _associate(self, mean: NDArray[np.float64], cov: NDArray[np.float64], batch: _Batch, counts: dict):
+        """One vehicle: contributions ``A`` (T, 2, 2), ``b`` (T, 2), tracks detected (T,), detections used (n,)."""
+        inn = batched.innovations(mean, cov, batch.sensor, batch.z, batch.xyz, batch.pcov)
+        valid = gate(inn.d2, self.gate_probability, batch.sensor.dim)
+        costs = assignment_costs(inn.log_likelihood, valid, self.detection_probability, self.gate_probability,
+                                 self.clutter_density)
+        counts["gated"] += int(valid.any(axis=0).sum())
+        if self.association == "gnn":
+            assigned = gnn_assign(costs)
+            a, b = batched.assigned_contributions(inn, assigned)
+            used = np.zeros(batch.z.shape[0], dtype=bool)
+            used[assigned[assigned >= 0]] = True
+            detected = assigned >= 0
+        else:
+            result = jpda_marginals(costs, valid, self.max_hypotheses)
+            a, b = batched.mixture_contributions(inn, result.beta, cov[:, :2, :2])
+            used = valid.any(axis=0)
+            detected = result.beta.sum(axis=1) >= 0.5
+            counts["clusters"] += result.clusters
+            counts["over"] += result.clusters_over_cap
+        counts["associated"] += int(used.sum())
+        return a, b, detected, used
+
+    def _initiate(self, batches: Sequence[_Batch], free: Sequence[NDArray[np.bool_]], next_id: int,
+                  existing: TrackSet) -> TrackSet:
+        """Tentative tracks from the free detections of range-bearing sensors, merged across vehicles.
+
+        A candidate whose ground position agrees with an existing track's (the
+        2-dof chi-square gate on the difference, covariance ``P_track,pp + P_candidate``)
+        starts nothing: it is that target seen again, left out of the update
+        only because its measurement gate was missed, and a track started from it
+        would be a duplicate."""
+        positions, covs, vehicles = [], [], []
+        for batch, mask in zip(batches, free):
+            if not (mask.any() and starts_tracks(batch.sensor)):
+                continue
+            p, c = ground_positions(batch.sensor, batch.z[mask], batch.xyz[mask], batch.pcov[mask])
+            positions.append(p)
+            covs.append(c)
+            vehicles.append(np.full(p.shape[0], batch.vehicle))
+        if not positions:
+            return TrackSet.empty()
+        p, c = merge_candidates(np.concatenate(positions), np.concatenate(covs), np.concatenate(vehicles),
+                                gate_threshold(self.gate_probability, 2))
+        threshold = gate_threshold(self.gate_probability, 2)
+        if existing.size and p.shape[0]:
+            diff = p[:, None, :] - existing.mean[None, :, :2]  # (k, T, 2)
+            total = c[:, None] + existing.cov[None, :, :2, :2]
+            d2 = np.einsum("kti,kti->kt", diff, np.linalg.solve(total, diff[..., None])[..., 0])
+            keep = ~(d2 <= threshold).any(axis=1)
+            p, c = p[keep], c[keep]
+        mean, cov = initial_states(p, c, self.initial_velocity_std_mps)
+        ids = np.arange(next_id, next_id + p.shape[0], dtype=np.int64)
+        return TrackSet.new(ids, mean, cov, confirm_at_once=self.confirm_m <= 1)
+
+
+def _position_definite(cov: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Whether each (T, 4, 4) covariance's position block is positive definite (2 x 2 test)."""
+    pxx, pxy, pyy = cov[:, 0, 0], cov[:, 0, 1], cov[:, 1, 1]
+    return (pxx > 0.0) & (pxx * pyy - pxy * pxy > 0.0)
+
+
+def _batches(detections_by_vehicle, sensor) -> list[_Batch]:
+    """Each vehicle's non-empty detection list as arrays."""
+    groups = detections_by_vehicle.values() if isinstance(detections_by_vehicle, Mapping) else detections_by_vehicle
+    out = []
+    for group in groups:
+        group = list(group)
+        if not group:
+            continue
+        if not all(isinstance(d, Detection) for d in group):
+            raise TypeError("detections must be gcs.core.tracker.Detection")
+        vehicle = group[0].vehicle
+        model = sensor if isinstance(sensor, SensorModel) else sensor[vehicle]
+        z = np.array([d.values for d in group], dtype=np.float64)
+        if z.shape[1] != model.dim:
+            raise ValueError(f"vehicle {vehicle}'s detections have {z.shape[1]} components, its sensor {model.dim}")
+        xyz = np.array([d.vehicle_xyz for d in group], dtype=np.float64)
+        pcov = np.stack([d.position_cov for d in group])
+        out.append(_Batch(vehicle, model, z, xyz, pcov))
+    return out
