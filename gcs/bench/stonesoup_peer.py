@@ -1,4 +1,4 @@
-"""Stone Soup's GNN and JPDA multi-target trackers as peers for the many-target bench (issue 25).
+"""Stone Soup's GNN and JPDA multi-target trackers as peers for the many-target bench.
 
 Needs the ``peers`` extra (``pip install '.[peers]'``, Stone Soup 1.9).
 

@@ -1,6 +1,6 @@
 """Detections of many ground targets by many vehicles, with missed detections and clutter (pure, seeded).
 
-For the many-target trackers' tests and benches (issue 25). One scan:
+For the many-target trackers' tests and benches. One scan:
 
 * truth ``j`` is detected by vehicle ``v`` with probability ``pd`` when it is within
   the sensor's field (slant range <= ``max_range_m``) and ``visible[v, j]`` (an

@@ -1,4 +1,4 @@
-"""Many targets: a batched multi-target tracker over identity-free detections (issue 25).
+"""Many targets: a batched multi-target tracker over identity-free detections.
 
 Every track is filtered at once (:mod:`.filter`, with its per-track oracle
 :mod:`.reference`), detections are gated (:mod:`.gating`) and associated per
