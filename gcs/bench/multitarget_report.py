@@ -101,8 +101,9 @@ def speed_ratio(summary: dict) -> float | None:
 
 def format_report(report: dict) -> str:
     cfg = report["config"]
-    lines = [f"gcs bench multitarget: {cfg['runs']} runs from seed {cfg['seed']}, {cfg['targets']} targets "
-             f"(a side-by-side pair {cfg['pair_offset_m']:g} m apart for {cfg['joint_steps']} steps), "
+    pair = (f" (a side-by-side pair {cfg['pair_offset_m']:g} m apart for {cfg['joint_steps']} steps)"
+            if cfg["targets"] >= 2 else "")
+    lines = [f"gcs bench multitarget: {cfg['runs']} runs from seed {cfg['seed']}, {cfg['targets']} targets{pair}, "
              f"{cfg['steps']} steps of 1 s, Pd {cfg['pd']:g}, clutter {cfg['clutter']:g}/UAV/scan, 3 UAVs, "
              f"occlusion by buildings",
              f"GOSPA and OSPA: c = {report['gospa_cutoff_m']:g} m, p = 2, alpha = 2, mean over steps after "
