@@ -44,3 +44,17 @@ def test_same_seed_same_scene(world) -> None:
     a = make_scene(world, [200.0, 210.0, 220.0], BenchConfig(steps=10), np.random.default_rng(5))
     b = make_scene(world, [200.0, 210.0, 220.0], BenchConfig(steps=10), np.random.default_rng(5))
     np.testing.assert_array_equal(a.truth_xy, b.truth_xy)
+
+
+def test_without_stone_soup_ours_run_and_the_report_says_so(monkeypatch) -> None:
+    import sys
+
+    from gcs.bench import multitarget_report
+
+    monkeypatch.setitem(sys.modules, "gcs.bench.stonesoup_peer", None)  # importing it raises ImportError
+    notes = []
+    report = multitarget_report.run_benchmark(BenchConfig(targets=2, steps=12, warm_up=2), runs=1, seed=0, peers=True,
+                                              progress=notes.append)
+    assert set(report["methods"]) == {"gnn", "jpda"}
+    assert report["note"].startswith("Stone Soup peers not run") and report["note"] in notes
+    assert report["note"] in multitarget_report.format_report(report).splitlines()
