@@ -203,6 +203,20 @@ def cmd_imm(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_multitarget(args: argparse.Namespace) -> int:
+    from gcs.bench import multitarget_report
+    from gcs.bench.multitarget import BenchConfig
+
+    config = BenchConfig(targets=args.targets, steps=args.steps, pd=args.pd, clutter=args.clutter)
+    report = multitarget_report.run_benchmark(config, runs=args.runs, seed=args.seed, peers=not args.no_peers,
+                                              progress=progress)
+    print(multitarget_report.format_report(report))
+    if args.json:
+        multitarget_report.write_json(report, args.json)
+        print(f"wrote {args.json}")
+    return 0
+
+
 def cmd_autopilots(args: argparse.Namespace) -> int:
     from gcs.bench import autopilots_report
 
