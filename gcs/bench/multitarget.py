@@ -1,4 +1,4 @@
-"""``gcs bench multitarget``: the runs of the many-target bench (issue 25).
+"""``gcs bench multitarget``: the runs of the many-target bench.
 
 **Scene per seed** (:func:`make_scene`, every draw from ``numpy.random.default_rng(seed)``):
 ``targets`` street-following ground targets (:class:`~sim_vehicles.truth.target.StreetTarget`)
