@@ -20,7 +20,6 @@ def _bench(*args: str) -> subprocess.CompletedProcess:
 
 
 def test_bench_multitarget_writes_json_and_beats_no_tracks(tmp_path: Path) -> None:
-    pytest.importorskip("stonesoup")
     out = tmp_path / "mt.json"
     done = _bench("--runs", "2", "--steps", "30", "--seed", "4", "--json", str(out))
     assert done.returncode == 0, done.stderr
