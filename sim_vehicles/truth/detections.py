@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from gcs.core.models.sensor import SensorModel
 from gcs.core.tracker import Detection
-from sim_vehicles.truth.sensor import COMPONENTS, exact_measurements
+from sim_vehicles.truth.sensor import exact_measurements, noisy_measurements
 
 __all__ = ["CLUTTER", "Scan", "ground_disc_radius", "scan"]
 
@@ -58,16 +58,7 @@ def _measure(points_xy: NDArray[np.float64], vehicle: NDArray[np.float64], senso
     scale = np.ones(len(points))
     if sensor.distance_dependent:  # zuo2021 eq. (2) at the true slant range
         scale = np.maximum(exact[:, 0] / sensor.reference_range_m, 1.0)
-    std = np.asarray(sensor.std, dtype=np.float64) * scale[:, None]
-    values = exact[:, [COMPONENTS.index(c) for c in sensor.components]] + rng.standard_normal(std.shape) * std
-    for k, component in enumerate(sensor.components):
-        if component == "azimuth":
-            values[:, k] = np.mod(values[:, k] + np.pi, 2.0 * np.pi) - np.pi
-        elif component == "elevation":
-            values[:, k] = np.clip(values[:, k], -0.5 * np.pi, 0.5 * np.pi)
-        else:
-            values[:, k] = np.maximum(values[:, k], 0.0)
-    return values
+    return noisy_measurements(exact, sensor.components, sensor.std, scale, rng)
 
 
 def scan(truth_xy: ArrayLike, vehicle_xyz: ArrayLike, sensor: SensorModel, pd: float, clutter_rate: float,

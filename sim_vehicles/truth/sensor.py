@@ -23,7 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from gcs.config import SensorConfig
 
-__all__ = ["TargetSensor", "Observation", "exact_measurements"]
+__all__ = ["TargetSensor", "Observation", "exact_measurements", "noisy_measurements"]
 
 COMPONENTS = ("range", "azimuth", "elevation")
 
@@ -96,17 +96,25 @@ class TargetSensor:
         clear = np.ones(len(vehicle_xyz), dtype=bool) if line_of_sight is None else line_of_sight(
             np.broadcast_to(target_xyz, vehicle_xyz.shape), vehicle_xyz)
         detected = clear & (slant <= self.max_range_m)
-        scale = self._scale(slant)
-        noise = rng.standard_normal((len(vehicle_xyz), len(self.components))) * np.asarray(self.std) * scale[:, None]
-        values = exact[:, [COMPONENTS.index(c) for c in self.components]] + noise
-        if "azimuth" in self.components:
-            a = self.components.index("azimuth")
-            values[:, a] = np.mod(values[:, a] + np.pi, 2.0 * np.pi) - np.pi
-        if "elevation" in self.components:  # a sensor cannot look past the vertical: noise is clipped there
-            e = self.components.index("elevation")
-            values[:, e] = np.clip(values[:, e], -0.5 * np.pi, 0.5 * np.pi)
-        if "range" in self.components:
-            r = self.components.index("range")
-            values[:, r] = np.maximum(values[:, r], 0.0)
+        values = noisy_measurements(exact, self.components, self.std, self._scale(slant), rng)
         values[~detected] = np.nan
         return Observation(detected, values, self.components)
+
+
+def noisy_measurements(exact: NDArray[np.float64], components: tuple[str, ...], std: tuple[float, ...],
+                       scale: NDArray[np.float64], rng: np.random.Generator) -> NDArray[np.float64]:
+    """The measured ``components`` (k, m) of exact range/azimuth/elevation triples (k, 3): Gaussian noise of
+    ``std * scale`` (``scale`` (k,), zuo2021 eq. 2's factor or ones), the azimuth wrapped into [-pi, pi),
+    the elevation clipped at the vertical (a sensor cannot look past it) and the range kept >= 0."""
+    noise = rng.standard_normal((len(exact), len(components))) * np.asarray(std) * scale[:, None]
+    values = exact[:, [COMPONENTS.index(c) for c in components]] + noise
+    if "azimuth" in components:
+        a = components.index("azimuth")
+        values[:, a] = np.mod(values[:, a] + np.pi, 2.0 * np.pi) - np.pi
+    if "elevation" in components:
+        e = components.index("elevation")
+        values[:, e] = np.clip(values[:, e], -0.5 * np.pi, 0.5 * np.pi)
+    if "range" in components:
+        r = components.index("range")
+        values[:, r] = np.maximum(values[:, r], 0.0)
+    return values
