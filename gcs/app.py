@@ -355,8 +355,7 @@ class Daemon:
             return
         for vehicle_id, path in steered:
             link = self.commander.link(vehicle_id)
-            heard_s = link.position_stamp_s if link.position_stamp_s is not None else now
-            latency = max(now - heard_s, 0.0) * self.loop.data_rate
+            latency = link.position_age_s(now) * self.loop.data_rate
             command = steering_command(link, path, self.course_loops[vehicle_id], period, latency)
             if command is None:
                 fallback = float(path.courses[min(SAMPLES_PER_STEP, len(path.courses) - 1)])

@@ -75,6 +75,10 @@ class VehicleLink:
     last_ack: dict[int, int] = field(default_factory=dict)
     """Result of the latest COMMAND_ACK per command id."""
 
+    def position_age_s(self, now_s: float) -> float:
+        """Seconds from when the latest position was heard to ``now_s`` (0 before any, never negative)."""
+        return 0.0 if self.position_stamp_s is None else max(now_s - self.position_stamp_s, 0.0)
+
     @property
     def mode_name(self) -> str:
         """ArduPlane name of the reported mode (the number for other autopilots)."""

@@ -135,8 +135,7 @@ def _steer(vehicle: _Vehicle, steering: str, now: float) -> HeadingCommand | Non
     if path is None:
         return None
     if steering == "lead":
-        heard_s = link.position_stamp_s if link.position_stamp_s is not None else now
-        return steering_command(link, path, vehicle.loop, 1.0 / STEER_RATE_HZ, max(now - heard_s, 0.0))
+        return steering_command(link, path, vehicle.loop, 1.0 / STEER_RATE_HZ, link.position_age_s(now))
     if link.position_enu_m is None or link.course_rad() is None or link.ground_speed_mps() is None:
         return None
     aim = path.points[min(PURSUIT_STEPS * SAMPLES_PER_STEP, len(path.points) - 1)]
