@@ -35,8 +35,8 @@ from gcs.adapters.mavlink_wire import GCS_SYSID, check_connection, mavlink, open
 from gcs.adapters.zenoh_session import (DEFAULT_ENDPOINT, ZenohSettings, add_zenoh_arguments, open_session, publish,
                                         required_settings)
 from gcs.cli_errors import UsageError, one_line, positive, set_command, stop_on_signals
-from gcs.scenarios import load_scenario, scenario_base_dir
 from gcs.config.world import build_world
+from gcs.scenarios import load_scenario, scenario_base_dir
 from protocols.errors import ProtocolError
 from protocols.keys import alive_key, validate_prefix
 from sim_vehicles.payload import Liveliness, PayloadBridge, Publication, summary_line

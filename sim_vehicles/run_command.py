@@ -12,8 +12,8 @@ from pathlib import Path
 from gcs.adapters.mavlink_cli import add_mavlink_arguments, connections_from_arguments, signing_key_from_arguments
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, settings_from_arguments
 from gcs.cli_errors import UsageError, one_line, positive, set_command, stop_on_signals, writable_file
-from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
 from gcs.config.world import build_world
+from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
 from protocols.errors import ProtocolError
 from protocols.keys import validate_prefix
 from sim_vehicles.run_options import RunOptions

@@ -40,8 +40,8 @@ REFERENCE = "ideal"
 
 @lru_cache(maxsize=4)
 def _loaded(scenario: str):
-    from gcs.scenarios import load_scenario
     from gcs.config.world import build_world
+    from gcs.scenarios import load_scenario
 
     loaded = load_scenario(scenario)
     return loaded, build_world(loaded)

@@ -42,8 +42,8 @@ def cmd_estimation(args: argparse.Namespace) -> int:
 def cmd_urban(args: argparse.Namespace) -> int:
     from gcs.bench import urban_report
     from gcs.bench.urban_runs import DaskUnavailable
-    from gcs.scenarios import load_scenario
     from gcs.config.world import build_world
+    from gcs.scenarios import load_scenario
 
     scenario = load_scenario(args.scenario)
     world = build_world(scenario)
@@ -89,8 +89,8 @@ def cmd_daemon(args: argparse.Namespace) -> int:
 
     from gcs.bench import daemon
     from gcs.bench.daemon_load import LOAD_NICENESS
-    from gcs.scenarios import load_scenario
     from gcs.config.world import build_world
+    from gcs.scenarios import load_scenario
 
     scenario = load_scenario(args.scenario)
     command = (f"gcs bench daemon --scenario {args.scenario} --vehicles {' '.join(map(str, args.vehicles))} "
@@ -119,8 +119,8 @@ def cmd_daemon(args: argparse.Namespace) -> int:
 
 def cmd_replay(args: argparse.Namespace) -> int:
     from gcs.bench import replay
-    from gcs.scenarios import load_scenario
     from gcs.config.world import build_world
+    from gcs.scenarios import load_scenario
 
     scenario = load_scenario(args.scenario)
     report = replay.run_benchmark(scenario, build_world(scenario), duration_s=args.duration, repeats=args.repeats,
@@ -149,8 +149,8 @@ def cmd_aoa(args: argparse.Namespace) -> int:
 
 def cmd_livemap(args: argparse.Namespace) -> int:
     from gcs.bench import livemap
-    from gcs.scenarios import load_scenario
     from gcs.config.world import build_world
+    from gcs.scenarios import load_scenario
 
     scenario = load_scenario(args.scenario)
     command = (f"gcs bench livemap --vehicles {' '.join(map(str, args.vehicles))} --warm-up {args.warm_up} "
@@ -186,8 +186,8 @@ def cmd_skf(args: argparse.Namespace) -> int:
 
 def cmd_imm(args: argparse.Namespace) -> int:
     from gcs.bench import imm
-    from gcs.scenarios import load_scenario
     from gcs.config.world import build_world
+    from gcs.scenarios import load_scenario
 
     scenario = load_scenario(args.scenario)
     report = imm.run_benchmark(scenario, build_world(scenario), runs=args.runs, seed=args.seed, steps=args.steps,

@@ -30,8 +30,8 @@ import numpy as np
 from gcs.daemon import demo
 from gcs.bench.autopilots import fly
 from gcs.cli import build_parser
-from gcs.scenarios import load_scenario
 from gcs.config.world import build_world
+from gcs.scenarios import load_scenario
 
 __all__ = ["run_benchmark", "format_report", "write_json"]
 

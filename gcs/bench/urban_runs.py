@@ -48,8 +48,8 @@ class RunJob:
 def _scenario_and_world(scenario: str, thread: int):
     """The scenario and its world, one per thread: the world's memos (its sight table) are filled as
     runs ask, and are not made to be filled by two threads at once (a Dask worker runs jobs in threads)."""
-    from gcs.scenarios import load_scenario
     from gcs.config.world import build_world
+    from gcs.scenarios import load_scenario
 
     loaded = load_scenario(scenario)
     return loaded, build_world(loaded)

@@ -15,11 +15,11 @@ from gcs.adapters.recording import RecordingError, check_mcap
 from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, ZenohSettings, add_zenoh_arguments, required_settings
 from gcs.cli_errors import UsageError, existing_file, one_line, positive, set_command, stop_on_signals, writable_file
+from gcs.config.world import build_world
 from gcs.daemon.cli import add_acceptance_arguments, add_navigation_argument
 from gcs.recordings.replay import NS_PER_S, process, republish, summarise, truth_error, write_outputs
 from gcs.recordings.replay_view import cmd_view
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
-from gcs.config.world import build_world
 from protocols.errors import ProtocolError
 from protocols.keys import validate_prefix
 

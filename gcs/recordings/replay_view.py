@@ -30,12 +30,12 @@ from gcs.adapters.foxglove_out import FoxgloveOptions, FoxgloveOut, foxglove_opt
 from gcs.adapters.recording import LIVELINESS_ENCODING, read_recording
 from gcs.cli_errors import stop_on_signals
 from gcs.config import Scenario
+from gcs.config.world import build_world
 from gcs.core.world import World
 from gcs.daemon.live import LiveMap
 from gcs.daemon.picture import Picture
 from gcs.recordings.replay import key_kind
 from gcs.scenarios import load_scenario, scenario_base_dir
-from gcs.config.world import build_world
 
 __all__ = ["ReplayClock", "view", "to_foxglove", "cmd_view", "recording_span_ns", "MAX_SPEED"]
 

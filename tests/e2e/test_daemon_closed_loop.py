@@ -18,9 +18,9 @@ import numpy as np
 
 from gcs.adapters.zenoh_session import ZenohSettings, listening_endpoints, open_session
 from gcs.bench.urban import run_closed_loop
+from gcs.config.world import build_world
 from gcs.daemon.cli import query_status
 from gcs.scenarios import load_scenario
-from gcs.config.world import build_world
 from protocols.codec import decode
 from protocols.keys import reports_selector, tracks_selector, truth_selector
 from protocols.messages import SensorReport, TargetTruth, TrackEstimate

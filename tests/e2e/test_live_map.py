@@ -20,9 +20,9 @@ from pathlib import Path
 
 import pytest
 
+from gcs.config.world import build_world
 from gcs.engine.tracking import horizon_steps
 from gcs.scenarios import load_scenario
-from gcs.config.world import build_world
 from tests.e2e.browser import ARTIFACTS, Browser, chromium_binary
 from tests.e2e.processes import script
 from tests.recordings import run_recording

@@ -12,8 +12,8 @@ from dataclasses import replace
 import msgspec
 
 from gcs.adapters.mavlink_wire import GCS_SYSID, mavlink, open_connection
-from gcs.scenarios import load_scenario
 from gcs.config.world import build_world
+from gcs.scenarios import load_scenario
 from sim_vehicles.run_options import RunOptions
 from sim_vehicles.runner import Runner
 

@@ -14,9 +14,9 @@ import threading
 from gcs.adapters.recording import read_recording
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.app import Daemon, DaemonOptions
+from gcs.config.world import build_world
 from gcs.recordings.replay import process
 from gcs.scenarios import load_scenario
-from gcs.config.world import build_world
 from protocols.codec import encode
 from sim_vehicles.run_options import RunOptions
 from sim_vehicles.runner import Runner

@@ -21,9 +21,9 @@ from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.app import Daemon, DaemonOptions
 from gcs.bench.replay import make_recording
 from gcs.bench.urban import with_vehicles
+from gcs.config.world import build_world
 from gcs.recordings.replay import process, republish
 from gcs.scenarios import load_scenario
-from gcs.config.world import build_world
 from protocols.codec import encode
 from tests.integration.sim_harness import wait_until
 from tests.loopback import ANY_PORT_ENDPOINT, daemon_ports

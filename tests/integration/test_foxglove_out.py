@@ -21,10 +21,10 @@ from mcap.reader import make_reader
 from gcs.engine.tracking import horizon_steps, scenario_planner
 from gcs.adapters.foxglove_out import FoxgloveMissing, FoxgloveOptions, FoxgloveOut, foxglove_options
 from gcs.adapters.recording import read_recording
+from gcs.config.world import build_world
 from gcs.core.geometry import LocalFrame
 from gcs.recordings.replay_view import to_foxglove
 from gcs.scenarios import load_scenario
-from gcs.config.world import build_world
 from protocols.codec import decode
 from protocols.messages import TargetTruth
 from tests.recordings import run_recording

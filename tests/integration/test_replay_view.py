@@ -11,9 +11,9 @@ from pathlib import Path
 import pytest
 
 from gcs.adapters.recording import read_recording
+from gcs.config.world import build_world
 from gcs.recordings.replay_view import view
 from gcs.scenarios import load_scenario
-from gcs.config.world import build_world
 from tests.recordings import run_recording
 
 SCENARIO = load_scenario("wang2012_urban")

@@ -19,9 +19,9 @@ from hypothesis import strategies as st
 from gcs.adapters.zenoh_io import Received
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.app import Daemon, DaemonOptions
+from gcs.config.world import build_world
 from gcs.daemon.planner_start import start_planner
 from gcs.scenarios import load_scenario
-from gcs.config.world import build_world
 from protocols.codec import encode
 from protocols.keys import nav_key, report_key, truth_key
 from protocols.messages import NavReport, SensorReport, TargetTruth

@@ -6,11 +6,11 @@ import numpy as np
 
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.app import Daemon, DaemonOptions
+from gcs.config.world import build_world
 from gcs.core.kinematics import VehicleState
 from gcs.core.steering import PlannedPath
 from gcs.daemon.steps import ReadyStep
 from gcs.scenarios import load_scenario
-from gcs.config.world import build_world
 
 SCENARIO = load_scenario("wang2012_urban")
 NS = 1_000_000_000

@@ -245,8 +245,8 @@ def test_replay_processing_with_delayed_nav_gives_the_tracks_of_the_undelayed_fi
     """Each vehicle's nav reports arrive up to 0.4 s late (in the order it sent them): same tracks, bit for bit."""
     from gcs.adapters.recording import Recorder, read_recording
     from gcs.bench.replay import make_recording
-    from gcs.recordings.replay import process
     from gcs.config.world import build_world
+    from gcs.recordings.replay import process
 
     scenario = load_scenario("wang2012_gps_denied")
     inputs, delayed = tmp_path / "inputs.mcap", tmp_path / "delayed.mcap"

@@ -7,6 +7,7 @@ import time
 import numpy as np
 import pytest
 
+from gcs.config.world import build_world
 from gcs.core.filters.uif import GaussianEstimate
 from gcs.core.kinematics import VehicleState
 from gcs.core.tracker import TrackerState, prediction
@@ -15,7 +16,6 @@ from gcs.daemon.planning import PLANNER_MODES, PlanJob
 from gcs.daemon.planner_start import start_planner
 from gcs.scenarios import load_scenario
 from gcs.engine.tracking import subset_config, tracker_config
-from gcs.config.world import build_world
 
 SCENARIO = load_scenario("wang2012_urban")
 WORLD = build_world(SCENARIO)

@@ -9,13 +9,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from gcs.config.world import build_world
 from gcs.daemon.planning import run_job
 from gcs.daemon.status_cli import format_status
 from gcs.engine.engine import Engine, EngineOptions
 from gcs.engine.events import Arrived, PlanDone, PlannerFree, PublishPlan, PublishTrack, SubmitPlan, Tick
 from gcs.engine.memory import CommandAges
 from gcs.scenarios import load_scenario
-from gcs.config.world import build_world
 from protocols.codec import encode
 from protocols.keys import alive_key, nav_key, report_key
 from protocols.messages import DaemonStatus, NavReport, SensorReport

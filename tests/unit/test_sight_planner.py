@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 from gcs.bench.urban import run_closed_loop
 from gcs.bench.urban_runs import RunJob, run_jobs
 from gcs.config import RestrictedAirspace as ZoneConfig
+from gcs.config.world import airspace_from_config, build_world
 from gcs.core.filters.uif import GaussianEstimate
 from gcs.core.kinematics import VehicleState
 from gcs.core.planners.airspace_guard import AirspaceGuard
@@ -20,7 +21,6 @@ from gcs.core.tracker import TrackerState, plan
 from gcs.core.world import World
 from gcs.scenarios import load_scenario
 from gcs.engine.tracking import tracker_config
-from gcs.config.world import airspace_from_config, build_world
 
 SCENARIO = load_scenario("wang2012_urban")
 WORLD = build_world(SCENARIO)

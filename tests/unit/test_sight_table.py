@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from gcs.config.world import build_world
 from gcs.core.world import World
 from gcs.core.world.buildings import Buildings
 from gcs.core.world.sight_table import HeightField, SightTable
 from gcs.scenarios import load_scenario
-from gcs.config.world import build_world
 
 WORLD = build_world(load_scenario("wang2012_urban"))
 DOWNTOWN = build_world(load_scenario("downtown_dense"))

@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from gcs.adapters.mavlink_wire import mavlink
+from gcs.config.world import build_world
 from gcs.core.geometry import WGS84_A, WGS84_F
 from gcs.core.world.los import line_of_sight
 from gcs.scenarios import load_scenario
-from gcs.config.world import build_world
 from sim_vehicles.payload import (BadTelemetry, Liveliness, PayloadBridge, USER_RANGE_ERROR_M, VehicleTelemetry,
                                   gps_status)
 from sim_vehicles.scene import Scene

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from gcs.scenarios import load_scenario
 from gcs.config.world import build_world
+from gcs.scenarios import load_scenario
 from sim_vehicles.run_options import RunOptions
 from sim_vehicles.runner import Runner, _Timer
 from sim_vehicles.scene import Scene

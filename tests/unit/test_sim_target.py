@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from gcs.config import CityConfig, TargetConfig
+from gcs.config.world import build_world
 from gcs.core.world import World
 from gcs.scenarios import load_scenario
-from gcs.config.world import build_world
 from sim_vehicles.truth.target import (
     ScriptedTarget,
     StreetTarget,

@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from gcs.config.world import build_world
 from gcs.core.world.visibility import VisibilityMaps
 from gcs.scenarios import load_scenario
 from gcs.engine.tracking import tracker_config
-from gcs.config.world import build_world
 
 SCENARIO = load_scenario("wang2012_urban")
 WORLD = build_world(SCENARIO)

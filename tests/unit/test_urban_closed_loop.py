@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from gcs.bench.urban import run_closed_loop, with_vehicles
-from gcs.scenarios import load_scenario
 from gcs.config.world import build_world
+from gcs.scenarios import load_scenario
 
 SCENARIO = load_scenario("wang2012_urban")
 WORLD = build_world(SCENARIO)

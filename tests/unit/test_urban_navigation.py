@@ -8,8 +8,8 @@ import pytest
 
 from gcs.bench.urban import run_closed_loop
 from gcs.bench.urban_nav_report import DEFAULT_ZONE, summarise, with_gps_denied
-from gcs.scenarios import load_scenario
 from gcs.config.world import build_world
+from gcs.scenarios import load_scenario
 
 SCENARIO = load_scenario("wang2012_urban")
 WORLD = build_world(SCENARIO)

@@ -9,8 +9,8 @@ from hypothesis import strategies as st
 
 from gcs.config import RestrictedAirspace as ZoneConfig
 from gcs.config import ScenarioError
-from gcs.core.world import RestrictedAirspace
 from gcs.config.world import airspace_from_config
+from gcs.core.world import RestrictedAirspace
 
 SQUARE = [(0.0, 0.0), (100.0, 0.0), (100.0, 100.0), (0.0, 100.0)]
 L_ZONE = [(200.0, 0.0), (400.0, 0.0), (400.0, 100.0), (300.0, 100.0), (300.0, 200.0), (200.0, 200.0)]

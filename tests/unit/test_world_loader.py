@@ -11,10 +11,10 @@ import pytest
 
 from gcs.config import RestrictedAirspace as ZoneConfig
 from gcs.config import Scenario, ScenarioError
+from gcs.config.world import build_world
 from gcs.core.geometry import LocalFrame
 from gcs.core.world import World, generate_city
 from gcs.scenarios import load_scenario
-from gcs.config.world import build_world
 
 URBAN = load_scenario("wang2012_urban")
 
