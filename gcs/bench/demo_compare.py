@@ -12,7 +12,8 @@ For each seed the same scenario is flown twice:
 
 The report gives, per mode, the means over the seeds of seen-by-any and of each UAV,
 the RMSE pooled over the runs' scored steps (root of the mean of the runs' mean
-squares), and the demo's ratios to the in-process loop. The issue's bars: seen-by-any
+squares), the demo's ratios to the in-process loop, and the paired (seed by seed)
+Wilcoxon signed-rank p of each figure. The issue's bars: seen-by-any
 within 2%, each UAV within 5%, RMSE within 15%. Per seed the two runs are not the same
 trajectory (the live loop's timing differs, and a different plan soon gives a
 different flight), so only the means over seeds compare.
@@ -29,6 +30,7 @@ import numpy as np
 
 from gcs.daemon import demo
 from gcs.bench.autopilots import fly
+from gcs.bench.urban_report import paired_p
 from gcs.cli import build_parser
 from gcs.config.world import build_world
 from gcs.scenarios import load_scenario
@@ -90,7 +92,21 @@ def run_benchmark(scenario_name: str, runs: int, seed: int, rate: float = 10.0, 
                        if demo_means["rmse_m"] and loop_means["rmse_m"] else None)}
     return {"scenario": scenario.name, "runs": runs, "seed": seed, "rate": rate, "wait_for_plans": wait_for_plans,
             "duration_s": duration_s or scenario.time.duration_s, "demo": demo_means, "in_process": loop_means,
-            "ratios": ratios, "per_seed": {"demo": demo_runs, "in_process": loop_runs}}
+            "ratios": ratios, "paired_p": _paired_p(demo_runs, loop_runs),
+            "per_seed": {"demo": demo_runs, "in_process": loop_runs}}
+
+
+def _paired_p(demo_runs: list[dict], loop_runs: list[dict]) -> dict:
+    """Paired Wilcoxon p of the demo against the in-process loop, seed by seed: seen-by-any, each UAV and RMSE
+    (RMSE over the seeds where both scored a step)."""
+    def p(key: str, pick=lambda value: value) -> float:
+        pairs = [(pick(d[key]), pick(l[key])) for d, l in zip(demo_runs, loop_runs)
+                 if pick(d[key]) is not None and pick(l[key]) is not None]
+        return paired_p([a for a, _ in pairs], [b for _, b in pairs]) if len(pairs) >= 2 else float("nan")
+
+    uavs = len(demo_runs[0]["seen_per_uav"]) if demo_runs else 0
+    return {"seen_any": p("seen_any"), "seen_per_uav": [p("seen_per_uav", lambda v, i=i: v[i]) for i in range(uavs)],
+            "rmse": p("rmse_m")}
 
 
 def format_report(report: dict) -> str:
@@ -100,9 +116,10 @@ def format_report(report: dict) -> str:
         rmse = "-" if means["rmse_m"] is None else f"{means['rmse_m']:.2f}"
         return f"| {name} | {means['seen_any_mean']:.1f} | {per_uav} | {rmse} | {means['seen_any']} |"
 
-    ratios = report["ratios"]
+    ratios, paired = report["ratios"], report["paired_p"]
     per_uav = " / ".join(f"{x:.3f}" for x in ratios["seen_per_uav"])
     rmse = "-" if ratios["rmse"] is None else f"{ratios['rmse']:.3f}"
+    per_uav_p = " / ".join(f"{x:.2g}" for x in paired["seen_per_uav"])
     return "\n".join([
         f"gcs bench demo: {report['scenario']}, seeds {report['seed']}-{report['seed'] + report['runs'] - 1}, "
         f"{report['duration_s']:.0f} s at {report['rate']:g}x" + (", vehicles waiting for plans"
@@ -110,7 +127,8 @@ def format_report(report: dict) -> str:
         "| loop | seen by any (mean) | per UAV (mean) | RMSE (m) | seen by any per seed |",
         "|---|---|---|---|---|",
         row("gcs demo", report["demo"]), row("in process", report["in_process"]),
-        f"| demo / in process | {ratios['seen_any']:.3f} | {per_uav} | {rmse} | |"])
+        f"| demo / in process | {ratios['seen_any']:.3f} | {per_uav} | {rmse} | |",
+        f"| paired Wilcoxon p | {paired['seen_any']:.2g} | {per_uav_p} | {paired['rmse']:.2g} | |"])
 
 
 def write_json(report: dict, path: Path) -> None:

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from scipy.stats import wilcoxon
 
 
 def test_bench_demo_compares_the_demo_with_the_in_process_loop(tmp_path: Path) -> None:
@@ -29,3 +30,8 @@ def test_bench_demo_compares_the_demo_with_the_in_process_loop(tmp_path: Path) -
     assert report["ratios"]["seen_any"] == pytest.approx(report["demo"]["seen_any_mean"]
                                                          / report["in_process"]["seen_any_mean"])
     assert "seed 4: demo seen by any" in done.stderr
+    assert "paired Wilcoxon p" in done.stdout
+    seen = {mode: [r["seen_any"] for r in report["per_seed"][mode]] for mode in ("demo", "in_process")}
+    expected = 1.0 if seen["demo"] == seen["in_process"] else wilcoxon(seen["demo"], seen["in_process"]).pvalue
+    assert report["paired_p"]["seen_any"] == pytest.approx(expected, nan_ok=True)
+    assert len(report["paired_p"]["seen_per_uav"]) == 3

@@ -15,7 +15,7 @@ from gcs.core.filters.uif import GaussianEstimate
 from gcs.core.kinematics import VehicleState
 from gcs.core.planners.airspace_guard import AirspaceGuard
 from gcs.core.planners.sequential import SequentialPlanner
-from gcs.core.planners.sight import SightModel, joint_values
+from gcs.core.planners.sight import SightModel, TeamView, joint_values
 from gcs.core.planners.problem import PlanningProblem
 from gcs.core.tracker import TrackerState, plan
 from gcs.core.world import World
@@ -39,14 +39,8 @@ def test_the_plan_is_never_worse_than_a_starting_plan(positions, target, speed, 
                             np.full(3, 25.0), np.array([200.0, 210.0, 220.0]))
     estimate = GaussianEstimate(np.array([target[0], target[1], speed, 0.0]),
                                 np.diag([spread**2, spread**2, 4.0, 4.0]), 0)
-    rng = np.random.default_rng(seed)
-    warm = rng.uniform(-0.2, 0.2, (3, CONFIG.horizon_steps))
-    state = TrackerState(estimate, warm, np.zeros(3))
-    new_state, _, diagnostics = plan(CONFIG, state, vehicles, np.random.default_rng(seed))
-    prediction = diagnostics.prediction
-    problem = PlanningProblem(vehicles, state.turn_rate, CONFIG.max_turn_rate, CONFIG.step_s, prediction.states.mean,
-                              prediction.states.cov, CONFIG.sensors, None, None, CONFIG.weights, CONFIG.sight,
-                              CONFIG.guard, CONFIG.max_range_m)
+    warm = np.random.default_rng(seed).uniform(-0.2, 0.2, (3, CONFIG.horizon_steps))
+    new_state, diagnostics, problem = _planned(vehicles, estimate, warm, seed)
     model = SightModel.build(problem, CONFIG.planner.weights)
     starts = SequentialPlanner(CONFIG.planner.weights).starts(problem, warm)
     values = joint_values(model, np.concatenate([new_state.plan[None], starts]))
@@ -122,3 +116,62 @@ def test_results_are_the_same_whatever_the_workers() -> None:
         np.testing.assert_array_equal(a.vehicle_xy, b.vehicle_xy)
         np.testing.assert_array_equal(a.errors_m, b.errors_m)
         np.testing.assert_array_equal(a.seen, b.seen)
+
+
+def _planned(vehicles: VehicleState, estimate: GaussianEstimate, warm: np.ndarray,
+             seed: int) -> tuple[TrackerState, object, PlanningProblem]:
+    """One decision step of the scenario's tracker from ``warm``: its new state, diagnostics and planning problem."""
+    state = TrackerState(estimate, warm, np.zeros(3))
+    new_state, _, diagnostics = plan(CONFIG, state, vehicles, np.random.default_rng(seed))
+    prediction = diagnostics.prediction
+    problem = PlanningProblem(vehicles, state.turn_rate, CONFIG.max_turn_rate, CONFIG.step_s, prediction.states.mean,
+                              prediction.states.cov, CONFIG.sensors, None, None, CONFIG.weights, CONFIG.sight,
+                              CONFIG.guard, CONFIG.max_range_m)
+    return new_state, diagnostics, problem
+
+
+def _problem_and_warm_start(seed: int) -> tuple[PlanningProblem, np.ndarray]:
+    vehicles = VehicleState(np.array([[1300.0, 1400.0], [1700.0, 1500.0], [1500.0, 1800.0]]),
+                            np.array([0.0, 2.0, -1.5]), np.full(3, 25.0), np.array([200.0, 210.0, 220.0]))
+    estimate = GaussianEstimate(np.array([1500.0, 1500.0, 8.0, 0.0]), np.diag([400.0, 400.0, 4.0, 4.0]), 0)
+    warm = np.random.default_rng(seed).uniform(-0.2, 0.2, (3, CONFIG.horizon_steps))
+    return _planned(vehicles, estimate, warm, seed)[2], warm
+
+
+def test_a_deadline_cuts_every_vehicle_short_equally_often(monkeypatch) -> None:
+    """A clock that allows 4 of the 9 visits of 3 vehicles: the vehicle visited twice must not always be the same.
+
+    Each solve's first vehicle is uniform over 3, so over n solves each vehicle is visited
+    n + Binomial(n, 1/3) times; a fixed order would give (2n, n, n).
+    """
+    problem, warm = _problem_and_warm_start(0)
+    visited: list[int] = []
+    values = TeamView.values
+
+    def spy(self, i, candidates):
+        visited.append(i)
+        return values(self, i, candidates)
+
+    monkeypatch.setattr(TeamView, "values", spy)
+    planner = SequentialPlanner(CONFIG.planner.weights, deadline_s=4.5)
+    solves = 60
+    for seed in range(solves):
+        ticks = iter(range(100))  # the start, then one reading before each visit: the fifth visit is late
+        result = planner.solve(problem, np.random.default_rng(seed), warm, now=lambda: float(next(ticks)))
+        assert result.message.startswith("deadline 4.5 s reached after 4 of 9")
+    assert len(visited) == 4 * solves
+    counts = np.bincount(visited, minlength=3)
+    mean, sd = solves * (1 + 1 / 3), np.sqrt(solves * (1 / 3) * (2 / 3))
+    assert np.all(np.abs(counts - mean) < 4 * sd), counts
+
+
+def test_without_a_clock_every_vehicle_is_visited_every_round_in_order(monkeypatch) -> None:
+    problem, warm = _problem_and_warm_start(1)
+    visited: list[int] = []
+    values = TeamView.values
+    monkeypatch.setattr(TeamView, "values", lambda self, i, c: (visited.append(i), values(self, i, c))[1])
+    planner = SequentialPlanner(CONFIG.planner.weights)
+    result = planner.solve(problem, np.random.default_rng(1), warm)
+    rounds = planner.sweeps + planner.refine_sweeps
+    assert visited == [0, 1, 2] * rounds
+    assert result.generations == rounds and result.message == "ran every round"

@@ -24,6 +24,15 @@ Every round keeps the current plan among the candidates, so the value never
 decreases: the result is never worse, on this objective, than the shifted plan
 or any baseline. With a clock (``now``) the search stops at ``deadline_s``
 after the vehicle it is on and returns the best plan so far.
+
+**Order under a deadline.** The rounds visit the vehicles one after another,
+``V (sweeps + refine_sweeps)`` visits in all. A deadline ends the search part way
+through a round, and with a fixed order the vehicle that loses its visit would
+always be the last one: the same vehicle, solve after solve, flies the least
+improved plan. With a clock the first vehicle is therefore drawn from ``rng`` for
+each solve and the visits go round cyclically from it, so every vehicle is the one
+cut short equally often. Without a clock every visit is made, in the order
+``0 .. V-1`` each round.
 """
 
 from __future__ import annotations
@@ -86,33 +95,34 @@ class SequentialPlanner:
         starts = self.starts(problem, warm_start)
         values = joint_values(model, starts)
         team = TeamView(model, starts[int(np.argmax(values))])
-        evaluations, rounds, message = len(starts), 0, "ran every round"
+        evaluations, message = len(starts), "ran every round"
         vehicles, steps = problem.shape
-        rounds_total = self.sweeps + self.refine_sweeps
+        visits = vehicles * (self.sweeps + self.refine_sweeps)
+        first = int(rng.integers(vehicles)) if now is not None else 0
         best = float(values.max())
-        for round_index in range(rounds_total):
-            for i in range(vehicles):
-                if late():
-                    message = f"deadline {self.deadline_s:g} s reached after {rounds} rounds"
-                    break
-                eta = float(problem.max_turn_rate[i])
-                current = team.controls[i:i + 1]
-                if round_index < self.sweeps:
-                    extra = [primitives(eta, steps, self.levels, self.segments), starts[:, i]]
-                else:
-                    noise = rng.normal(0.0, self.refine_scale * eta, (self.refine_candidates, steps))
-                    extra = [np.clip(current + noise, -eta, eta)]
-                candidates = np.concatenate([current, *extra])
-                scores, part = team.values(i, candidates)
-                evaluations += len(candidates)
-                pick = int(np.argmax(scores))
-                if scores[pick] > scores[0]:
-                    team.accept(i, candidates, part, pick)
-                    best = float(scores[pick])
+        done = 0
+        for done in range(visits):
+            if late():
+                message = f"deadline {self.deadline_s:g} s reached after {done} of {visits} vehicle visits"
+                break
+            round_index, i = done // vehicles, (first + done) % vehicles
+            eta = float(problem.max_turn_rate[i])
+            current = team.controls[i:i + 1]
+            if round_index < self.sweeps:
+                extra = [primitives(eta, steps, self.levels, self.segments), starts[:, i]]
             else:
-                rounds += 1
-                continue
-            break
+                noise = rng.normal(0.0, self.refine_scale * eta, (self.refine_candidates, steps))
+                extra = [np.clip(current + noise, -eta, eta)]
+            candidates = np.concatenate([current, *extra])
+            scores, part = team.values(i, candidates)
+            evaluations += len(candidates)
+            pick = int(np.argmax(scores))
+            if scores[pick] > scores[0]:
+                team.accept(i, candidates, part, pick)
+                best = float(scores[pick])
+        else:
+            done = visits
+        rounds = done // vehicles
         elapsed = now() - start_s if now is not None else 0.0
         seen = sum(float(p.seen.sum()) for p in team.parts)
         return PlanResult(success=bool(np.isfinite(best)), controls=team.controls.copy(), cost=-best, fitness=best,
