@@ -315,16 +315,34 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
                     "sensor, occlusion by buildings, missed detections and clutter; every method is fed the same "
                     "scans and scored by GOSPA (c = 100 m, p = 2, alpha = 2), OSPA, track breaks, false tracks, id "
                     "swaps, missed truth-steps and milliseconds per scan, with a paired Wilcoxon test of GOSPA.")
-    mtt.add_argument("--runs", type=_positive_int, default=10, help="paired runs (seeds) (default 10)")
-    mtt.add_argument("--seed", type=int, default=0, help="seed of the first run (default 0)")
-    mtt.add_argument("--targets", type=_positive_int, default=5, help="ground targets (default 5)")
-    mtt.add_argument("--steps", type=_positive_int, default=120, help="1 s steps per run (default 120)")
-    mtt.add_argument("--pd", type=_probability, default=0.9, help="probability of detection in sight (default 0.9)")
-    mtt.add_argument("--clutter", type=_non_negative_float, default=2.0,
-                     help="mean false detections per UAV and scan (default 2.0)")
+    _many_target_scene_arguments(mtt)
     mtt.add_argument("--no-peers", action="store_true", help="run only our trackers, not Stone Soup's")
     mtt.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     mtt.set_defaults(handler=_outputs_checked(commands.cmd_multitarget))
 
+    shr = benches.add_parser(
+        "sharing", help="three UAVs shared between many ground targets: the summed objective, assignment, fixed orbits",
+        description="The gcs bench multitarget scene flown closed loop: our JPDA tracker, and the team planned by the "
+                    "sight objective summed over the tracks (weights growing with the time a track goes unseen, "
+                    "deleted tracks searched for), by assignment of one track per UAV, or kept on fixed orbits. "
+                    "Reports each target's in-field steps (mean and worst over the targets), each UAV's, GOSPA and "
+                    "planning time, with paired Wilcoxon tests between the modes.")
+    _many_target_scene_arguments(shr)
+    shr.add_argument("--starvation", type=_positive_float, default=20.0,
+                     help="seconds in which an unseen track's planning weight doubles (default 20)")
+    shr.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
+    shr.set_defaults(handler=_outputs_checked(commands.cmd_sharing))
+
     for bench in benches.choices.values():  # errors name the benchmark: "gcs bench soak: error: ..."
         bench.set_defaults(command_prog=bench.prog)
+
+
+def _many_target_scene_arguments(parser: argparse.ArgumentParser) -> None:
+    """The runs and the scene of the many-target benches (gcs.bench.multitarget.BenchConfig)."""
+    parser.add_argument("--runs", type=_positive_int, default=10, help="paired runs (seeds) (default 10)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the first run (default 0)")
+    parser.add_argument("--targets", type=_positive_int, default=5, help="ground targets (default 5)")
+    parser.add_argument("--steps", type=_positive_int, default=120, help="1 s steps per run (default 120)")
+    parser.add_argument("--pd", type=_probability, default=0.9, help="probability of detection in sight (default 0.9)")
+    parser.add_argument("--clutter", type=_non_negative_float, default=2.0,
+                        help="mean false detections per UAV and scan (default 2.0)")

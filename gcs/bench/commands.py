@@ -210,10 +210,26 @@ def cmd_multitarget(args: argparse.Namespace) -> int:
     config = BenchConfig(targets=args.targets, steps=args.steps, pd=args.pd, clutter=args.clutter)
     report = multitarget_report.run_benchmark(config, runs=args.runs, seed=args.seed, peers=not args.no_peers,
                                               progress=progress)
-    print(multitarget_report.format_report(report))
-    if args.json:
-        multitarget_report.write_json(report, args.json)
-        print(f"wrote {args.json}")
+    return _printed(report, multitarget_report, args.json)
+
+
+def cmd_sharing(args: argparse.Namespace) -> int:
+    from gcs.bench import sharing_report
+    from gcs.bench.multitarget import BenchConfig
+    from gcs.bench.sharing import SharingConfig
+
+    scene = BenchConfig(targets=args.targets, steps=args.steps, pd=args.pd, clutter=args.clutter)
+    report = sharing_report.run_benchmark(SharingConfig(scene, args.starvation), runs=args.runs, seed=args.seed,
+                                          progress=progress)
+    return _printed(report, sharing_report, args.json)
+
+
+def _printed(report: dict, module, json_path) -> int:
+    """Print ``module.format_report(report)``, write its JSON to ``json_path`` (a Path) if given; exit status 0."""
+    print(module.format_report(report))
+    if json_path:
+        module.write_json(report, json_path)
+        print(f"wrote {json_path}")
     return 0
 
 

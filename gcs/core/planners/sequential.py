@@ -37,8 +37,8 @@ cut short equally often. Without a clock every visit is made, in the order
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -47,7 +47,8 @@ from gcs.core.planners.airspace_guard import shift_into_circle
 from gcs.core.planners.baselines import orbit_controls, pursuit_controls
 from gcs.core.planners.primitives import LEVELS, primitives
 from gcs.core.planners.problem import PlanningProblem, PlanResult
-from gcs.core.planners.sight import SightModel, SightWeights, TeamView, joint_values
+from gcs.core.planners.shared import SharedView, assign_vehicles, shared_joint_values, vehicles_subproblem
+from gcs.core.planners.sight import SightModel, SightWeights
 
 __all__ = ["SequentialPlanner"]
 
@@ -71,13 +72,17 @@ class SequentialPlanner:
         if self.sweeps < 1 or self.refine_sweeps < 0 or self.refine_candidates < 1:
             raise ValueError("sweeps must be >= 1, refine_sweeps >= 0 and refine_candidates >= 1")
 
-    def starts(self, problem: PlanningProblem, warm_start: NDArray[np.float64] | None) -> NDArray[np.float64]:
-        """The whole-team plans the search starts from (K, V, T), guarded against restricted airspace."""
+    def starts(self, problem: PlanningProblem, warm_start: NDArray[np.float64] | None,
+               others: Sequence[PlanningProblem] = ()) -> NDArray[np.float64]:
+        """The whole-team plans the search starts from (K, V, T), guarded against restricted airspace: straight
+        flight, the orbit and the pursuit of ``problem``'s target and of each of ``others``' targets, and the
+        warm start shifted."""
         vehicles, steps = problem.shape
         eta = problem.max_turn_rate
-        plans = [np.zeros((vehicles, steps)),
-                 orbit_controls(problem, self.orbit_radius_m or problem.weights.standoff_m),
-                 pursuit_controls(problem)]
+        plans = [np.zeros((vehicles, steps))]
+        for target in (problem, *others):
+            plans += [orbit_controls(target, self.orbit_radius_m or target.weights.standoff_m),
+                      pursuit_controls(target)]
         if warm_start is not None and warm_start.shape == (vehicles, steps):
             plans.extend(shift_into_circle(warm_start, eta))
         return problem.guard.safe(problem.vehicles, np.stack(plans), problem.step_s, eta)
@@ -86,15 +91,23 @@ class SequentialPlanner:
               warm_start: NDArray[np.float64] | None = None,
               now: Callable[[], float] | None = None) -> PlanResult:
         """The best team plan found (see the module docstring)."""
+        return self.solve_shared([problem], np.ones(1), rng, warm_start, now)
+
+    def solve_shared(self, problems: Sequence[PlanningProblem], weights: NDArray[np.float64],
+                     rng: np.random.Generator, warm_start: NDArray[np.float64] | None = None,
+                     now: Callable[[], float] | None = None) -> PlanResult:
+        """The best team plan for the weighted sum over targets (:mod:`gcs.core.planners.shared`), one problem
+        per target; with one problem and weight 1, :meth:`solve`."""
         start_s = now() if now is not None else 0.0
 
         def late() -> bool:
             return now is not None and self.deadline_s is not None and now() - start_s >= self.deadline_s
 
-        model = SightModel.build(problem, self.weights)
-        starts = self.starts(problem, warm_start)
-        values = joint_values(model, starts)
-        team = TeamView(model, starts[int(np.argmax(values))])
+        problem = problems[0]
+        models = [SightModel.build(p, self.weights) for p in problems]
+        starts = self.starts(problem, warm_start, problems[1:])
+        values = shared_joint_values(models, weights, starts)
+        team = SharedView(models, weights, starts[int(np.argmax(values))])
         evaluations, message = len(starts), "ran every round"
         vehicles, steps = problem.shape
         visits = vehicles * (self.sweeps + self.refine_sweeps)
@@ -124,7 +137,30 @@ class SequentialPlanner:
             done = visits
         rounds = done // vehicles
         elapsed = now() - start_s if now is not None else 0.0
-        seen = sum(float(p.seen.sum()) for p in team.parts)
         return PlanResult(success=bool(np.isfinite(best)), controls=team.controls.copy(), cost=-best, fitness=best,
                           evaluations=evaluations, generations=rounds, elapsed_s=elapsed, message=message,
-                          visible_steps=int(round(seen)))
+                          visible_steps=int(round(team.seen_steps())))
+
+    def solve_assigned(self, problems: Sequence[PlanningProblem], weights: NDArray[np.float64],
+                       rng: np.random.Generator, warm_start: NDArray[np.float64] | None = None,
+                       now: Callable[[], float] | None = None) -> PlanResult:
+        """Each vehicle assigned one target (:func:`~gcs.core.planners.shared.assign_vehicles`), then each
+        target planned for with its own vehicles alone, the deadline split between the targets."""
+        start_s = now() if now is not None else 0.0
+        problem = problems[0]
+        assigned = assign_vehicles(problem.vehicles, np.array([p.target_means[0, :2] for p in problems]), weights)
+        groups = [(k, np.flatnonzero(assigned == k)) for k in range(len(problems)) if np.any(assigned == k)]
+        per_group = replace(self, deadline_s=None if self.deadline_s is None else self.deadline_s / len(groups))
+        controls = np.zeros(problem.shape)
+        fitness, evaluations, seen = 0.0, 0, 0
+        for k, idx in groups:
+            warm = None if warm_start is None or warm_start.shape != problem.shape else warm_start[idx]
+            result = per_group.solve(vehicles_subproblem(problems[k], idx), rng, warm, now)
+            controls[idx] = result.controls
+            fitness += float(weights[k]) * result.fitness
+            evaluations += result.evaluations
+            seen += result.visible_steps
+        elapsed = now() - start_s if now is not None else 0.0
+        return PlanResult(success=bool(np.isfinite(fitness)), controls=controls, cost=-fitness, fitness=fitness,
+                          evaluations=evaluations, generations=0, elapsed_s=elapsed,
+                          message=f"assigned {assigned.tolist()}", visible_steps=seen)
