@@ -72,7 +72,7 @@ try:
 except ImportError as exc:  # the optional peer: one clear line
     raise ImportError(f"the Stone Soup peers need Stone Soup: pip install '.[peers]' ({exc})") from None
 
-from gcs.core.models.sensor import AZIMUTH, ELEVATION, RANGE, SensorModel
+from gcs.core.models.sensor import ELEVATION, RANGE, SensorModel
 from gcs.core.tracker import Detection
 
 __all__ = ["PeerConfig", "PeerRun", "Scan", "clutter_density", "ground_measurement", "gnn_tracker", "jpda_tracker",
