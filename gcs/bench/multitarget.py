@@ -42,7 +42,7 @@ from sim_vehicles.truth.detections import scan as detection_scan
 from sim_vehicles.truth.target import StreetTarget, TargetState
 
 __all__ = ["CUTOFF_M", "ORDER_P", "ORBITS", "OURS", "PEERS", "BenchConfig", "Scene", "MethodRun", "make_scene",
-           "make_scans", "run_ours", "run_stonesoup", "score_run"]
+           "make_scans", "sight_matrix", "run_ours", "run_stonesoup", "score_run"]
 
 CUTOFF_M = 100.0
 """GOSPA / OSPA cut-off c, metres: twice the cross-range error of one 0.05 rad azimuth at 1 km."""
@@ -135,12 +135,18 @@ def make_scans(world: World, scene: Scene, sensor: SensorModel, max_range_m: flo
     scans = []
     for k in range(len(scene.truth_xy)):
         truths, vehicles = scene.truth_xy[k], scene.vehicle_xyz[k]
-        ground = np.column_stack([truths, np.full(len(truths), sensor.target_height_m + 1.0)])
-        visible = world.line_of_sight(np.broadcast_to(vehicles[:, None, :], (len(vehicles), len(truths), 3)),
-                                      np.broadcast_to(ground[None], (len(vehicles), len(truths), 3)))
+        visible = sight_matrix(world, truths, vehicles, sensor.target_height_m)
         result = detection_scan(truths, vehicles, sensor, config.pd, config.clutter, max_range_m, rng, visible)
         scans.append((k * STEP_NS, dict(enumerate(result.detections)), sensor))
     return scans
+
+
+def sight_matrix(world: World, truths: NDArray[np.float64], vehicles: NDArray[np.float64],
+                 target_height_m: float) -> NDArray[np.bool_]:
+    """(V, N): UAV v (V, 3) has a line of sight past the buildings to truth j (N, 2), 1 m above the target height."""
+    ground = np.column_stack([truths, np.full(len(truths), target_height_m + 1.0)])
+    return world.line_of_sight(np.broadcast_to(vehicles[:, None, :], (len(vehicles), len(truths), 3)),
+                               np.broadcast_to(ground[None], (len(vehicles), len(truths), 3)))
 
 
 def clutter_volume(max_range_m: float) -> float:

@@ -49,9 +49,10 @@ from gcs.bench import multitarget as mt
 from gcs.core.geometry import wrap_angle
 from gcs.core.kinematics import VehicleState, rollout
 from gcs.core.metrics import gospa
-from gcs.core.models.motion import constant_velocity
+from gcs.core.models.motion import LinearMotionModel, constant_velocity
 from gcs.core.multitarget import MultiTargetTracker
 from gcs.core.multitarget.lost import LostTargets
+from gcs.core.planners.baselines import orbit_heading
 from gcs.core.planners.problem import PlanningProblem
 from gcs.core.planners.shared import target_weights
 from gcs.core.tracker import TrackerConfig
@@ -90,9 +91,7 @@ class SharingRun:
 def _in_field(world: World, truths: NDArray[np.float64], vehicles: NDArray[np.float64], target_height_m: float,
               max_range_m: float) -> NDArray[np.bool_]:
     """(V, N): UAV v has truth j within slant range and in sight past the buildings."""
-    ground = np.column_stack([truths, np.full(len(truths), target_height_m + 1.0)])
-    sight = world.line_of_sight(np.broadcast_to(vehicles[:, None, :], (len(vehicles), len(truths), 3)),
-                                np.broadcast_to(ground[None], (len(vehicles), len(truths), 3)))
+    sight = mt.sight_matrix(world, truths, vehicles, target_height_m)
     slant = np.sqrt(((truths[None] - vehicles[:, None, :2]) ** 2).sum(-1)
                     + (vehicles[:, None, 2] - target_height_m) ** 2)
     return sight & (slant <= max_range_m)
@@ -101,9 +100,7 @@ def _in_field(world: World, truths: NDArray[np.float64], vehicles: NDArray[np.fl
 def _home_turns(vehicles: VehicleState, eta: NDArray[np.float64], step_s: float) -> NDArray[np.float64]:
     """Turn rates (V,) toward each UAV's home orbit (counter-clockwise, the tangent tilted by atan((d - r) / r))."""
     orbits = np.array(mt.ORBITS[:len(vehicles)])
-    offset = vehicles.xy - orbits[:, :2]
-    distance = np.hypot(offset[:, 0], offset[:, 1])
-    desired = np.arctan2(offset[:, 1], offset[:, 0]) + np.pi / 2 + np.arctan((distance - orbits[:, 2]) / orbits[:, 2])
+    desired = orbit_heading(vehicles.xy, orbits[:, :2], orbits[:, 2])
     return np.clip(wrap_angle(desired - vehicles.heading) / step_s, -eta, eta)
 
 
@@ -114,10 +111,10 @@ def _start(scene: mt.Scene, speeds: NDArray[np.float64]) -> VehicleState:
     return VehicleState(xyz[:, :2].copy(), heading, speeds, xyz[:, 2].copy())
 
 
-def _problems(config: TrackerConfig, vehicles: VehicleState, turn_rate: NDArray[np.float64],
+def _problems(config: TrackerConfig, motion: LinearMotionModel, vehicles: VehicleState, turn_rate: NDArray[np.float64],
               means: NDArray[np.float64], covs: NDArray[np.float64]) -> list[PlanningProblem]:
     """One planning problem per track: its k+1..k+T prediction (wang2012 eq. 16-17) beside the same team."""
-    f_j, q_j = constant_velocity(mt.PROCESS_NOISE).horizon_matrices(config.step_s, config.horizon_steps)
+    f_j, q_j = motion.horizon_matrices(config.step_s, config.horizon_steps)
     problems = []
     for mean, cov in zip(means, covs):
         predicted_means = np.einsum("tab,b->ta", f_j, mean)
@@ -138,10 +135,11 @@ def fly_run(mode: str, world: World, config: TrackerConfig, speeds: NDArray[np.f
     scan_rng, plan_rng = np.random.default_rng([seed, 1]), np.random.default_rng([seed, 2])
     sensor = config.sensors[0]
     max_range = config.max_range_m
-    tracker = MultiTargetTracker(association="jpda", motion=constant_velocity(mt.PROCESS_NOISE),
-                                 detection_probability=bench.pd, max_misses=mt.MAX_MISSED_SCANS,
+    motion = constant_velocity(mt.PROCESS_NOISE)
+    tracker = MultiTargetTracker(association="jpda", motion=motion, detection_probability=bench.pd,
+                                 max_misses=mt.MAX_MISSED_SCANS,
                                  clutter_density=max(bench.clutter, 1e-3) / mt.clutter_volume(max_range))
-    state, lost, motion = tracker.start(), LostTargets.none(), constant_velocity(mt.PROCESS_NOISE)
+    state, lost = tracker.start(), LostTargets.none()
     confirmed_ids: set[int] = set()
     vehicles = _start(scene, speeds)
     turn_rate, plan = np.zeros(len(speeds)), None
@@ -158,7 +156,7 @@ def fly_run(mode: str, world: World, config: TrackerConfig, speeds: NDArray[np.f
         state, diagnostics = tracker.scan(state, k * mt.STEP_NS, dict(enumerate(result.detections)), sensor)
         confirmed = state.tracks.confirmed()
         deleted = diagnostics.deleted
-        lost = (lost.advance(motion, config.step_s) if k else lost)
+        lost = lost.advance(motion, config.step_s)
         lost = lost.add(deleted, np.isin(deleted.ids, list(confirmed_ids)), config.step_s)
         lost = lost.forget(confirmed, FOUND_GATE, FORGET_S)
         confirmed_ids = set(int(i) for i in confirmed.ids)
@@ -173,7 +171,7 @@ def fly_run(mode: str, world: World, config: TrackerConfig, speeds: NDArray[np.f
         if len(means) == 0:
             turn_rate, plan = _home_turns(vehicles, config.max_turn_rate, config.step_s), None
         else:
-            problems = _problems(config, vehicles, turn_rate, means, covs)
+            problems = _problems(config, motion, vehicles, turn_rate, means, covs)
             weights = target_weights(np.ones(len(problems)), unseen, sharing.starvation_s)
             solve = config.planner.solve_shared if mode == "sum" else config.planner.solve_assigned
             started = time.perf_counter()

@@ -19,12 +19,12 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from gcs.core.geometry import wrap_angle
 from gcs.core.planners.problem import PlanningProblem, PlanResult, evaluate
 
-__all__ = ["OrbitPlanner", "PursuitPlanner", "orbit_controls", "pursuit_controls"]
+__all__ = ["OrbitPlanner", "PursuitPlanner", "orbit_controls", "orbit_heading", "pursuit_controls"]
 
 
 def _hold(problem: PlanningProblem, desired_heading: NDArray[np.float64], gain: float) -> NDArray[np.float64]:
@@ -39,12 +39,15 @@ def orbit_controls(problem: PlanningProblem, radius_m: float, gain: float = 1.0)
     The desired heading is the circle's tangent, tilted inward when outside and
     outward when inside by ``atan((d - r) / r)``.
     """
-    target = problem.target_means[0, :2]
-    offset = problem.vehicles.xy - target
+    return _hold(problem, orbit_heading(problem.vehicles.xy, problem.target_means[0, :2], radius_m), gain)
+
+
+def orbit_heading(xy: NDArray[np.float64], centre: ArrayLike, radius_m: ArrayLike) -> NDArray[np.float64]:
+    """Heading (V,) that brings vehicles at ``xy`` (V, 2) onto counter-clockwise circles of ``radius_m`` about
+    ``centre`` (2 or V, 2): the tangent, tilted by ``atan((d - r) / r)`` toward the circle."""
+    offset = xy - np.asarray(centre, dtype=np.float64)
     distance = np.hypot(offset[:, 0], offset[:, 1])
-    bearing_from_target = np.arctan2(offset[:, 1], offset[:, 0])
-    desired = bearing_from_target + np.pi / 2 + np.arctan((distance - radius_m) / radius_m)
-    return _hold(problem, desired, gain)
+    return np.arctan2(offset[:, 1], offset[:, 0]) + np.pi / 2 + np.arctan((distance - radius_m) / radius_m)
 
 
 def pursuit_controls(problem: PlanningProblem, gain: float = 1.0) -> NDArray[np.float64]:

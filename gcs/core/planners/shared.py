@@ -82,14 +82,8 @@ class SharedView:
     def values(self, vehicle: int, candidates: NDArray[np.float64]) -> tuple[NDArray[np.float64],
                                                                              list[Contribution]]:
         """``J`` of the team with ``vehicle`` flying each candidate (C, T): values (C,) and each target's terms."""
-        total: NDArray[np.float64] | None = None
-        parts = []
-        for weight, view in zip(self.weights, self.views):
-            value, part = view.values(vehicle, candidates)
-            total = weight * value if total is None else total + weight * value
-            parts.append(part)
-        assert total is not None
-        return total, parts
+        scored = [view.values(vehicle, candidates) for view in self.views]
+        return _weighted_sum(self.weights, [value for value, _ in scored]), [part for _, part in scored]
 
     def accept(self, vehicle: int, candidates: NDArray[np.float64], parts: list[Contribution], index: int) -> None:
         for view, part in zip(self.views, parts):
@@ -103,9 +97,14 @@ class SharedView:
 def shared_joint_values(models: Sequence[SightModel], weights: NDArray[np.float64],
                         plans: NDArray[np.float64]) -> NDArray[np.float64]:
     """``J`` of whole-team plans (P, V, T) against every target: (P,)."""
-    total = weights[0] * joint_values(models[0], plans)
-    for weight, model in zip(weights[1:], models[1:]):
-        total = total + weight * joint_values(model, plans)
+    return _weighted_sum(weights, [joint_values(model, plans) for model in models])
+
+
+def _weighted_sum(weights: NDArray[np.float64], values: Sequence[NDArray[np.float64]]) -> NDArray[np.float64]:
+    """``sum_k w_k values_k``, added in order from the first (one target, weight 1: its values exactly)."""
+    total = weights[0] * values[0]
+    for weight, value in zip(weights[1:], values[1:]):
+        total = total + weight * value
     return total
 
 
