@@ -72,9 +72,13 @@ def _means(runs: list[dict]) -> dict:
             "seen_any": [r["seen_any"] for r in runs]}
 
 
-def run_benchmark(scenario_name: str, runs: int, seed: int, rate: float = 10.0, duration_s: float | None = None,
-                  wait_for_plans: bool = False, progress: Callable[[str], None] | None = None) -> dict:
-    """Both modes on seeds ``seed .. seed + runs - 1``; the report (module docstring)."""
+def run_benchmark(scenario_name: str, runs: int, seed: int, rate: float | None = None,
+                  duration_s: float | None = None, wait_for_plans: bool = False,
+                  progress: Callable[[str], None] | None = None) -> dict:
+    """Both modes on seeds ``seed .. seed + runs - 1``; the report (module docstring).
+
+    ``rate`` defaults to :data:`gcs.daemon.demo.DEFAULT_RATE`, the demo's own."""
+    rate = demo.DEFAULT_RATE if rate is None else rate
     say = progress or (lambda _message: None)
     scenario = load_scenario(scenario_name)
     world = build_world(scenario)
