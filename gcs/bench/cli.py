@@ -333,6 +333,20 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     shr.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     shr.set_defaults(handler=_outputs_checked(commands.cmd_sharing))
 
+    scl = benches.add_parser(
+        "scale", help="the many-target loop's decision time, ingest rate and memory for 1-20 targets and 3-10 UAVs",
+        description="The gcs bench sharing loop (our JPDA tracker, UAVs assigned to tracks) for every pair of "
+                    "target count and team size: the decision time (scan and plan) per step, the detections the "
+                    "tracker fuses per second of its time, and the peak memory of a run.")
+    scl.add_argument("--seed", type=int, default=0, help="seed of every run (default 0)")
+    scl.add_argument("--steps", type=_positive_int, default=60, help="1 s steps per run (default 60)")
+    scl.add_argument("--targets", type=_positive_int, nargs="+", metavar="N", default=[1, 5, 20],
+                     help="target counts (default 1 5 20)")
+    scl.add_argument("--uavs", type=_positive_int, nargs="+", metavar="V", default=[3, 10],
+                     help="team sizes (default 3 10)")
+    scl.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
+    scl.set_defaults(handler=_outputs_checked(commands.cmd_scale))
+
     for bench in benches.choices.values():  # errors name the benchmark: "gcs bench soak: error: ..."
         bench.set_defaults(command_prog=bench.prog)
 

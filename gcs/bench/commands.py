@@ -224,6 +224,15 @@ def cmd_sharing(args: argparse.Namespace) -> int:
     return _printed(report, sharing_report, args.json)
 
 
+def cmd_scale(args: argparse.Namespace) -> int:
+    from gcs.bench import scale
+    from gcs.bench.multitarget import BenchConfig
+
+    report = scale.run_benchmark(BenchConfig(steps=args.steps), seed=args.seed, targets=args.targets, uavs=args.uavs,
+                                 progress=progress)
+    return _printed(report, scale, args.json)
+
+
 def _printed(report: dict, module, json_path) -> int:
     """Print ``module.format_report(report)``, write its JSON to ``json_path`` (a Path) if given; exit status 0."""
     print(module.format_report(report))

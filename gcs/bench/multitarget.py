@@ -7,7 +7,7 @@ city. Targets 0 and 1 are a **side-by-side pair**: for the first ``joint_steps``
 target 1 is target 0 shifted by ``pair_offset_m`` perpendicular to target 0's velocity (to
 its left), so both are on the same street and exactly that far apart; then target 1
 drives on by itself, at ``pair_speed_ratio`` times the street speed, so the two separate.
-Three UAVs fly fixed circular orbits over the city (:data:`ORBITS`; no planner: this
+Three UAVs fly fixed circular orbits over the city (:func:`orbits`; no planner: this
 bench measures tracking) with the scenario's range/azimuth/elevation sensor and its
 maximum range. A vehicle sees a target only with a line of sight past the buildings
 (:meth:`gcs.core.world.World.line_of_sight`). Decision step 1 s.
@@ -41,8 +41,8 @@ from gcs.core.world import World
 from sim_vehicles.truth.detections import scan as detection_scan
 from sim_vehicles.truth.target import StreetTarget, TargetState
 
-__all__ = ["CUTOFF_M", "ORDER_P", "ORBITS", "OURS", "PEERS", "BenchConfig", "Scene", "MethodRun", "make_scene",
-           "make_scans", "sight_matrix", "run_ours", "run_stonesoup", "score_run"]
+__all__ = ["CUTOFF_M", "ORDER_P", "ORBITS", "OURS", "PEERS", "BenchConfig", "Scene", "MethodRun", "orbits", "make_scene",
+           "make_scans", "sight_matrix", "in_field", "coverage", "run_ours", "run_stonesoup", "score_run"]
 
 CUTOFF_M = 100.0
 """GOSPA / OSPA cut-off c, metres: twice the cross-range error of one 0.05 rad azimuth at 1 km."""
@@ -52,6 +52,16 @@ STEP_NS = 1_000_000_000
 ORBITS = ((1000.0, 1000.0, 400.0), (2000.0, 1000.0, 400.0), (1500.0, 2000.0, 400.0))
 """Centre x, centre y and radius (m) of each UAV's orbit; speed 25 m/s, the scenario's altitudes."""
 ORBIT_SPEED_MPS = 25.0
+RING_RADIUS_M = 1000.0
+"""Distance from the city's centre (1500, 1500) of the orbits of UAVs beyond :data:`ORBITS`."""
+
+
+def orbits(count: int) -> tuple[tuple[float, float, float], ...]:
+    """Centre x, centre y and radius of ``count`` UAVs' orbits: :data:`ORBITS`, then more spread on a ring."""
+    extra = tuple((1500.0 + RING_RADIUS_M * math.cos(2.0 * math.pi * i / count),
+                   1500.0 + RING_RADIUS_M * math.sin(2.0 * math.pi * i / count), 400.0)
+                  for i in range(len(ORBITS), count))
+    return (ORBITS + extra)[:count]
 OURS = ("gnn", "jpda")
 PEERS = ("stonesoup_gnn", "stonesoup_jpda")
 PROCESS_NOISE = 2.0
@@ -59,6 +69,8 @@ PROCESS_NOISE = 2.0
 targets turn at right angles at 10 m/s."""
 MAX_MISSED_SCANS = 5
 """Consecutive scans without a detection that delete a confirmed track, for every method (the peers' default)."""
+MAX_POSITION_TRACE_M2 = 2.0e4
+"""Trace of a track's (x, y) covariance above which every method deletes it (100 m per axis)."""
 
 
 @dataclass(frozen=True)
@@ -123,21 +135,25 @@ def make_scene(world: World, altitudes_m: Sequence[float], config: BenchConfig, 
         states = [(partner if pair and j == 1 else model).step(s, 1.0, rng) for j, s in enumerate(states)]
     t = np.arange(config.steps, dtype=np.float64)
     uavs = []
-    for (cx, cy, radius), alt in zip(ORBITS, altitudes_m):
+    for (cx, cy, radius), alt in zip(orbits(len(altitudes_m)), altitudes_m):
         phase = rng.uniform(-math.pi, math.pi) + t * ORBIT_SPEED_MPS / radius
         uavs.append(np.column_stack([cx + radius * np.cos(phase), cy + radius * np.sin(phase), np.full_like(t, alt)]))
     return Scene(truth, np.stack(uavs, axis=1), config.joint_steps)
 
 
 def make_scans(world: World, scene: Scene, sensor: SensorModel, max_range_m: float, config: BenchConfig,
-               rng: np.random.Generator) -> list[tuple[int, dict[int, list], SensorModel]]:
-    """Every step's detections by vehicle, with line of sight past the buildings: ``(stamp_ns, {v: [...]}, sensor)``."""
+               rng: np.random.Generator) -> list[tuple[int, dict[int, list], SensorModel, Callable]]:
+    """Every step's detections by vehicle, with line of sight past the buildings.
+
+    Each scan is ``(stamp_ns, {v: [...]}, sensor, in_view)``, ``in_view`` the UAVs'
+    coverage at that step (:func:`coverage`) for our trackers' miss count."""
     scans = []
     for k in range(len(scene.truth_xy)):
         truths, vehicles = scene.truth_xy[k], scene.vehicle_xyz[k]
         visible = sight_matrix(world, truths, vehicles, sensor.target_height_m)
         result = detection_scan(truths, vehicles, sensor, config.pd, config.clutter, max_range_m, rng, visible)
-        scans.append((k * STEP_NS, dict(enumerate(result.detections)), sensor))
+        scans.append((k * STEP_NS, dict(enumerate(result.detections)), sensor,
+                      coverage(world, vehicles, sensor, max_range_m)))
     return scans
 
 
@@ -149,6 +165,21 @@ def sight_matrix(world: World, truths: NDArray[np.float64], vehicles: NDArray[np
                                np.broadcast_to(ground[None], (len(vehicles), len(truths), 3)))
 
 
+def in_field(world: World, points_xy: NDArray[np.float64], vehicles: NDArray[np.float64], target_height_m: float,
+             max_range_m: float) -> NDArray[np.bool_]:
+    """(V, N): UAV v (V, 3) has ground point j (N, 2) within slant range and in sight past the buildings."""
+    sight = sight_matrix(world, points_xy, vehicles, target_height_m)
+    slant = np.sqrt(((points_xy[None] - vehicles[:, None, :2]) ** 2).sum(-1)
+                    + (vehicles[:, None, 2] - target_height_m) ** 2)
+    return sight & (slant <= max_range_m)
+
+
+def coverage(world: World, vehicles: NDArray[np.float64], sensor: SensorModel,
+             max_range_m: float) -> Callable[[NDArray[np.float64]], NDArray[np.bool_]]:
+    """The tracker's ``in_view`` for one scan: which ground points (T, 2) some UAV's sensor covers."""
+    return lambda points_xy: in_field(world, points_xy, vehicles, sensor.target_height_m, max_range_m).any(axis=0)
+
+
 def clutter_volume(max_range_m: float) -> float:
     """Measurement-space volume (range x azimuth x downward elevation, m rad^2) our trackers spread clutter over."""
     return max_range_m * 2.0 * math.pi * (math.pi / 2.0)
@@ -158,12 +189,13 @@ def run_ours(association: str, scans, config: BenchConfig, max_range_m: float) -
     """Our tracker over the scans; the time of each ``scan`` call."""
     tracker = MultiTargetTracker(association=association, motion=constant_velocity(PROCESS_NOISE),
                                  detection_probability=config.pd, max_misses=MAX_MISSED_SCANS,
+                                 max_position_trace_m2=MAX_POSITION_TRACE_M2,
                                  clutter_density=max(config.clutter, 1e-3) / clutter_volume(max_range_m))
     state = tracker.start()
     ids, xy, seconds = [], [], []
-    for stamp_ns, per_vehicle, sensor in scans:
+    for stamp_ns, per_vehicle, sensor, in_view in scans:
         start = time.perf_counter()
-        state, _ = tracker.scan(state, stamp_ns, per_vehicle, sensor)
+        state, _ = tracker.scan(state, stamp_ns, per_vehicle, sensor, in_view)
         seconds.append(time.perf_counter() - start)
         confirmed = state.tracks.confirmed()
         ids.append(tuple(int(i) for i in confirmed.ids))
@@ -177,7 +209,8 @@ def run_stonesoup(name: str, scans, config: BenchConfig, max_range_m: float, sen
 
     peer = stonesoup_peer.PeerConfig(vehicles=len(scans[0][1]), process_noise=PROCESS_NOISE, pd=config.pd,
                                      clutter_rate=config.clutter, max_range_m=max_range_m,
-                                     sensor_height_m=sensor_height_m, max_missed_scans=MAX_MISSED_SCANS)
+                                     sensor_height_m=sensor_height_m, max_missed_scans=MAX_MISSED_SCANS,
+                                     max_position_var_m2=MAX_POSITION_TRACE_M2)
     make = stonesoup_peer.gnn_tracker if name == "stonesoup_gnn" else stonesoup_peer.jpda_tracker
     run = stonesoup_peer.run_peer(make(peer), scans)
     ids = tuple(tuple(t[0] for t in step) for step in run.tracks)

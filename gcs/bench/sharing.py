@@ -86,20 +86,17 @@ class SharingRun:
     uav_steps: NDArray[np.int64]
     gospa_m: float
     plan_seconds: tuple[float, ...]
-
-
-def _in_field(world: World, truths: NDArray[np.float64], vehicles: NDArray[np.float64], target_height_m: float,
-              max_range_m: float) -> NDArray[np.bool_]:
-    """(V, N): UAV v has truth j within slant range and in sight past the buildings."""
-    sight = mt.sight_matrix(world, truths, vehicles, target_height_m)
-    slant = np.sqrt(((truths[None] - vehicles[:, None, :2]) ** 2).sum(-1)
-                    + (vehicles[:, None, 2] - target_height_m) ** 2)
-    return sight & (slant <= max_range_m)
+    decision_seconds: tuple[float, ...] = ()
+    """Per step, the tracker's scan and the plan (if one was made) together (``time.perf_counter``)."""
+    scan_seconds: tuple[float, ...] = ()
+    """The tracker's time per scan."""
+    detections: int = 0
+    """Detections the tracker took over the run, clutter included."""
 
 
 def _home_turns(vehicles: VehicleState, eta: NDArray[np.float64], step_s: float) -> NDArray[np.float64]:
     """Turn rates (V,) toward each UAV's home orbit (counter-clockwise, the tangent tilted by atan((d - r) / r))."""
-    orbits = np.array(mt.ORBITS[:len(vehicles)])
+    orbits = np.array(mt.orbits(len(vehicles)))
     desired = orbit_heading(vehicles.xy, orbits[:, :2], orbits[:, 2])
     return np.clip(wrap_angle(desired - vehicles.heading) / step_s, -eta, eta)
 
@@ -146,14 +143,18 @@ def fly_run(mode: str, world: World, config: TrackerConfig, speeds: NDArray[np.f
     steps = len(scene.truth_xy)
     scored_from = min(bench.warm_up, steps - 1)
     target_steps, uav_steps = np.zeros(bench.targets, dtype=np.int64), np.zeros(len(speeds), dtype=np.int64)
-    gospas, plan_seconds = [], []
+    gospas, plan_seconds, scan_seconds, decision_seconds, detections = [], [], [], [], 0
     for k in range(steps):
         xyz = (scene.vehicle_xyz[k] if mode == "orbit"
                else np.column_stack([vehicles.xy, vehicles.altitude]))
         truths = scene.truth_xy[k]
-        field = _in_field(world, truths, xyz, sensor.target_height_m, max_range)
+        field = mt.in_field(world, truths, xyz, sensor.target_height_m, max_range)
         result = detection_scan(truths, xyz, sensor, bench.pd, bench.clutter, max_range, scan_rng, field)
+        started = time.perf_counter()
         state, diagnostics = tracker.scan(state, k * mt.STEP_NS, dict(enumerate(result.detections)), sensor)
+        scan_seconds.append(time.perf_counter() - started)
+        decision_seconds.append(scan_seconds[-1])
+        detections += diagnostics.detections
         confirmed = state.tracks.confirmed()
         deleted = diagnostics.deleted
         lost = lost.advance(motion, config.step_s)
@@ -177,9 +178,11 @@ def fly_run(mode: str, world: World, config: TrackerConfig, speeds: NDArray[np.f
             started = time.perf_counter()
             outcome = solve(problems, weights, plan_rng, plan)
             plan_seconds.append(time.perf_counter() - started)
+            decision_seconds[-1] += plan_seconds[-1]
             plan = config.guard.safe(vehicles, outcome.controls, config.step_s, config.max_turn_rate)
             turn_rate = plan[:, 0].copy()
         xy, heading = rollout(vehicles, turn_rate[:, None], config.step_s, config.max_turn_rate)
         vehicles = VehicleState(xy[:, 0], heading[:, 0], vehicles.speed, vehicles.altitude)
-    return SharingRun(target_steps, uav_steps, float(np.mean(gospas)) if gospas else math.nan, tuple(plan_seconds))
+    return SharingRun(target_steps, uav_steps, float(np.mean(gospas)) if gospas else math.nan, tuple(plan_seconds),
+                      tuple(decision_seconds), tuple(scan_seconds), detections)
 

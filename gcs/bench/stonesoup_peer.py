@@ -219,7 +219,7 @@ def run_peer(tracker: MultiTargetTracker | MultiTargetMixtureTracker, scans: Ite
     (``time.perf_counter``, seconds; measured here, never asserted by tests).
     """
     stamps, tracks, seconds = [], [], []
-    for stamp_ns, per_vehicle, sensor in scans:
+    for stamp_ns, per_vehicle, sensor, *_ in scans:  # (a fourth item, our trackers' coverage, is not theirs)
         when = _EPOCH + datetime.timedelta(microseconds=stamp_ns / 1000.0)
         start = time.perf_counter()
         for vehicle in sorted(per_vehicle):

@@ -49,3 +49,21 @@ def test_planned_modes_plan_in_the_steps_they_have_a_track(mode) -> None:
 def test_an_unknown_mode_is_refused() -> None:
     with pytest.raises(ValueError, match="unknown mode 'circle'"):
         sharing.fly_run("circle", WORLD, CONFIG, SPEEDS, ALTITUDES, 5, SHORT)
+
+
+def test_the_loop_counts_every_detection_the_tracker_took_and_times_every_step() -> None:
+    run = sharing.fly_run("assign", WORLD, CONFIG, SPEEDS, ALTITUDES, 5, SHORT)
+    assert len(run.scan_seconds) == len(run.decision_seconds) == SHORT.scene.steps
+    assert np.all(np.asarray(run.decision_seconds) >= np.asarray(run.scan_seconds))
+    total = sum(run.decision_seconds) - sum(run.scan_seconds)
+    assert total == pytest.approx(sum(run.plan_seconds), rel=1e-9, abs=1e-12)
+    # each in-field target-step after the warm-up gives some UAV's detection with probability >= pd
+    assert run.detections >= 0.5 * SHORT.scene.pd * run.target_steps.sum()
+
+
+def test_more_uavs_than_the_fixed_orbits_fly_on_a_ring_around_the_city() -> None:
+    orbits = mt.orbits(10)
+    assert orbits[:3] == mt.ORBITS and len(orbits) == 10 and len(set(orbits)) == 10
+    centres = np.array(orbits[3:])[:, :2]
+    np.testing.assert_allclose(np.hypot(*(centres - 1500.0).T), mt.RING_RADIUS_M)
+    assert mt.orbits(2) == mt.ORBITS[:2]

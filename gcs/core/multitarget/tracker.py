@@ -10,7 +10,8 @@ returns ``(new_state, diagnostics)`` and mutates nothing. One scan:
    turned into position-block information contributions per track;
 3. sum the contributions over vehicles and fuse them into every track
    (wang2012 eq. 14-15, :func:`~gcs.core.multitarget.filter.information_update`);
-4. advance the lifecycle (M-of-N confirmation, deletion; :mod:`~gcs.core.multitarget.tracks`);
+4. advance the lifecycle (M-of-N confirmation, deletion, a miss counted only where a
+   sensor covered the track; :mod:`~gcs.core.multitarget.tracks`);
 5. start tentative tracks from the detections no track took
    (:mod:`~gcs.core.multitarget.initiation`), with ids never used before.
 
@@ -32,7 +33,7 @@ hence proper; :attr:`ScanDiagnostics.fusion_fallbacks` counts it.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -159,12 +160,18 @@ class MultiTargetTracker:
 
     def scan(self, state: MultiTargetState, stamp_ns: int,
              detections_by_vehicle: Mapping[int, Sequence[Detection]] | Sequence[Sequence[Detection]],
-             sensor: SensorModel | Sequence[SensorModel]) -> tuple[MultiTargetState, ScanDiagnostics]:
+             sensor: SensorModel | Sequence[SensorModel],
+             in_view: Callable[[NDArray[np.float64]], NDArray[np.bool_]] | None = None,
+             ) -> tuple[MultiTargetState, ScanDiagnostics]:
         """Fuse one scan: every vehicle's detections taken at ``stamp_ns`` (int, ns).
 
         ``detections_by_vehicle`` holds one sequence of detections per vehicle (a
         mapping by vehicle index, or a sequence); ``sensor`` is every vehicle's
         model, or one per vehicle indexed by :attr:`Detection.vehicle`.
+        ``in_view`` maps the tracks' predicted ground positions (T, 2) to whether
+        some vehicle's sensor covered each (T,) on this scan (in range, with a line
+        of sight past the buildings); a track out of every view is not counted
+        missed (:mod:`~gcs.core.multitarget.tracks`). None: every track was covered.
         """
         if not isinstance(stamp_ns, (int, np.integer)) or isinstance(stamp_ns, bool):
             raise TypeError(f"stamp_ns must be an integer number of nanoseconds, got {type(stamp_ns).__name__}")
@@ -177,6 +184,7 @@ class MultiTargetTracker:
                 raise ValueError(f"scan at {stamp_ns} ns is older than the tracks ({state.stamp_ns} ns)")
             if dt_s > 0.0 and tracks.size:
                 mean, cov = batched.predict(mean, cov, dt_s, self.motion)
+        predicted_xy = mean[:, :2]
         a_parts, b_parts = [], []
         hit = np.zeros(tracks.size, dtype=bool)
         counts = {"gated": 0, "associated": 0, "clusters": 0, "over": 0}
@@ -198,8 +206,9 @@ class MultiTargetTracker:
                 b_sum[bad] /= len(b_parts)
                 new_mean, new_cov = batched.information_update(mean, cov, a_sum, b_sum)
             mean, cov = new_mean, new_cov
+        looked = None if in_view is None or not tracks.size else np.asarray(in_view(predicted_xy), dtype=bool)
         advanced = advance(tracks.with_estimates(mean, cov), hit, self.confirm_m, self.confirm_n, self.max_misses,
-                           self.max_position_trace_m2)
+                           self.max_position_trace_m2, looked)
         born = self._initiate(batches, free, state.next_id, advanced.kept)
         new_state = MultiTargetState(advanced.kept.concat(born), int(stamp_ns), state.next_id + born.size)
         total = sum(b.z.shape[0] for b in batches)

@@ -15,7 +15,14 @@ Lifecycle (Blackman & Popoli 1999, track initiation and deletion; the M-of-N
   within its first N scans (more than ``N - M`` misses among them);
 * any track is deleted after ``max_misses`` consecutive missed scans, or when the
   trace of its position covariance exceeds ``max_position_trace_m2`` (it has
-  coasted so long that it no longer says where the target is).
+  coasted so long that it no longer says where the target is);
+* a missed scan counts only where a sensor looked: when the caller says which
+  tracks were in some vehicle's view (``looked``), a scan on which a track was in
+  no vehicle's view (behind buildings from every UAV, or out of range) leaves its
+  consecutive-miss count as it was. Such a track coasts, and the covariance bound
+  ends it once it has coasted too long; the missed detection it gets is
+  ``1 - P_D`` only where ``P_D > 0`` (Blackman & Popoli 1999, track deletion with a
+  state-dependent detection probability).
 
 Ids are integers handed out in increasing order by the tracker and never
 reused, so a deleted track's id never comes back.
@@ -129,7 +136,7 @@ class Advanced:
 
 
 def advance(tracks: TrackSet, hit: NDArray[np.bool_], m: int, n: int, max_misses: int,
-            max_position_trace_m2: float) -> Advanced:
+            max_position_trace_m2: float, looked: NDArray[np.bool_] | None = None) -> Advanced:
     """One scan of the lifecycle for every track: record hits, confirm by M of N, delete.
 
     Parameters
@@ -144,13 +151,19 @@ def advance(tracks: TrackSet, hit: NDArray[np.bool_], m: int, n: int, max_misses
         Consecutive misses that delete a track.
     max_position_trace_m2 : float
         Bound on ``tr P_pp`` above which a track is deleted.
+    looked : ndarray of bool, shape (T,), optional
+        Whether each track was in some vehicle's view on this scan; a track not
+        looked at and not hit keeps its miss count. None: every track was looked at.
     """
     if not 1 <= m <= n <= 62:
         raise ValueError(f"the M-of-N rule needs 1 <= M <= N <= 62, got M={m}, N={n}")
     hit = np.asarray(hit, dtype=bool)
     window = ((tracks.window << 1) | hit) & ((1 << n) - 1)
     age = tracks.age + 1
-    misses = np.where(hit, 0, tracks.misses + 1)
+    looked = np.ones(tracks.size, dtype=bool) if looked is None else np.asarray(looked, dtype=bool)
+    if looked.shape != hit.shape:
+        raise ValueError(f"looked needs one entry per track, got shape {looked.shape} for {tracks.size} tracks")
+    misses = np.where(hit, 0, tracks.misses + looked)
     hits = np.bitwise_count(window).astype(np.int64)
     tentative = tracks.status == Lifecycle.TENTATIVE
     confirm = tentative & (hits >= m)

@@ -111,6 +111,34 @@ def test_three_of_four_confirms_on_the_third_hit_and_misses_delete_a_confirmed_t
     assert states[7].tracks.ids.tolist() == [2]  # the target again: a new id, never 1
 
 
+def test_scans_on_which_no_sensor_covered_a_track_do_not_count_as_misses() -> None:
+    tracker = MultiTargetTracker(confirm_m=1, confirm_n=1, max_misses=3, max_position_trace_m2=1e9)
+    scans = _single_target_scans([True] + [False] * 8 + [True])
+    covered = [True] * 3 + [False] * 6 + [True]  # the target goes behind buildings after two misses
+    state, kept = tracker.start(), []
+    for k, (scan, seen) in enumerate(zip(scans, covered)):
+        state, diagnostics = tracker.scan(state, k * SECOND_NS, scan, SENSOR,
+                                          in_view=lambda xy, seen=seen: np.full(len(xy), seen))
+        kept.append((state.tracks.ids.tolist(), state.tracks.misses.tolist(), diagnostics.deletions))
+    assert [misses for _, misses, _ in kept[:9]] == [[0], [1], [2]] + [[2]] * 6  # coasting, not missing
+    assert all(ids == [1] for ids, _, _ in kept) and not any(d for _, _, d in kept)
+    uncovered, _ = _run(tracker, scans)  # without the coverage the third miss deletes it
+    assert uncovered[3].tracks.size == 0
+
+
+def test_a_coasting_track_out_of_every_view_still_ends_at_the_covariance_bound() -> None:
+    tracker = MultiTargetTracker(confirm_m=1, confirm_n=1, max_misses=3, max_position_trace_m2=2000.0)
+    state, deleted_at = tracker.start(), None
+    for k, scan in enumerate(_single_target_scans([True] + [False] * 9)):
+        state, diagnostics = tracker.scan(state, k * SECOND_NS, scan, SENSOR,
+                                          in_view=lambda xy: np.zeros(len(xy), dtype=bool))
+        if diagnostics.deletions and deleted_at is None:
+            deleted_at = k
+    unbounded = MultiTargetTracker(confirm_m=1, confirm_n=1, max_misses=100, max_position_trace_m2=2000.0)
+    _, by_trace = _run(unbounded, _single_target_scans([True] + [False] * 9))
+    assert deleted_at == next(k for k, d in enumerate(by_trace) if d.deletions)
+
+
 def test_a_tentative_track_that_cannot_reach_m_of_n_is_deleted() -> None:
     tracker = MultiTargetTracker(confirm_m=3, confirm_n=4, max_misses=5)
     states, diagnostics = _run(tracker, _single_target_scans([True, False, False]))
