@@ -3,6 +3,8 @@
 Imports only the standard library and msgspec; no numpy, no I/O, no Zenoh.
 
 - :mod:`protocols.messages`: frozen msgspec Structs (frames and units documented there);
+  :mod:`protocols.sensor_report` holds the sensor's report of its detections and
+  :mod:`protocols.legacy` the earlier versions still read;
   :mod:`protocols.status` holds the daemon's health and :mod:`protocols.base` their common base.
 - :mod:`protocols.keys`: the Zenoh key space, builders, selectors and :func:`parse_key`.
 - :mod:`protocols.codec`: :func:`encode` / :func:`decode` with the Zenoh encoding
@@ -17,6 +19,7 @@ from protocols.codec import (
     encoding_for,
     json_schema,
     parse_encoding,
+    wire_version,
 )
 from protocols.errors import REJECT_REASONS, ProtocolError
 from protocols.keys import (
@@ -42,11 +45,13 @@ from protocols.keys import (
     validate_prefix,
 )
 from protocols.messages import (
+    MAX_DETECTIONS,
     MESSAGE_TYPES,
     TRACK_MODEL_DIMS,
     DaemonStatus,
     GpsFix,
     InsIncrement,
+    Measurement,
     Message,
     NavReport,
     PlanCommand,
@@ -60,6 +65,7 @@ from protocols.messages import (
 __all__ = [
     "DEFAULT_PREFIX",
     "KEY_KINDS",
+    "MAX_DETECTIONS",
     "MAX_PAYLOAD_BYTES",
     "MESSAGE_TYPES",
     "MESSAGE_TYPE_BY_KIND",
@@ -68,6 +74,7 @@ __all__ = [
     "DaemonStatus",
     "GpsFix",
     "InsIncrement",
+    "Measurement",
     "Message",
     "NavReport",
     "ParsedKey",
@@ -99,4 +106,5 @@ __all__ = [
     "truth_selector",
     "validate_id",
     "validate_prefix",
+    "wire_version",
 ]

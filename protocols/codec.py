@@ -10,6 +10,10 @@ travel in the Zenoh encoding ``application/json;gcs.<TypeName>/<VERSION>``.
 - :func:`decode` never raises anything but ProtocolError, whatever the bytes and the
   encoding string; the error names the field (``.field`` holds its msgspec-style
   path, e.g. ``$.prediction[1].position_cov_m2``) and has a ``.reason`` to count by.
+- Earlier versions (:data:`protocols.legacy.LEGACY_VERSIONS`) decode too: validated by
+  their own rules, then upgraded, so :func:`decode` returns the current type only.
+  The version comes from the encoding string; without one, from the payload's fields.
+  :func:`encode` always writes the current version.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ import re
 import msgspec
 
 from protocols.errors import ProtocolError
+from protocols.legacy import LEGACY_VERSIONS, LegacyVersion
 from protocols.messages import MESSAGE_TYPES, Message
 
 __all__ = [
@@ -31,6 +36,7 @@ __all__ = [
     "encoding_for",
     "json_schema",
     "parse_encoding",
+    "wire_version",
 ]
 
 #: Payloads larger than this are rejected before parsing (and never produced).
@@ -42,10 +48,14 @@ _TYPES_BY_NAME: dict[str, type[Message]] = {tp.__name__: tp for tp in MESSAGE_TY
 _DECODERS: dict[type[Message], msgspec.json.Decoder] = {
     tp: msgspec.json.Decoder(tp) for tp in MESSAGE_TYPES
 }
+_LEGACY: dict[tuple[type[Message], int], LegacyVersion] = {(old.current, old.version): old for old in LEGACY_VERSIONS}
+_LEGACY_DECODERS: dict[type[Message], msgspec.json.Decoder] = {
+    old.struct: msgspec.json.Decoder(old.struct) for old in LEGACY_VERSIONS
+}
 _ENCODER = msgspec.json.Encoder()
 _VERSION_RE = re.compile(r"[0-9]{1,9}")
-_PARSED: dict[str, type[Message]] = {}
-"""Encoding strings :func:`parse_encoding` accepted, and the type each names (every message parses one)."""
+_PARSED: dict[str, tuple[type[Message], int]] = {}
+"""Encoding strings :func:`wire_version` accepted, and the type and version each names (every message parses one)."""
 # The path msgspec appends to a validation error: "... - at `$.a[1]`" or "`key` in `$.d`".
 _TRAILING_PATH_RE = re.compile(r"`(\$[^`]*)`$")
 _NAMED_FIELD_RE = re.compile(r"^Object (?:missing required|contains unknown) field `([^`]*)`")
@@ -72,7 +82,7 @@ def encoding_for(tp: type[Message]) -> str:
 
 
 def parse_encoding(encoding: str) -> type[Message]:
-    """Message type named by a Zenoh encoding string.
+    """Message type named by a Zenoh encoding string (the current type for an earlier version it reads).
 
     Raises
     ------
@@ -80,9 +90,21 @@ def parse_encoding(encoding: str) -> type[Message]:
         ``reason="encoding"``, saying whether the media type, the ``gcs.`` schema
         namespace, the type name or the version is wrong.
     """
-    tp = _PARSED.get(encoding) if isinstance(encoding, str) else None
-    if tp is not None:
-        return tp
+    return wire_version(encoding)[0]
+
+
+def wire_version(encoding: str) -> tuple[type[Message], int]:
+    """Message type and wire version named by a Zenoh encoding string: the current version or
+    one of :data:`~protocols.legacy.LEGACY_VERSIONS`.
+
+    Raises
+    ------
+    ProtocolError
+        As :func:`parse_encoding`.
+    """
+    parsed = _PARSED.get(encoding) if isinstance(encoding, str) else None
+    if parsed is not None:
+        return parsed
     if not isinstance(encoding, str):
         raise ProtocolError(
             f"encoding must be a str, got {type(encoding).__name__}", reason="encoding"
@@ -106,14 +128,17 @@ def parse_encoding(encoding: str) -> type[Message]:
         raise ProtocolError(
             f"unknown message type {name!r} in encoding {encoding!r}", reason="encoding"
         )
-    if _VERSION_RE.fullmatch(version) is None or int(version) != tp.VERSION:
+    number = int(version) if _VERSION_RE.fullmatch(version) is not None else None
+    if number is None or (number != tp.VERSION and (tp, number) not in _LEGACY):
+        readable = sorted([tp.VERSION] + [v for (t, v) in _LEGACY if t is tp])
         raise ProtocolError(
             f"unsupported version {version!r} of {name} in encoding {encoding!r} "
-            f"(this build speaks version {tp.VERSION})",
+            f"(this build speaks version {tp.VERSION}"
+            + (f" and reads {', '.join(map(str, readable))})" if len(readable) > 1 else ")"),
             reason="encoding",
         )
-    _PARSED[encoding] = tp  # valid strings only: a few per type (the version may have leading zeros)
-    return tp
+    _PARSED[encoding] = (tp, number)  # valid strings only: a few per type (the version may have leading zeros)
+    return tp, number
 
 
 _NULL = b"null"
@@ -164,10 +189,11 @@ def _field_of(exc: msgspec.ValidationError) -> str | None:
     return _join_path(outer, inner)
 
 
-def _decode_as(payload: bytes | bytearray | memoryview, tp: type[Message]) -> Message:
-    name = tp.__name__
+def _decode_as(payload: bytes | bytearray | memoryview, tp: type[Message], name: str | None = None,
+               decoder: msgspec.json.Decoder | None = None) -> Message:
+    name = name or tp.__name__
     try:
-        return _DECODERS[tp].decode(payload)
+        return (decoder or _DECODERS[tp]).decode(payload)
     except ProtocolError as exc:  # defensive: msgspec normally wraps ValueErrors
         raise ProtocolError(f"invalid {name}: {exc.message}", field=exc.field) from exc
     except msgspec.ValidationError as exc:
@@ -182,6 +208,27 @@ def _decode_as(payload: bytes | bytearray | memoryview, tp: type[Message]) -> Me
         raise ProtocolError(
             f"cannot decode {name} payload: {type(exc).__name__}: {exc}", reason="malformed"
         ) from exc
+
+
+def _decode_legacy(payload: bytes | bytearray | memoryview, old: LegacyVersion) -> Message:
+    """Decode an earlier version by its own rules and upgrade it to the current type."""
+    message = _decode_as(payload, old.struct, f"{old.current.__name__}/{old.version}", _LEGACY_DECODERS[old.struct])
+    try:
+        return old.upgrade(message)
+    except ProtocolError as exc:
+        raise ProtocolError(f"cannot upgrade {old.current.__name__}/{old.version}: {exc.message}",
+                            field=exc.field) from exc
+
+
+def _decode_any_version(payload: bytes | bytearray | memoryview, tp: type[Message]) -> Message:
+    """Without an encoding string: the current version, else an earlier one whose marker field the payload has."""
+    try:
+        return _decode_as(payload, tp)
+    except ProtocolError:
+        for (current, _), old in _LEGACY.items():
+            if current is tp and old.marker in bytes(payload):
+                return _decode_legacy(payload, old)
+        raise
 
 
 def encode(msg: Message) -> tuple[bytes, str]:
@@ -276,18 +323,26 @@ def decode(
                 "no encoding and no expected type: cannot tell the message type",
                 reason="encoding",
             )
-        tp = _registered(expected)
-    else:
-        tp = parse_encoding(encoding)
-        if expected is not None and tp is not expected:
-            name = getattr(expected, "__name__", repr(expected))
-            raise ProtocolError(
-                f"expected {name} but the encoding {encoding!r} names {tp.__name__}",
-                reason="unexpected_type",
-            )
+        return _decode_any_version(payload, _registered(expected))
+    tp, version = wire_version(encoding)
+    if expected is not None and tp is not expected:
+        name = getattr(expected, "__name__", repr(expected))
+        raise ProtocolError(
+            f"expected {name} but the encoding {encoding!r} names {tp.__name__}",
+            reason="unexpected_type",
+        )
+    if version != tp.VERSION:
+        return _decode_legacy(payload, _LEGACY[(tp, version)])
     return _decode_as(payload, tp)
 
 
-def json_schema(tp: type[Message]) -> bytes:
-    """JSON Schema of a message type (msgspec.json.schema), as JSON bytes, for MCAP."""
-    return msgspec.json.encode(msgspec.json.schema(_registered(tp)))
+def json_schema(tp: type[Message], version: int | None = None) -> bytes:
+    """JSON Schema of a message type (msgspec.json.schema), as JSON bytes, for MCAP: of its current
+    version, or of the earlier ``version`` the codec reads."""
+    tp = _registered(tp)
+    if version is None or version == tp.VERSION:
+        return msgspec.json.encode(msgspec.json.schema(tp))
+    old = _LEGACY.get((tp, version))
+    if old is None:
+        raise ProtocolError(f"no version {version} of {tp.__name__}", reason="encoding")
+    return msgspec.json.encode(msgspec.json.schema(old.struct))

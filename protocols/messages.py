@@ -25,6 +25,8 @@ Versions
 --------
 Every message type has a class-level ``VERSION`` (a ``ClassVar``, ignored by msgspec);
 it travels in the Zenoh encoding ``application/json;gcs.<TypeName>/<VERSION>``.
+``SensorReport`` and its ``Measurement`` live in :mod:`protocols.sensor_report`; the
+earlier versions still read are in :mod:`protocols.legacy`.
 """
 
 from __future__ import annotations
@@ -46,7 +48,6 @@ from protocols.fields import (
     CovarianceEntry,
     DistanceM,
     DurationS,
-    ElevationRad,
     Ident,
     LatDeg,
     LonDeg,
@@ -56,19 +57,21 @@ from protocols.fields import (
     StampNs,
     StateValue,
     StdM,
-    StdRad,
     VelocityMps,
     check_covariance,
 )
+from protocols.sensor_report import MAX_DETECTIONS, Measurement, SensorReport
 from protocols.status import DaemonStatus, VehicleStatus
 
 __all__ = [
     "COVARIANCE_SYMMETRY_RTOL",
+    "MAX_DETECTIONS",
     "MAX_STATE_DIM",
     "TRACK_MODEL_DIMS",
     "DaemonStatus",
     "GpsFix",
     "InsIncrement",
+    "Measurement",
     "Message",
     "MESSAGE_TYPES",
     "NavReport",
@@ -85,71 +88,6 @@ MAX_STATE_DIM = 16
 #: State dimension of the known target models; other model names are accepted with
 #: any dimension up to MAX_STATE_DIM.
 TRACK_MODEL_DIMS: Mapping[str, int] = MappingProxyType({"cv2d": 4, "ca2d": 6})
-
-
-class SensorReport(Message, frozen=True, forbid_unknown_fields=True, kw_only=True):
-    """One target measurement by one vehicle's sensor (range/azimuth/elevation or AOA).
-
-    Attributes
-    ----------
-    vehicle_id, seq, stamp_ns
-        Publisher, its sequence number and the measurement time (ns).
-    target_id : str
-        Which target was looked for (default ``"target"``).
-    vehicle_position_enu_m : tuple of 3 float
-        The vehicle's position as the vehicle itself knows it (ENU, m).
-    vehicle_position_std_m : float or None
-        1-sigma of that position per axis (m), if known.
-    detected : bool
-        True if the sensor saw the target. False (occluded, out of field of view)
-        carries no measurement values at all.
-    range_m, azimuth_rad, elevation_rad : float or None
-        The measurement; a detection has at least ``azimuth_rad`` (bearing-only
-        sensors omit ``range_m``).
-    range_std_m, azimuth_std_rad, elevation_std_rad : float or None
-        1-sigma noise of each value; given if and only if the value is given.
-    """
-
-    vehicle_id: Ident
-    seq: Seq
-    stamp_ns: StampNs
-    target_id: Ident = "target"
-    vehicle_position_enu_m: tuple[PositionM, PositionM, PositionM]
-    vehicle_position_std_m: StdM | None = None
-    detected: bool
-    range_m: DistanceM | None = None
-    azimuth_rad: AngleRad | None = None
-    elevation_rad: ElevationRad | None = None
-    range_std_m: StdM | None = None
-    azimuth_std_rad: StdRad | None = None
-    elevation_std_rad: StdRad | None = None
-
-    def __post_init__(self) -> None:
-        values = (
-            ("range_m", self.range_m, "range_std_m", self.range_std_m),
-            ("azimuth_rad", self.azimuth_rad, "azimuth_std_rad", self.azimuth_std_rad),
-            ("elevation_rad", self.elevation_rad, "elevation_std_rad", self.elevation_std_rad),
-        )
-        if not self.detected:
-            for name, value, _, _ in values:
-                if value is not None:
-                    raise ProtocolError(
-                        f"detected=false carries no measurement, but {name} is given",
-                        field=f"$.{name}",
-                    )
-        for name, value, std_name, std in values:
-            if value is None and std is not None:
-                raise ProtocolError(
-                    f"{std_name} is given without {name}", field=f"$.{std_name}"
-                )
-            if value is not None and std is None:
-                raise ProtocolError(
-                    f"{name} is given without {std_name}", field=f"$.{std_name}"
-                )
-        if self.detected and self.azimuth_rad is None:
-            raise ProtocolError(
-                "detected=true needs at least azimuth_rad", field="$.azimuth_rad"
-            )
 
 
 class GpsFix(Message, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -354,6 +292,6 @@ class TargetTruth(Message, frozen=True, forbid_unknown_fields=True, kw_only=True
 
 #: Every message type the codec knows, top-level and nested.
 MESSAGE_TYPES: tuple[type[Message], ...] = (
-    SensorReport, GpsFix, InsIncrement, NavReport, PredictedPoint,
+    SensorReport, Measurement, GpsFix, InsIncrement, NavReport, PredictedPoint,
     TrackEstimate, PlanCommand, VehicleStatus, DaemonStatus, TargetTruth,
 )

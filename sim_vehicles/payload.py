@@ -312,7 +312,7 @@ class PayloadBridge:
             if scene.elapsed_ns >= self._next_ns["report"]:
                 self._next_ns["report"] = self._next(scene.elapsed_ns, "report")
                 out.extend(self._sensor_reports(t))
-                out.append(Publication(self.scenario.target.id, "truth", scene.truth()))
+                out.extend(Publication(truth.target_id, "truth", truth) for truth in scene.truths())
             if scene.elapsed_ns >= self._next_ns["nav"]:
                 self._next_ns["nav"] = self._next(scene.elapsed_ns, "nav")
                 out.extend(self._nav_reports(t))

@@ -115,7 +115,7 @@ class PayloadRunner:
                                           for vid, c in self.options.connections.items()))
         self.session = open_session(self.options.zenoh)
         self.publishers = declare_vehicle_publishers(self.session, self.bridge.vehicles, self.options.prefix,
-                                                     self.bridge.scenario.target.id)
+                                                     [t.id for t in self.bridge.scenario.all_targets])
         log.info("Zenoh: %s session, prefix %r", self.options.zenoh.mode, self.options.prefix)
         self.opened.set()
 

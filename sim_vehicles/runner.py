@@ -123,7 +123,8 @@ class Runner:
             self.session = open_session(self.options.zenoh)
             prefix = self.options.prefix
             self.publishers = declare_vehicle_publishers(self.session, [v.id for v in self.vehicles], prefix,
-                                                         self.scenario.target.id if self.publishes_truth else None)
+                                                         [t.id for t in self.scenario.all_targets]
+                                                         if self.publishes_truth else ())
             if self.options.lockstep:
                 wall_period_s = self._report_period_ns / NS_PER_S / self.options.rate
                 self.peers = PeerClock(self.session, prefix, [v.id for v in self.vehicles], wall_period_s,
@@ -219,7 +220,8 @@ class Runner:
                     self.summary.reports[vehicle_id] += 1
                     self.summary.detections[vehicle_id] += report.detected
                     self._publish(vehicle_id, "report", report)
-                self._publish(self.scenario.target.id, "truth", scene.truth())
+                for truth in scene.truths():
+                    self._publish(truth.target_id, "truth", truth)
             if navs.due(now):
                 for vehicle_id in scene.vehicles:
                     self.summary.nav_reports[vehicle_id] += 1

@@ -1,11 +1,22 @@
-"""The simulated scene: every vehicle's airframe, GPS, INS and sensor, and the ground target.
+"""The simulated scene: every vehicle's airframe, GPS, INS and sensor, and the ground targets.
 
 :class:`Scene` advances the truth by physics steps and produces the wire
-messages the vehicles publish (``SensorReport``, ``NavReport``). It owns no
-sockets and reads no clock: simulation time is its own ``elapsed_s``, and wire
-stamps are ``epoch_ns + elapsed``. Randomness comes from one generator per
-stream (target; each vehicle's GPS, INS and sensor), all spawned from one seed,
+messages the vehicles publish (``SensorReport``, ``NavReport``, and a
+``TargetTruth`` per target). It owns no sockets and reads no clock: simulation
+time is its own ``elapsed_s``, and wire stamps are ``epoch_ns + elapsed``.
+Randomness comes from one generator per stream (``[target]``; each vehicle's
+GPS, INS and sensor; then each of ``[[targets]]``), all spawned from one seed,
 so a stream's draws do not depend on how often another stream is sampled.
+
+A scan (:meth:`Scene.sensor_report`) measures every target in range and in
+sight (occlusion by the city's buildings), keeps each with the sensor's
+``detection_probability``, adds ``Poisson(clutter_rate)`` false detections
+uniform over the ground in the field (:func:`~sim_vehicles.truth.detections.clutter_points`)
+and lists them in random order, without identity. Its draws from the vehicle's
+sensor stream: the noise of every target (drawn in sight or not), then, only when
+``detection_probability < 1``, one uniform per target, only when ``clutter_rate > 0``
+the clutter, and only for two detections or more the order. One target, certain
+detection and no clutter therefore draw exactly the noise of that one target.
 
 A vehicle's own navigation (what ``vehicle_position_enu_m`` reports) is the
 simplest honest one: the GPS fix when there is one; in a GPS-denied zone, dead
@@ -22,18 +33,19 @@ from pathlib import Path
 
 import numpy as np
 
-from gcs.config import Scenario, VehicleConfig
+from gcs.config import Scenario, SensorConfig, VehicleConfig
 from gcs.core.geometry import LocalFrame, wrap_angle
 from gcs.core.world import World
 from gcs.core.world.los import line_of_sight
-from protocols.messages import GpsFix, InsIncrement, NavReport, SensorReport, TargetTruth
+from protocols.messages import GpsFix, InsIncrement, Measurement, NavReport, SensorReport, TargetTruth
 from sim_vehicles.truth.fixed_wing import Airframe, AirframeState, Guidance
 from sim_vehicles.truth.gps import GpsModel, GpsReading, GpsState
 from sim_vehicles.truth.ins import InsModel
+from sim_vehicles.truth.detections import clutter_points, ground_disc_radius
 from sim_vehicles.truth.sensor import TargetSensor
-from sim_vehicles.truth.target import TargetState, start_state, target_model
+from sim_vehicles.truth.target import TargetModel, TargetState, start_state, target_model
 
-__all__ = ["Scene", "SimVehicle", "DEAD_RECKONING_GROWTH", "simple_navigation"]
+__all__ = ["Scene", "SimTarget", "SimVehicle", "DEAD_RECKONING_GROWTH", "simple_navigation"]
 
 DEAD_RECKONING_GROWTH = 0.05
 """Growth of the dead-reckoned position's 1-sigma per metre flown without GPS (ours)."""
@@ -66,6 +78,22 @@ class SimVehicle:
     nav_seq: int = 0
 
 
+@dataclass
+class SimTarget:
+    """One ground target's truth (mutable: the scene advances it)."""
+
+    id: str
+    model: TargetModel
+    state: TargetState
+    rng: np.random.Generator
+    truth_seq: int = 0
+
+    @property
+    def xyz(self) -> np.ndarray:
+        """Position, ENU metres, on the ground (z = 0)."""
+        return np.array([self.state.position[0], self.state.position[1], 0.0])
+
+
 class Scene:
     """Truth of one scenario, advanced in physics steps.
 
@@ -94,11 +122,13 @@ class Scene:
         sim = scenario.simulation
         self.wind = tuple(sim.wind_enu_mps)
         self.elapsed_ns = 0
-        self.truth_seq = 0
-        streams = np.random.SeedSequence(seed).spawn(1 + 3 * len(scenario.vehicles))
-        self.rng_target = np.random.default_rng(streams[0])
-        self.target_model = target_model(scenario, world, base_dir=base_dir)
-        self.target: TargetState = start_state(self.target_model, scenario, self.rng_target)
+        vehicles = len(scenario.vehicles)
+        streams = np.random.SeedSequence(seed).spawn(1 + 3 * vehicles + len(scenario.targets))
+        self.targets: list[SimTarget] = []
+        for index, cfg in enumerate(scenario.all_targets):
+            rng = np.random.default_rng(streams[0 if index == 0 else 3 * vehicles + index])
+            model = target_model(scenario, world, base_dir=base_dir, target=cfg)
+            self.targets.append(SimTarget(cfg.id, model, start_state(model, scenario, rng, cfg), rng))
         gps_model = GpsModel.from_scenario(scenario)
         self.vehicles: dict[str, SimVehicle] = {}
         unknown = sorted(set(only or ()) - {v.id for v in scenario.vehicles})
@@ -149,47 +179,71 @@ class Scene:
             vehicle.gps_state, vehicle.gps = vehicle.gps_model.read(vehicle.gps_state, vehicle.state.position_enu_m,
                                                                     dt, vehicle.rng_gps)
             self._navigate(vehicle, before, dt)
-        self.target = self.target_model.step(self.target, dt, self.rng_target)
+        self._move_targets(dt)
         self.elapsed_ns += round(dt * NS_PER_S)
 
+    def _move_targets(self, dt: float) -> None:
+        for target in self.targets:
+            target.state = target.model.step(target.state, dt, target.rng)
+
     def skip_target(self, dt: float) -> None:
-        """Move only the target ``dt`` seconds (its draws are those :meth:`advance` makes): a process joining a
-        run in flight brings the target to the others' time; its vehicles start afresh from there."""
-        self.target = self.target_model.step(self.target, dt, self.rng_target)
+        """Move only the targets ``dt`` seconds (their draws are those :meth:`advance` makes): a process joining a
+        run in flight brings the targets to the others' time; its vehicles start afresh from there."""
+        self._move_targets(dt)
         self.elapsed_ns += round(dt * NS_PER_S)
         for vehicle in self.vehicles.values():
             vehicle.last_nav_ns = self.elapsed_ns  # the first INS increment covers flight, not the skip
             vehicle.ins_distance_m = vehicle.ins_turn_rad = 0.0
 
     @property
+    def target(self) -> TargetState:
+        """The truth of ``[target]``, the scenario's first target."""
+        return self.targets[0].state
+
+    @property
     def target_xyz(self) -> np.ndarray:
-        """Target truth, ENU metres (on the ground, z = 0)."""
-        return np.array([self.target.position[0], self.target.position[1], 0.0])
+        """``[target]``'s truth, ENU metres (on the ground, z = 0)."""
+        return self.targets[0].xyz
 
     # --------------------------------------------------------------- messages
 
-    def sensor_report(self, vehicle_id: str) -> SensorReport:
-        """The vehicle's sensor looks for the target now (occlusion by the city's buildings)."""
-        vehicle = self.vehicles[vehicle_id]
+    def _scan(self, vehicle: SimVehicle, sensor_config: SensorConfig) -> list[Measurement]:
+        """One scan's detections by ``vehicle`` (see the module docstring for what is drawn, in which order)."""
         buildings = self.world.buildings
+        position = vehicle.state.position_enu_m
+        sensor, rng = vehicle.sensor, vehicle.rng_sensor
 
         def clear(a: np.ndarray, b: np.ndarray) -> np.ndarray:
             return line_of_sight(buildings, a, b)
 
-        observation = vehicle.sensor.observe(self.target_xyz, vehicle.state.position_enu_m[None], clear,
-                                             vehicle.rng_sensor)
-        values: dict[str, float | None] = {}
-        if observation.detected[0]:
-            stds = vehicle.sensor.std_at(float(np.linalg.norm(self.target_xyz - vehicle.state.position_enu_m)))
-            for name, value, std in zip(observation.components, observation.values[0], stds):
-                unit = "_m" if name == "range" else "_rad"
-                values[f"{name}{unit}"] = float(value)
-                values[f"{name}_std{unit}"] = float(std)
+        found, in_sight = [], []
+        for target in self.targets:
+            observation = sensor.observe(target.xyz, position[None], clear, rng)
+            in_sight.append(bool(observation.detected[0]))
+            if in_sight[-1]:
+                found.append((observation.values[0], sensor.std_at(float(np.linalg.norm(target.xyz - position)))))
+        pd = sensor_config.detection_probability
+        if pd < 1.0:  # one draw per target, in sight or not, so that the stream does not depend on the geometry
+            kept = (rng.random(len(self.targets)) < pd)[np.array(in_sight, dtype=bool)]
+            found = [f for f, keep in zip(found, kept) if keep]
+        if sensor_config.clutter_rate > 0.0:
+            radius = float(ground_disc_radius(position[None], sensor.max_range_m, 0.0)[0])
+            points = clutter_points(position[:2], radius, sensor_config.clutter_rate, rng)
+            values, stds = sensor.measure_points(np.column_stack([points, np.zeros(len(points))]), position, rng)
+            found += list(zip(values, stds))
+        if len(found) > 1:
+            found = [found[i] for i in rng.permutation(len(found))]
+        return [_measurement(sensor.components, values, stds) for values, stds in found]
+
+    def sensor_report(self, vehicle_id: str) -> SensorReport:
+        """The vehicle's sensor scans now: its detections of the targets and of clutter (module docstring)."""
+        vehicle = self.vehicles[vehicle_id]
+        detections = self._scan(vehicle, self.scenario.sensor_for(vehicle.config))
         vehicle.report_seq += 1
         return SensorReport(
-            vehicle_id=vehicle_id, seq=vehicle.report_seq, stamp_ns=self.stamp_ns, target_id=self.scenario.target.id,
+            vehicle_id=vehicle_id, seq=vehicle.report_seq, stamp_ns=self.stamp_ns,
             vehicle_position_enu_m=tuple(float(v) for v in vehicle.nav_position_enu_m),
-            vehicle_position_std_m=float(vehicle.nav_std_m), detected=bool(observation.detected[0]), **values)
+            vehicle_position_std_m=float(vehicle.nav_std_m), detections=tuple(detections))
 
     def nav_report(self, vehicle_id: str) -> NavReport:
         """GPS fix (when there is one) and the INS increments accumulated since the previous nav report."""
@@ -215,12 +269,15 @@ class Scene:
                          velocity_enu_mps=velocity, heading_rad=wrap_angle(vehicle.nav_heading_rad),
                          turn_rate_rad_s=float(vehicle.state.turn_rate_rad_s))
 
-    def truth(self) -> TargetTruth:
-        """The target's truth now (published by the simulator for scoring and display only)."""
-        self.truth_seq += 1
-        return TargetTruth(target_id=self.scenario.target.id, seq=self.truth_seq, stamp_ns=self.stamp_ns,
-                           position_enu_m=(float(self.target.position[0]), float(self.target.position[1])),
-                           velocity_enu_mps=(float(self.target.velocity[0]), float(self.target.velocity[1])))
+    def truths(self) -> list[TargetTruth]:
+        """Every target's truth now, ``[target]`` first (published by the simulator for scoring and display only)."""
+        out = []
+        for target in self.targets:
+            target.truth_seq += 1
+            out.append(TargetTruth(target_id=target.id, seq=target.truth_seq, stamp_ns=self.stamp_ns,
+                                   position_enu_m=(float(target.state.position[0]), float(target.state.position[1])),
+                                   velocity_enu_mps=(float(target.state.velocity[0]), float(target.state.velocity[1]))))
+        return out
 
     def _navigate(self, vehicle: SimVehicle, before: AirframeState, dt: float) -> None:
         """One physics step of the vehicle's own navigation: INS increments (feng2019 eq. 1), then
@@ -233,6 +290,20 @@ class Scene:
         vehicle.nav_position_enu_m, vehicle.nav_heading_rad, vehicle.nav_std_m = simple_navigation(
             vehicle.nav_position_enu_m, vehicle.nav_heading_rad, vehicle.nav_std_m, vehicle.gps,
             vehicle.state.heading_rad, vehicle.state.position_enu_m[2], distance, turn)
+
+
+_FIELDS = {"range": ("range_m", "range_std_m"), "azimuth": ("azimuth_rad", "azimuth_std_rad"),
+           "elevation": ("elevation_rad", "elevation_std_rad")}
+"""The ``Measurement`` fields of each sensor component: its value and its standard deviation."""
+
+
+def _measurement(components: tuple[str, ...], values: np.ndarray, stds: np.ndarray) -> Measurement:
+    """The wire form of one detection's measured components and their standard deviations."""
+    fields: dict[str, float] = {}
+    for component, value, std in zip(components, values, stds):
+        name, std_name = _FIELDS[component]
+        fields[name], fields[std_name] = float(value), float(std)
+    return Measurement(**fields)
 
 
 def simple_navigation(position_enu_m: np.ndarray, heading_rad: float, std_m: float, gps: GpsReading,

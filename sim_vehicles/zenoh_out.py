@@ -21,14 +21,14 @@ __all__ = ["declare_vehicle_publishers", "close_zenoh"]
 
 
 def declare_vehicle_publishers(session: zenoh.Session, vehicle_ids: Iterable[str], prefix: str,
-                               target_id: str | None) -> dict[tuple[str, str], zenoh.Publisher]:
-    """The publishers by ``(vehicle id, "report" | "nav")``, and ``(target id, "truth")`` when ``target_id``
-    is given."""
+                               target_ids: Iterable[str] = ()) -> dict[tuple[str, str], zenoh.Publisher]:
+    """The publishers by ``(vehicle id, "report" | "nav")``, and ``(target id, "truth")`` for each of
+    ``target_ids`` (``<prefix>/truth/<target id>``)."""
     publishers = {}
     for vehicle_id in vehicle_ids:
         publishers[(vehicle_id, "report")] = declare_publisher(session, report_key(vehicle_id, prefix), SensorReport)
         publishers[(vehicle_id, "nav")] = declare_publisher(session, nav_key(vehicle_id, prefix), NavReport)
-    if target_id is not None:
+    for target_id in target_ids:
         publishers[(target_id, "truth")] = declare_publisher(session, truth_key(target_id, prefix), TargetTruth)
     return publishers
 

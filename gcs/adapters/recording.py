@@ -43,7 +43,7 @@ from mcap.records import Channel, Chunk, Footer, Message, Schema
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
-from protocols.codec import json_schema, parse_encoding
+from protocols.codec import json_schema, wire_version
 from protocols.errors import ProtocolError
 
 __all__ = ["CHUNK_BYTES", "HEARTBEAT_ENCODING", "LIVELINESS_ENCODING", "MCAP_MAGIC", "Recorded", "Recorder",
@@ -115,12 +115,12 @@ class Recorder:
         if encoding in (LIVELINESS_ENCODING, HEARTBEAT_ENCODING):
             return 0
         try:
-            message_type = parse_encoding(encoding)
+            message_type, version = wire_version(encoding)
         except ProtocolError:
             return 0  # recorded as received, without a schema: replay and --process reject it as the daemon did
-        name = f"gcs.{message_type.__name__}/{message_type.VERSION}"
+        name = f"gcs.{message_type.__name__}/{version}"
         if name not in self._schemas:
-            self._schemas[name] = self._writer.register_schema(name, SCHEMA_ENCODING, json_schema(message_type))
+            self._schemas[name] = self._writer.register_schema(name, SCHEMA_ENCODING, json_schema(message_type, version))
         return self._schemas[name]
 
     def write(self, key: str, payload: bytes, encoding: str, log_time_ns: int) -> None:
@@ -300,10 +300,10 @@ def _checked_channel(path: Path, channel: Channel, schemas: dict[int, Schema], o
     if schema is None:
         raise RecordingError(f"{where}: unknown schema id {channel.schema_id}")
     try:
-        message_type = parse_encoding(encoding)
+        message_type, version = wire_version(encoding)
     except ProtocolError as error:
         raise RecordingError(f"{where}: {error}") from error
-    expected = f"gcs.{message_type.__name__}/{message_type.VERSION}"
+    expected = f"gcs.{message_type.__name__}/{version}"
     if schema.name != expected:
-        raise RecordingError(f"{where}: schema {schema.name!r} is not {expected!r}, the version this build speaks")
+        raise RecordingError(f"{where}: schema {schema.name!r} is not {expected!r}, the version its encoding names")
     return channel

@@ -195,7 +195,8 @@ def fly(scenario: Scenario, world: World, personality: str, seed: int, duration_
         if tick % per_step == 0:
             for vid in roster:
                 send(report_key(vid), scene.sensor_report(vid), now)
-            send(truth_key(scenario.target.id), scene.truth(), now)
+            for truth in scene.truths():
+                send(truth_key(truth.target_id), truth, now)
         carry_out(engine.feed(Tick(now)))
         carry_out(engine.feed(PlannerFree(now)))
         if first_plan_s is None and engine.loop.paths:

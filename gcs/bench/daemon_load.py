@@ -44,7 +44,7 @@ from gcs.core.geometry import LocalFrame
 from gcs.daemon.niceness import lower_priority
 from protocols.codec import encode
 from protocols.keys import alive_key, nav_key, report_key
-from protocols.messages import GpsFix, NavReport, SensorReport
+from protocols.messages import GpsFix, Measurement, NavReport, SensorReport
 
 __all__ = ["FIRST_STAMP_NS", "LOAD_NICENESS", "Vehicle", "Fleet", "Load", "publisher_main"]
 
@@ -138,9 +138,9 @@ class Load:
         self.seq += 1
         payload, _ = encode(SensorReport(
             vehicle_id=v.id, seq=self.seq, stamp_ns=stamp_ns, vehicle_position_enu_m=v.position_enu_m,
-            vehicle_position_std_m=REPORTED_POSITION_STD_M, detected=True, range_m=v.range_m,
-            azimuth_rad=v.azimuth_rad, elevation_rad=v.elevation_rad,
-            range_std_m=r_std, azimuth_std_rad=a_std, elevation_std_rad=e_std))
+            vehicle_position_std_m=REPORTED_POSITION_STD_M,
+            detections=(Measurement(range_m=v.range_m, azimuth_rad=v.azimuth_rad, elevation_rad=v.elevation_rad,
+                                    range_std_m=r_std, azimuth_std_rad=a_std, elevation_std_rad=e_std),)))
         return payload
 
     def _nav(self, slot: int, stamp_ns: int) -> bytes:

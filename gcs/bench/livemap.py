@@ -69,7 +69,7 @@ def messages(scenario: Scenario, seconds: int) -> list[list[Message]]:
         if tick % NAV_HZ == 0:
             step = tick // NAV_HZ + 1
             target = (1500.0 + 5.0 * t, 1500.0)
-            chunk += [SensorReport(vehicle_id=v.id, seq=step, stamp_ns=stamp, detected=False,
+            chunk += [SensorReport(vehicle_id=v.id, seq=step, stamp_ns=stamp,
                                    vehicle_position_enu_m=(float(p[0]), float(p[1]), 200.0)) for v, p in zip(vehicles, xy)]
             chunk.append(TargetTruth(target_id="target", seq=step, stamp_ns=stamp, position_enu_m=target,
                                      velocity_enu_mps=(5.0, 0.0)))

@@ -61,9 +61,10 @@ def make_recording(scenario: Scenario, world: World, path: Path, duration_s: flo
                     payload, encoding = encode(scene.sensor_report(vehicle_id))
                     recorder.write(report_key(vehicle_id), payload, encoding, scene.stamp_ns)
                     counts["report"] += 1
-                payload, encoding = encode(scene.truth())
-                recorder.write(truth_key(scenario.target.id), payload, encoding, scene.stamp_ns)
-                counts["truth"] += 1
+                for truth in scene.truths():
+                    payload, encoding = encode(truth)
+                    recorder.write(truth_key(truth.target_id), payload, encoding, scene.stamp_ns)
+                    counts["truth"] += 1
             scene.advance(dt, {})
     return counts
 

@@ -106,6 +106,10 @@ class SensorConfig(_Config):
     reference_range_m: Positive = 1500.0
     elevation: bool = True
     """Whether a ``bearing_only`` sensor also measures elevation (TOML cannot unset ``elevation_std_rad``)."""
+    detection_probability: Annotated[float, msgspec.Meta(ge=0.0, le=1.0)] = 1.0
+    """Probability that the simulated sensor detects a target in its field and in sight, per scan."""
+    clutter_rate: Annotated[float, msgspec.Meta(ge=0.0, le=32.0)] = 0.0
+    """Mean number of false detections per simulated scan (Poisson), uniform over the ground in the field."""
 
     def layout(self) -> tuple[tuple[str, ...], tuple[float, ...]]:
         """Measured components and their standard deviations, in measurement-vector order.
@@ -152,6 +156,7 @@ class TargetConfig(_Config):
     1.4 m/s, i.e. 1.96 m^2/s^3 at 1 s), speed capped at ``max_speed_mps``.
     ``streets``: drives the street grid at ``street_speed_mps``, turning at an
     intersection with ``turn_probability``.
+    ``scripted``: follows the time-stamped path of ``path_file`` or ``path``.
     """
 
     id: Identifier = "target"
@@ -161,6 +166,8 @@ class TargetConfig(_Config):
     accel_psd_m2_s3: NonNegative = 1.96
     max_speed_mps: Positive = 15.0
     path_file: str | None = None
+    path: list[tuple[NonNegative, float, float]] = []
+    """``scripted``: the path inline, rows ``[t_s, x_m, y_m]`` (instead of ``path_file``)."""
     street_speed_mps: Positive = 10.0
     """``streets``: cruising speed along the street grid (capped by ``max_speed_mps``)."""
     turn_probability: Annotated[float, msgspec.Meta(ge=0.0, le=1.0)] = 0.5
@@ -267,6 +274,9 @@ class Scenario(_Config, kw_only=True):
     sensor: SensorConfig = SensorConfig()
     vehicles: Annotated[list[VehicleConfig], msgspec.Meta(min_length=1)]
     target: TargetConfig = TargetConfig()
+    targets: Annotated[list[TargetConfig], msgspec.Meta(max_length=63)] = []
+    """Further ground targets (``[[targets]]``), simulated alongside ``[target]``, the one the
+    single-target estimator's track is named for."""
     estimator: EstimatorConfig = EstimatorConfig()
     planner: PlannerConfig = PlannerConfig()
     simulation: SimulationConfig = SimulationConfig()
@@ -275,6 +285,11 @@ class Scenario(_Config, kw_only=True):
     def sensor_for(self, vehicle: VehicleConfig) -> SensorConfig:
         """The sensor a vehicle carries: its own override, else the scenario's."""
         return vehicle.sensor if vehicle.sensor is not None else self.sensor
+
+    @property
+    def all_targets(self) -> tuple[TargetConfig, ...]:
+        """Every simulated target: ``[target]`` first, then ``[[targets]]`` in order."""
+        return (self.target, *self.targets)
 
     def autopilot_for(self, vehicle: VehicleConfig) -> str:
         """The autopilot personality a simulated vehicle flies: its own, else ``[simulation] autopilot``."""
@@ -294,11 +309,23 @@ def _check_autopilot(name: str | None, path: str) -> list[str]:
     return [f"{path}: unknown autopilot {name!r}; expected one of: {', '.join(AUTOPILOT_PERSONALITIES)}"]
 
 
+def _check_target(target: TargetConfig, path: str, width: float, height: float) -> list[str]:
+    problems = []
+    tx, ty = target.start_enu_m
+    if not (0.0 <= tx <= width and 0.0 <= ty <= height):
+        problems.append(f"{path}.start_enu_m: {target.start_enu_m} is outside the city [0, {width}] x [0, {height}]")
+    if target.motion == "scripted" and not target.path_file and not target.path:
+        problems.append(f"{path}.path_file: required when motion = 'scripted' (or give path)")
+    if target.path_file and target.path:
+        problems.append(f"{path}.path: give path_file or path, not both")
+    return problems
+
+
 def validate_scenario(scenario: Scenario) -> Scenario:
     """Check the rules a schema cannot express; raise ScenarioError naming every bad key.
 
-    Rules: vehicle ids and MAVLink system ids are unique; every start point lies
-    inside the city rectangle; building heights are ordered; airspace bands
+    Rules: vehicle ids, target ids and MAVLink system ids are unique; every start point lies
+    inside the city rectangle; a scripted target has one path; building heights are ordered; airspace bands
     are ordered; a GeoJSON city names its file; sensors that measure range have
     a range standard deviation; autopilot personalities are known names.
     """
@@ -322,13 +349,15 @@ def validate_scenario(scenario: Scenario) -> Scenario:
         problems += _check_autopilot(vehicle.autopilot, f"{path}.autopilot")
     problems += _check_autopilot(scenario.simulation.autopilot, "$.simulation.autopilot")
     problems += _check_sensor(scenario.sensor, "$.sensor")
-    tx, ty = scenario.target.start_enu_m
-    if not (0.0 <= tx <= width and 0.0 <= ty <= height):
-        problems.append(f"$.target.start_enu_m: {scenario.target.start_enu_m} is outside the city [0, {width}] x [0, {height}]")
+    target_paths = ["$.target"] + [f"$.targets[{k}]" for k in range(len(scenario.targets))]
+    seen_targets: dict[str, str] = {}
+    for path, target in zip(target_paths, scenario.all_targets):
+        problems += _check_target(target, path, width, height)
+        if target.id in seen_targets:
+            problems.append(f"{path}.id: duplicate target id {target.id!r} (also {seen_targets[target.id]})")
+        seen_targets.setdefault(target.id, path)
     if scenario.estimator.kind == "imm" and scenario.estimator.model != "cv2d":
         problems.append("$.estimator.model: the imm estimator needs model = 'cv2d'")
-    if scenario.target.motion == "scripted" and not scenario.target.path_file:
-        problems.append("$.target.path_file: required when motion = 'scripted'")
     if scenario.city.min_height_m > scenario.city.max_height_m:
         problems.append("$.city.min_height_m: greater than max_height_m")
     if scenario.city.kind == "geojson" and not scenario.city.geojson:

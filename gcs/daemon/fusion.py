@@ -8,6 +8,13 @@ planned for, and the prediction is the tracker's own (eq. 16-17). With a
 the caller) a detection's vehicle position and its covariance are the
 navigator's; without one, or for a vehicle it has no estimate of, the report's
 own ``vehicle_position_enu_m``, taken as exact.
+
+The single-target track takes at most one detection from each report
+(:func:`choose_measurement`): the only one when there is one, exactly as a
+report of one measurement always was; of several, the one nearest the track in
+squared Mahalanobis distance. Before a track exists, the step starts one from the
+first detection of the first roster vehicle that has one (the order the vehicle
+listed them in), and every other report's detection is chosen against that start.
 """
 
 from __future__ import annotations
@@ -21,24 +28,31 @@ from gcs.core.filters.prediction import HorizonPrediction
 from gcs.core.filters.uif import GaussianEstimate, NotPositiveDefinite
 from gcs.core.geometry import wrap_angle
 from gcs.core.kinematics import VehicleState, rollout
-from gcs.core.models.sensor import SensorModel
-from gcs.core.tracker import Detection, TrackerConfig, TrackerState, fuse, prediction
+from gcs.core.models.sensor import RANGE, SensorModel
+from gcs.core.multitarget.filter import innovations
+from gcs.core.tracker import Detection, TrackerConfig, TrackerState, fuse, initial_estimate, prediction
 from gcs.daemon.navigation import FleetNavigator
 from gcs.daemon.steps import ReadyStep
 from gcs.config import VehicleConfig
 from protocols.messages import PlanCommand, PredictedPoint, SensorReport, TrackEstimate
 
-__all__ = ["step_detections", "fuse_step", "FusionDiverged", "check_estimate", "track_message", "plan_commands", "PlanMemory", "with_observers"]
+__all__ = ["choose_measurement", "step_detections", "fuse_step", "FusionDiverged", "check_estimate", "track_message", "plan_commands", "PlanMemory", "with_observers"]
 
 
 _REPORT_FIELD = {"range": "range_m", "azimuth": "azimuth_rad", "elevation": "elevation_rad"}
 """The ``SensorReport`` field of each sensor model component."""
 
 
-def _measurement(report: SensorReport, components: tuple[str, ...]) -> np.ndarray | None:
-    """The report's values in the sensor model's component order; None if one is missing."""
-    values = [getattr(report, _REPORT_FIELD[c]) for c in components]
-    return None if None in values else np.array(values, dtype=np.float64)
+def _measurements(report: SensorReport, components: tuple[str, ...]) -> list[np.ndarray]:
+    """The report's detections that have every component of the sensor model, as value vectors
+    in the model's component order (report order kept)."""
+    fields = [_REPORT_FIELD[c] for c in components]
+    out = []
+    for detection in report.detections:
+        values = [getattr(detection, name) for name in fields]
+        if None not in values:
+            out.append(np.array(values, dtype=np.float64))
+    return out
 
 
 def _reported_cov(report: SensorReport) -> float | None:
@@ -47,9 +61,45 @@ def _reported_cov(report: SensorReport) -> float | None:
     return std * std if std else None
 
 
+def choose_measurement(candidates: Sequence[np.ndarray], sensor: SensorModel, track: GaussianEstimate,
+                       vehicle_xyz: np.ndarray, vehicle_cov: np.ndarray) -> int:
+    """Index of the candidate measurement nearest the track: least ``nu^T S^-1 nu``.
+
+    ``nu = z - h(x)`` is the innovation (azimuth wrapped) about the track's mean position and
+    ``S = H P H^T + R + J_s P_s J_s^T`` its covariance, with the track's position covariance
+    ``P``, the sensor's noise ``R`` and the vehicle's position covariance ``P_s`` (3, 3) carried
+    through ``J_s = dh/dp_s`` (:func:`gcs.core.multitarget.filter.innovations`). This is
+    nearest-neighbour association (Bar-Shalom, Willett & Tian, *Tracking and Data Fusion*,
+    2011, section 3.2); ties go to the earlier candidate.
+    """
+    z = np.stack(candidates)
+    n = len(z)
+    inn = innovations(track.mean[None, :], track.cov[None, :, :], sensor, z,
+                      np.broadcast_to(vehicle_xyz, (n, 3)), np.broadcast_to(vehicle_cov, (n, 3, 3)))
+    return int(np.argmin(inn.d2[0]))
+
+
+def _track_now(config: TrackerConfig, estimate: GaussianEstimate | None, stamp_ns: int) -> GaussianEstimate | None:
+    """The track predicted to the step (as :func:`fuse` will), to choose among a report's detections."""
+    if estimate is None or estimate.dim != config.uif.motion.dim or stamp_ns < estimate.stamp_ns:
+        return estimate
+    return config.uif.predict(GaussianEstimate(estimate.mean, estimate.cov, estimate.stamp_ns,
+                                                        layout=estimate.layout), stamp_ns)
+
+
+def _seed_track(config: TrackerConfig, seed: Detection, stamp_ns: int) -> GaussianEstimate | None:
+    """The track a step starts from its first detection (:func:`initial_estimate`); None without a range."""
+    sensor = config.sensors[seed.vehicle]
+    if config.bearing_filter is not None or RANGE not in sensor.components:
+        return None
+    return initial_estimate(seed, sensor, stamp_ns, config.initial_position_std_m,
+                            config.initial_velocity_std_mps, config.uif.motion.dim)
+
+
 def step_detections(ready: ReadyStep, roster: Sequence[str], config: TrackerConfig,
-                    navigator: FleetNavigator | None = None) -> tuple[Detection, ...]:
-    """The step's detections in roster order (a vehicle's first report of the step counts).
+                    navigator: FleetNavigator | None = None,
+                    estimate: GaussianEstimate | None = None) -> tuple[Detection, ...]:
+    """The step's detections in roster order (a vehicle's first report of the step counts), one per report.
 
     With a ``navigator`` the vehicle's position is its estimate at the report's stamp, horizontal
     from the SKF and vertical from the report, with the (3, 3) covariance of
@@ -57,6 +107,11 @@ def step_detections(ready: ReadyStep, roster: Sequence[str], config: TrackerConf
     report's own position, uncertain by the report's ``vehicle_position_std_m`` on every axis
     when given: a few metres of GPS error are nothing 300 m from the target, but from
     right above it they turn the azimuth around, and the filter must know.
+
+    A report with several detections gives the one :func:`choose_measurement` picks against
+    ``estimate`` (the track before this step) predicted to the step; without a track, against
+    the track the step starts from its first detection (the first vehicle's first), or the
+    first detection when that start needs a range the sensor does not measure.
     """
     first: dict[str, SensorReport] = {}
     for report in ready.reports:
@@ -66,20 +121,31 @@ def step_detections(ready: ReadyStep, roster: Sequence[str], config: TrackerConf
         report = first.get(vehicle_id)
         if report is None or not report.detected:
             continue
-        values = _measurement(report, config.sensors[index].components)
-        if values is not None:
-            usable.append((index, report, values))
+        candidates = _measurements(report, config.sensors[index].components)
+        if candidates:
+            usable.append((index, report, candidates))
     if not usable:
         return ()
     positions = np.array([report.vehicle_position_enu_m for _, report, _ in usable], dtype=np.float64)  # (k, 3)
     detections = []
-    for (index, report, values), xyz in zip(usable, positions):
+    track = None
+    for (index, report, candidates), xyz in zip(usable, positions):
         navigated = None if navigator is None else navigator.position_at(report.vehicle_id, report.stamp_ns)
         if navigated is None:
-            detections.append(Detection(index, xyz, values, vehicle_cov=_reported_cov(report)))
+            where, cov = xyz, _reported_cov(report)
         else:
             xy, cov = navigated
-            detections.append(Detection(index, np.array([xy[0], xy[1], xyz[2]]), values, vehicle_cov=cov))
+            where = np.array([xy[0], xy[1], xyz[2]])
+        values = candidates[0]
+        if len(candidates) > 1:
+            if track is None:
+                track = _track_now(config, estimate, ready.stamp_ns)
+            if track is None and detections:
+                track = _seed_track(config, detections[0], ready.stamp_ns)
+            if track is not None:
+                values = candidates[choose_measurement(candidates, config.sensors[index], track, where,
+                                                       Detection(index, where, values, vehicle_cov=cov).position_cov)]
+        detections.append(Detection(index, where, values, vehicle_cov=cov))
     return tuple(detections)
 
 
@@ -139,12 +205,13 @@ def check_estimate(estimate: GaussianEstimate | None) -> None:
 
 def fuse_step(config: TrackerConfig, estimate: GaussianEstimate | None, ready: ReadyStep, roster: Sequence[str],
               navigator: FleetNavigator | None = None) -> tuple[GaussianEstimate | None, tuple[Detection, ...]]:
-    """The estimate after one step, and the detections that went into it (``navigator``: :func:`step_detections`).
+    """The estimate after one step, and the detections that went into it (``navigator``, and the choice
+    among a report's several detections: :func:`step_detections`).
 
     Raises :class:`FusionDiverged` when the detections (valid on the wire, but absurd together or with
     the prior) give no usable estimate, so that one bad step cannot poison the track that follows.
     """
-    detections = step_detections(ready, roster, config, navigator)
+    detections = step_detections(ready, roster, config, navigator, estimate)
     try:
         fused = fuse(config, estimate, ready.stamp_ns, detections)
     except (NotPositiveDefinite, np.linalg.LinAlgError, ArithmeticError) as error:

@@ -205,8 +205,9 @@ def _implausible(message) -> str | None:
         x, y, z = message.vehicle_position_enu_m
         if not (abs(x) <= MAX_ABS_POSITION_M and abs(y) <= MAX_ABS_POSITION_M and abs(z) <= MAX_ABS_ALTITUDE_M):
             return f"vehicle position {message.vehicle_position_enu_m} m is beyond {MAX_ABS_POSITION_M:g} m"
-        if message.range_m is not None and message.range_m > MAX_RANGE_M:
-            return f"range {message.range_m} m is beyond {MAX_RANGE_M:g} m"
+        for k, detection in enumerate(message.detections):
+            if detection.range_m is not None and detection.range_m > MAX_RANGE_M:
+                return f"detections[{k}]: range {detection.range_m} m is beyond {MAX_RANGE_M:g} m"
     elif isinstance(message, TargetTruth):
         if not all(abs(v) <= MAX_ABS_POSITION_M for v in message.position_enu_m):
             return f"target position {message.position_enu_m} m is beyond {MAX_ABS_POSITION_M:g} m"

@@ -178,8 +178,8 @@ class Engine:
                 if self.navigator is not None:
                     self.navigator.add(message)
                     self.steps.add_nav(message.vehicle_id, message.stamp_ns)
-        elif isinstance(message, TargetTruth):
-            self.scorer.add_truth(message.stamp_ns, message.position_enu_m)
+        elif isinstance(message, TargetTruth) and message.target_id == self.scenario.target.id:
+            self.scorer.add_truth(message.stamp_ns, message.position_enu_m)  # the track is scored against [target]
         return [] if message is None else [Observed(message)]
 
     def _observer_token(self, vehicle_id: str, declared: bool) -> None:

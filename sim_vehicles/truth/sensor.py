@@ -101,6 +101,16 @@ class TargetSensor:
         return Observation(detected, values, self.components)
 
 
+    def measure_points(self, points_xyz: NDArray[np.float64], vehicle_xyz: NDArray[np.float64],
+                       rng: np.random.Generator) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Noisy measurements (k, m) of points (k, 3) from one vehicle (3,), whatever is in the way (false
+        alarms need no line of sight), and their standard deviations (k, m) at the true slant range."""
+        exact = exact_measurements(points_xyz, np.broadcast_to(vehicle_xyz, points_xyz.shape))
+        slant = exact[:, 0]
+        values = noisy_measurements(exact, self.components, self.std, self._scale(slant), rng)
+        return values, self.std_at(slant)
+
+
 def noisy_measurements(exact: NDArray[np.float64], components: tuple[str, ...], std: tuple[float, ...],
                        scale: NDArray[np.float64], rng: np.random.Generator) -> NDArray[np.float64]:
     """The measured ``components`` (k, m) of exact range/azimuth/elevation triples (k, 3): Gaussian noise of

@@ -16,7 +16,7 @@
 All are pure: state in, ``numpy.random.Generator`` in, new state out; every
 ``step`` advances :attr:`TargetState.elapsed_s` by ``dt``. :func:`target_model`
 and :func:`start_state` build the model and the initial state a scenario's
-``[target]`` table describes.
+``[target]`` (or one of its ``[[targets]]``) table describes.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 if TYPE_CHECKING:
-    from gcs.config import Scenario
+    from gcs.config import Scenario, TargetConfig
     from gcs.core.world import World
 
 __all__ = ["TargetState", "WhiteNoiseTarget", "StreetTarget", "ScriptedTarget", "TargetModel",
@@ -253,22 +253,23 @@ TargetModel = WhiteNoiseTarget | StreetTarget | ScriptedTarget
 
 
 def target_model(scenario: Scenario, world: World, motion: str | None = None,
-                 base_dir: Path | None = None) -> TargetModel:
-    """The truth model of ``scenario.target`` (``motion`` overrides ``target.motion``).
+                 base_dir: Path | None = None, target: TargetConfig | None = None) -> TargetModel:
+    """The truth model of ``target`` (default ``scenario.target``; ``motion`` overrides its ``motion``).
 
     * ``white_noise_acceleration``: :class:`WhiteNoiseTarget`, blocked outside the
       city rectangle ``[0, width] x [0, depth]`` and inside buildings;
     * ``streets``: :class:`StreetTarget` on the world's street grid (a generated
       city), at ``min(street_speed_mps, max_speed_mps)``, turning with ``turn_probability``;
-    * ``scripted``: :class:`ScriptedTarget` from ``target.path_file``, relative to
-      ``base_dir`` (the current directory when None) unless absolute.
+    * ``scripted``: :class:`ScriptedTarget` from the inline ``target.path``, or from
+      ``target.path_file``, relative to ``base_dir`` (the current directory when None)
+      unless absolute.
 
     Raises
     ------
     ValueError
         Unknown motion, no street grid, no ``path_file``, or a bad path file.
     """
-    cfg = scenario.target
+    cfg = scenario.target if target is None else target
     motion = motion or cfg.motion
     if motion == "white_noise_acceleration":
         width, height = world.size_m
@@ -284,6 +285,9 @@ def target_model(scenario: Scenario, world: World, motion: str | None = None,
         return StreetTarget(world.streets.xs, world.streets.ys, speed_mps=min(cfg.street_speed_mps, cfg.max_speed_mps),
                             turn_probability=cfg.turn_probability)
     if motion == "scripted":
+        if cfg.path:
+            rows = np.array(cfg.path, dtype=np.float64)
+            return ScriptedTarget(rows[:, 0], rows[:, 1:3])
         if not cfg.path_file:
             raise ValueError("$.target.path_file: required when motion = 'scripted'")
         path = Path(cfg.path_file)
@@ -293,16 +297,18 @@ def target_model(scenario: Scenario, world: World, motion: str | None = None,
     raise ValueError(f"unknown target motion {motion!r}; expected white_noise_acceleration, streets or scripted")
 
 
-def start_state(model: TargetModel, scenario: Scenario, rng: np.random.Generator) -> TargetState:
-    """The target's state at time 0.
+def start_state(model: TargetModel, scenario: Scenario, rng: np.random.Generator,
+                target: TargetConfig | None = None) -> TargetState:
+    """The state at time 0 of ``target`` (default ``scenario.target``).
 
     :class:`StreetTarget`: the street crossing nearest ``target.start_enu_m``, on a
     random street (draws from ``rng``); :class:`ScriptedTarget`: the path at time
     0; otherwise ``target.start_enu_m`` moving at ``target.start_velocity_mps``.
     """
-    start = np.asarray(scenario.target.start_enu_m, dtype=np.float64)
+    cfg = scenario.target if target is None else target
+    start = np.asarray(cfg.start_enu_m, dtype=np.float64)
     if isinstance(model, StreetTarget):
         return model.start(start, rng)
     if isinstance(model, ScriptedTarget):
         return model.start()
-    return TargetState(start, np.asarray(scenario.target.start_velocity_mps, dtype=np.float64))
+    return TargetState(start, np.asarray(cfg.start_velocity_mps, dtype=np.float64))

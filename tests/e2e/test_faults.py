@@ -169,8 +169,7 @@ def test_a_killed_recorder_leaves_a_recoverable_file(tmp_path) -> None:
             assert time.monotonic() < deadline, "the recording did not grow"
             for _ in range(200):
                 seq += 1
-                publish(publisher, SensorReport(vehicle_id="uav1", seq=seq, stamp_ns=seq * 1_000_000, detected=False,
-                                                vehicle_position_enu_m=(float(seq), 0.0, 100.0)))
+                publish(publisher, SensorReport(vehicle_id="uav1", seq=seq, stamp_ns=seq * 1_000_000, vehicle_position_enu_m=(float(seq), 0.0, 100.0)))
             time.sleep(0.01)
         recorder.kill()
         assert recorder.wait(timeout=10) == -signal.SIGKILL

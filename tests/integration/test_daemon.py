@@ -48,8 +48,7 @@ def test_daemon_tracks_answers_rejects_bad_input_and_replans_around_a_lost_vehic
             assert track.model == "cv2d" and len(track.prediction) == horizon_steps(SCENARIO, scenario_planner(SCENARIO))
             bad = [(report_key("uav1"), b"\xff\xfe not json", "application/json;gcs.SensorReport/1"),
                    (report_key("intruder"), *encode(SensorReport(
-                       vehicle_id="intruder", seq=1, stamp_ns=EPOCH_NS, vehicle_position_enu_m=(0.0, 0.0, 100.0),
-                       detected=False))),
+                       vehicle_id="intruder", seq=1, stamp_ns=EPOCH_NS, vehicle_position_enu_m=(0.0, 0.0, 100.0)))),
                    (report_key("uav2"), b"{}", "text/plain")]
             for key, payload, encoding in bad:
                 session.put(key, payload, encoding=zenoh.Encoding(encoding))

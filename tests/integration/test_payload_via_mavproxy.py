@@ -185,7 +185,8 @@ def test_bridge_behind_mavproxy_publishes_the_vehicles_reports_where_they_fly(tm
             assert np.linalg.norm(np.array(report.vehicle_position_enu_m[:2]) - true[:2]) < POSITION_TOLERANCE_M
             if report.detected:
                 target = np.array([*truths[report.stamp_ns].position_enu_m, 0.0])
-                assert abs(report.range_m - np.linalg.norm(target - true)) < 5 * 10.0 + POSITION_TOLERANCE_M
+                (detection,) = report.detections
+                assert abs(detection.range_m - np.linalg.norm(target - true)) < 5 * 10.0 + POSITION_TOLERANCE_M
     assert bridge.counts["uav1"]["bad_telemetry"] == 0 and bridge.counts["uav1"]["withdrawn"] == 1
 
 

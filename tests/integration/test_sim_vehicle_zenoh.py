@@ -74,5 +74,6 @@ def test_reports_nav_and_liveliness_in_simulation_time() -> None:
         assert all(n.gps is not None and n.gps.fix_type >= 3 for n in navs[vehicle])
         assert all(n.ins is not None and n.ins.dt_s == 0.2 for n in navs[vehicle] if n.stamp_ns > EPOCH_NS)
     detected = [r for rs in reports.values() for r in rs if r.detected]
-    assert detected and all(r.range_m is not None and r.range_std_m == 10.0 for r in detected)
-    assert any(not r.detected and r.range_m is None for rs in reports.values() for r in rs)
+    assert detected and all(len(r.detections) == 1 and r.detections[0].range_m is not None
+                            and r.detections[0].range_std_m == 10.0 for r in detected)
+    assert any(r.detections == () for rs in reports.values() for r in rs)

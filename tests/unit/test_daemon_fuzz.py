@@ -24,7 +24,7 @@ from gcs.daemon.planner_start import start_planner
 from gcs.scenarios import load_scenario
 from protocols.codec import encode
 from protocols.keys import nav_key, report_key, truth_key
-from protocols.messages import NavReport, SensorReport, TargetTruth
+from protocols.messages import Measurement, NavReport, SensorReport, TargetTruth
 from tests.unit.test_protocols_codec import nav_reports, sensor_reports
 
 SCENARIO = load_scenario("wang2012_urban")
@@ -107,9 +107,10 @@ def plausible_reports(draw) -> Received:
     vehicle = draw(st.sampled_from(ROSTER))
     x, y = draw(st.floats(0.0, 3000.0)), draw(st.floats(0.0, 3000.0))
     report = SensorReport(vehicle_id=vehicle, seq=1, stamp_ns=EPOCH_NS + draw(st.integers(0, 40)) * S,
-                          vehicle_position_enu_m=(x, y, 200.0), detected=True, range_m=draw(st.floats(50.0, 800.0)),
-                          range_std_m=10.0, azimuth_rad=draw(st.floats(-math.pi, math.pi)), azimuth_std_rad=0.05,
-                          elevation_rad=draw(st.floats(-1.5, -0.1)), elevation_std_rad=0.05)
+                          vehicle_position_enu_m=(x, y, 200.0), detections=(Measurement(
+                              range_m=draw(st.floats(50.0, 800.0)), range_std_m=10.0,
+                              azimuth_rad=draw(st.floats(-math.pi, math.pi)), azimuth_std_rad=0.05,
+                              elevation_rad=draw(st.floats(-1.5, -0.1)), elevation_std_rad=0.05),))
     return _sample(report_key(vehicle), report)
 
 
@@ -176,8 +177,9 @@ def _seen_from(vehicle: str, stamp_ns: int) -> Received:
     x, y = tx - 300.0, ty
     ground = math.hypot(tx - x, ty - y)
     report = SensorReport(vehicle_id=vehicle, seq=1, stamp_ns=stamp_ns, vehicle_position_enu_m=(x, y, 200.0),
-                          detected=True, range_m=math.hypot(ground, 200.0), range_std_m=10.0, azimuth_rad=0.0,
-                          azimuth_std_rad=0.05, elevation_rad=-math.atan2(200.0, ground), elevation_std_rad=0.05)
+                          detections=(Measurement(range_m=math.hypot(ground, 200.0), range_std_m=10.0, azimuth_rad=0.0,
+                                                  azimuth_std_rad=0.05, elevation_rad=-math.atan2(200.0, ground),
+                                                  elevation_std_rad=0.05),))
     return _sample(report_key(vehicle), report)
 
 

@@ -19,7 +19,7 @@ from gcs.daemon.navigation import MAX_EXTRAPOLATION_S, FleetNavigator
 from gcs.daemon.steps import ReadyStep, StepAssembler
 from gcs.scenarios import load_scenario
 from gcs.engine.tracking import tracker_config
-from protocols.messages import GpsFix, InsIncrement, NavReport, SensorReport
+from protocols.messages import GpsFix, InsIncrement, Measurement, NavReport, SensorReport
 
 S = 1_000_000_000
 EPOCH_NS = 1_000 * S
@@ -175,9 +175,9 @@ def test_bad_reports_are_counted_and_the_estimate_stands() -> None:
 
 
 def _seen(vehicle: str, stamp_ns: int, xyz) -> SensorReport:
-    return SensorReport(vehicle_id=vehicle, seq=1, stamp_ns=stamp_ns, target_id="target", vehicle_position_enu_m=xyz,
-                        detected=True, range_m=300.0, range_std_m=10.0, azimuth_rad=0.1, azimuth_std_rad=0.05,
-                        elevation_rad=-0.7, elevation_std_rad=0.05)
+    return SensorReport(vehicle_id=vehicle, seq=1, stamp_ns=stamp_ns, vehicle_position_enu_m=xyz,
+                        detections=(Measurement(range_m=300.0, range_std_m=10.0, azimuth_rad=0.1, azimuth_std_rad=0.05,
+                                                elevation_rad=-0.7, elevation_std_rad=0.05),))
 
 
 def test_detections_use_the_navigated_position_and_covariance_and_fall_back_to_the_report_without_nav() -> None:
@@ -207,8 +207,7 @@ def test_without_navigation_a_detection_carries_the_reported_position_std_on_eve
 
 
 def _report(vehicle: str, stamp_ns: int) -> SensorReport:
-    return SensorReport(vehicle_id=vehicle, seq=1, stamp_ns=stamp_ns, vehicle_position_enu_m=(0.0, 0.0, 100.0),
-                        detected=False)
+    return SensorReport(vehicle_id=vehicle, seq=1, stamp_ns=stamp_ns, vehicle_position_enu_m=(0.0, 0.0, 100.0))
 
 
 def test_a_step_waits_for_the_nav_of_every_vehicle_that_sends_nav_and_times_out_without_it() -> None:

@@ -17,7 +17,7 @@ from gcs.daemon.steps import StepAssembler
 from gcs.scenarios import load_scenario
 from protocols.codec import encode
 from protocols.keys import nav_key, report_key, truth_key
-from protocols.messages import NavReport, SensorReport, TargetTruth
+from protocols.messages import Measurement, NavReport, SensorReport, TargetTruth
 
 SCENARIO = load_scenario("wang2012_urban")
 S = 1_000_000_000
@@ -27,7 +27,7 @@ def _report(vehicle: str = "uav1", stamp: int = 10 * S, seq: int = 1, detected: 
     values = dict(range_m=300.0, range_std_m=10.0, azimuth_rad=0.5, azimuth_std_rad=0.05, elevation_rad=-0.6,
                   elevation_std_rad=0.05) if detected else {}
     return SensorReport(vehicle_id=vehicle, seq=seq, stamp_ns=stamp, vehicle_position_enu_m=(100.0, 200.0, 200.0),
-                        detected=detected, **values)
+                        detections=(Measurement(**values),) if detected else ())
 
 
 def _received(key: str, message=None, payload: bytes | None = None, encoding: str | None = None) -> Received:
@@ -216,10 +216,11 @@ def test_estimates_that_are_not_finite_or_positive_definite_are_refused() -> Non
 
 def test_absurd_but_valid_reports_are_implausible() -> None:
     ingest = _ingest()
-    far = SensorReport(vehicle_id="uav1", seq=1, stamp_ns=S, vehicle_position_enu_m=(5e7, 0.0, 200.0), detected=False)
+    far = SensorReport(vehicle_id="uav1", seq=1, stamp_ns=S, vehicle_position_enu_m=(5e7, 0.0, 200.0))
     assert ingest.accept(_received(report_key("uav1"), far)) is None
     long_range = _report(stamp=2 * S)
-    long_range = SensorReport(**{**{f: getattr(long_range, f) for f in long_range.__struct_fields__}, "range_m": 5e7})
+    long_range = msgspec.structs.replace(long_range, detections=(
+        long_range.detections[0], msgspec.structs.replace(long_range.detections[0], range_m=5e7)))
     assert ingest.accept(_received(report_key("uav1"), long_range)) is None
     assert ingest.counters == {"rejected.implausible": 2}
 

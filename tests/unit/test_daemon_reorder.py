@@ -29,8 +29,7 @@ EPOCH_NS = 1_000 * S
 
 
 def _report(vehicle: str, stamp_ns: int, seq: int) -> SensorReport:
-    return SensorReport(vehicle_id=vehicle, seq=seq, stamp_ns=stamp_ns, vehicle_position_enu_m=(0.0, 0.0, 100.0),
-                        detected=False)
+    return SensorReport(vehicle_id=vehicle, seq=seq, stamp_ns=stamp_ns, vehicle_position_enu_m=(0.0, 0.0, 100.0))
 
 
 @st.composite

@@ -18,7 +18,7 @@ from gcs.engine.memory import CommandAges
 from gcs.scenarios import load_scenario
 from protocols.codec import encode
 from protocols.keys import alive_key, nav_key, report_key
-from protocols.messages import DaemonStatus, NavReport, SensorReport
+from protocols.messages import DaemonStatus, Measurement, NavReport, SensorReport
 
 SCENARIO = load_scenario("wang2012_urban")
 WORLD = build_world(SCENARIO)
@@ -37,8 +37,9 @@ def _report(vehicle: str, stamp_ns: int) -> SensorReport:
     tx, ty = SCENARIO.target.start_enu_m
     ground = 300.0
     return SensorReport(vehicle_id=vehicle, seq=1, stamp_ns=stamp_ns, vehicle_position_enu_m=(tx - ground, ty, 200.0),
-                        detected=True, range_m=math.hypot(ground, 200.0), range_std_m=10.0, azimuth_rad=0.0,
-                        azimuth_std_rad=0.05, elevation_rad=-math.atan2(200.0, ground), elevation_std_rad=0.05)
+                        detections=(Measurement(range_m=math.hypot(ground, 200.0), range_std_m=10.0, azimuth_rad=0.0,
+                                                azimuth_std_rad=0.05, elevation_rad=-math.atan2(200.0, ground),
+                                                elevation_std_rad=0.05),))
 
 
 def _nav(vehicle: str, stamp_ns: int) -> NavReport:

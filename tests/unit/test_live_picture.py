@@ -15,7 +15,7 @@ from gcs.daemon.picture import TRAIL_STEP_S, Picture
 from gcs.daemon.picture_geometry import SIGMAS, ellipse, encode_json, world_geometry
 from gcs.scenarios import load_scenario
 from protocols.codec import encode
-from protocols.messages import (DaemonStatus, GpsFix, NavReport, PlanCommand, PredictedPoint, SensorReport,
+from protocols.messages import (DaemonStatus, GpsFix, Measurement, NavReport, PlanCommand, PredictedPoint, SensorReport,
                                 TargetTruth, TrackEstimate, VehicleStatus)
 
 SCENARIO = load_scenario("wang2012_urban")
@@ -25,8 +25,8 @@ T0 = 1_000 * NS
 
 def _report(vehicle: str, stamp: int, xyz: tuple[float, float, float], detected: bool = False) -> SensorReport:
     values = {"azimuth_rad": 0.3, "azimuth_std_rad": 0.05} if detected else {}
-    return SensorReport(vehicle_id=vehicle, seq=1, stamp_ns=stamp, vehicle_position_enu_m=xyz, detected=detected,
-                        **values)
+    return SensorReport(vehicle_id=vehicle, seq=1, stamp_ns=stamp, vehicle_position_enu_m=xyz,
+                        detections=(Measurement(**values),) if detected else ())
 
 
 def _track(stamp: int, xy: tuple[float, float], cov_xy=(100.0, 0.0, 0.0, 25.0), seq: int = 1) -> TrackEstimate:

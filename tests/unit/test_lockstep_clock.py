@@ -40,8 +40,7 @@ class _Session:
 
 
 def _report(session: _Session, vehicle: str, stamp_ns: int) -> None:
-    payload, _ = encode(SensorReport(vehicle_id=vehicle, seq=1, stamp_ns=stamp_ns, detected=False,
-                                     vehicle_position_enu_m=(0.0, 0.0, 200.0)))
+    payload, _ = encode(SensorReport(vehicle_id=vehicle, seq=1, stamp_ns=stamp_ns, vehicle_position_enu_m=(0.0, 0.0, 200.0)))
     session.reports.items.append(SimpleNamespace(key_expr=report_key(vehicle), payload=SimpleNamespace(
         to_bytes=lambda: payload)))
 

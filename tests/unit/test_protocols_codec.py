@@ -21,6 +21,7 @@ from protocols import (
     TargetTruth,
     GpsFix,
     InsIncrement,
+    Measurement,
     NavReport,
     PlanCommand,
     PredictedPoint,
@@ -32,6 +33,7 @@ from protocols import (
     encode,
     encoding_for,
 )
+from protocols.legacy import SensorReportV1
 
 PI = math.pi
 INT64_MAX = 2**63 - 1
@@ -55,16 +57,35 @@ texts = st.text(max_size=40)
 
 
 @st.composite
+def measurement_fields(draw: st.DrawFn) -> dict[str, float]:
+    """The measurement fields of one detection (azimuth always; range and elevation maybe)."""
+    meas: dict[str, float] = dict(azimuth_rad=draw(angles), azimuth_std_rad=draw(std_rad))
+    if draw(st.booleans()):
+        meas.update(range_m=draw(floats(0.0, 1e8)), range_std_m=draw(std_m))
+    if draw(st.booleans()):
+        meas.update(elevation_rad=draw(floats(-PI / 2, PI / 2)), elevation_std_rad=draw(std_rad))
+    return meas
+
+
+measurements = measurement_fields().map(lambda fields: Measurement(**fields))
+
+
+@st.composite
 def sensor_reports(draw: st.DrawFn) -> SensorReport:
-    detected = draw(st.booleans())
-    meas: dict[str, float] = {}
-    if detected:
-        meas.update(azimuth_rad=draw(angles), azimuth_std_rad=draw(std_rad))
-        if draw(st.booleans()):
-            meas.update(range_m=draw(floats(0.0, 1e8)), range_std_m=draw(std_m))
-        if draw(st.booleans()):
-            meas.update(elevation_rad=draw(floats(-PI / 2, PI / 2)), elevation_std_rad=draw(std_rad))
     return SensorReport(
+        vehicle_id=draw(ids),
+        seq=draw(stamps),
+        stamp_ns=draw(stamps),
+        vehicle_position_enu_m=draw(pos3),
+        vehicle_position_std_m=draw(st.none() | std_m),
+        detections=tuple(draw(st.lists(measurements, max_size=6))),
+    )
+
+
+@st.composite
+def sensor_reports_v1(draw: st.DrawFn) -> SensorReportV1:
+    detected = draw(st.booleans())
+    return SensorReportV1(
         vehicle_id=draw(ids),
         seq=draw(stamps),
         stamp_ns=draw(stamps),
@@ -72,7 +93,7 @@ def sensor_reports(draw: st.DrawFn) -> SensorReport:
         vehicle_position_enu_m=draw(pos3),
         vehicle_position_std_m=draw(st.none() | std_m),
         detected=detected,
-        **meas,
+        **(draw(measurement_fields()) if detected else {}),
     )
 
 
@@ -192,6 +213,7 @@ target_truths = st.builds(
 
 STRATEGIES = {
     SensorReport: sensor_reports(),
+    Measurement: measurements,
     GpsFix: gps_fixes,
     InsIncrement: ins_increments,
     NavReport: nav_reports(),
@@ -217,13 +239,50 @@ def test_every_message_type_has_a_strategy() -> None:
 def test_round_trip(tp: type, data: st.DataObject) -> None:
     msg = data.draw(STRATEGIES[tp])
     payload, encoding = encode(msg)
-    version = 3 if tp.__name__ == "DaemonStatus" else 1  # DaemonStatus 2: heartbeat, liveliness, control; 3: age
+    # DaemonStatus 2: heartbeat, liveliness, control; 3: age. SensorReport 2: detections.
+    version = {"DaemonStatus": 3, "SensorReport": 2}.get(tp.__name__, 1)
     assert encoding == f"application/json;gcs.{tp.__name__}/{version}"
     assert len(payload) <= MAX_PAYLOAD_BYTES
     back = decode(payload, encoding, expected=tp)
     assert type(back) is tp
     assert back == msg
     assert decode(payload, expected=tp) == msg  # encoding omitted: expected type decides
+
+
+# ---------------------------------------------------------------- the earlier SensorReport
+V1_ENCODING = "application/json;gcs.SensorReport/1"
+
+
+@settings(max_examples=200, suppress_health_check=[HealthCheck.too_slow])
+@given(old=sensor_reports_v1())
+def test_a_v1_report_decodes_to_the_equivalent_v2(old: SensorReportV1) -> None:
+    payload = msgspec.json.encode(old)
+    for new in (decode(payload, V1_ENCODING, SensorReport), decode(payload, None, SensorReport)):
+        assert type(new) is SensorReport
+        assert (new.vehicle_id, new.seq, new.stamp_ns) == (old.vehicle_id, old.seq, old.stamp_ns)
+        assert new.vehicle_position_enu_m == old.vehicle_position_enu_m
+        assert new.vehicle_position_std_m == old.vehicle_position_std_m
+        assert new.detected is old.detected and len(new.detections) == int(old.detected)
+        if old.detected:
+            d = new.detections[0]
+            assert (d.range_m, d.azimuth_rad, d.elevation_rad) == (old.range_m, old.azimuth_rad, old.elevation_rad)
+            assert (d.range_std_m, d.azimuth_std_rad, d.elevation_std_rad) == (
+                old.range_std_m, old.azimuth_std_rad, old.elevation_std_rad)
+        assert encode(new)[1] == "application/json;gcs.SensorReport/2"  # always written as the current version
+
+
+def test_a_v1_payload_is_judged_by_the_v1_rules_and_a_v2_encoding_refuses_it() -> None:
+    v1 = {"vehicle_id": "uav1", "seq": 1, "stamp_ns": 5, "vehicle_position_enu_m": [0.0, 0.0, 100.0],
+          "detected": False, "azimuth_rad": 0.1, "azimuth_std_rad": 0.01}
+    with pytest.raises(ProtocolError, match="detected=false carries no measurement") as info:
+        decode(json.dumps(v1).encode(), V1_ENCODING, SensorReport)
+    assert info.value.field == "$.azimuth_rad" and "SensorReport/1" in info.value.message
+    del v1["azimuth_rad"], v1["azimuth_std_rad"]
+    with pytest.raises(ProtocolError, match="unknown field `detected`"):
+        decode(json.dumps(v1).encode(), encoding_for(SensorReport), SensorReport)
+    with pytest.raises(ProtocolError, match="reads 1, 2") as info:
+        decode(json.dumps(v1).encode(), "application/json;gcs.SensorReport/3", SensorReport)
+    assert info.value.reason == "encoding"
 
 
 # ---------------------------------------------------------------- fuzzing
@@ -267,7 +326,7 @@ def test_arbitrary_json_raises_only_protocol_error(value: object, encoding: str)
 )
 def test_arbitrary_encoding_strings_raise_only_protocol_error(encoding: str) -> None:
     msg = SensorReport(
-        vehicle_id="u", seq=0, stamp_ns=0, vehicle_position_enu_m=(0, 0, 0), detected=False
+        vehicle_id="u", seq=0, stamp_ns=0, vehicle_position_enu_m=(0, 0, 0)
     )
     payload, good = encode(msg)
     out = assert_only_protocol_error(payload, encoding)

@@ -11,8 +11,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from protocols import (
+    MAX_DETECTIONS,
     MAX_PAYLOAD_BYTES,
     DaemonStatus,
+    Measurement,
     NavReport,
     PredictedPoint,
     ProtocolError,
@@ -25,38 +27,53 @@ from protocols import (
 )
 
 # ---------------------------------------------------------------- named-field errors
+DETECTION = Measurement(range_m=250.0, range_std_m=5.0, azimuth_rad=0.3, azimuth_std_rad=0.01)
 REPORT = SensorReport(
     vehicle_id="uav1", seq=3, stamp_ns=1_000, vehicle_position_enu_m=(10.0, -20.0, 120.0),
-    detected=True, range_m=250.0, range_std_m=5.0, azimuth_rad=0.3, azimuth_std_rad=0.01,
+    detections=(DETECTION, DETECTION),
 )
 ENC = encoding_for(SensorReport)
 
 
-def report_json(**changes: object) -> bytes:
-    obj = json.loads(encode(REPORT)[0])
+def _changed(obj: dict, changes: dict) -> dict:
     for key, value in changes.items():
         if value is ...:
             del obj[key]
         else:
             obj[key] = value
+    return obj
+
+
+def report_json(**changes: object) -> bytes:
+    return json.dumps(_changed(json.loads(encode(REPORT)[0]), changes)).encode()
+
+
+def detection_json(**changes: object) -> bytes:
+    """The report with its second detection changed."""
+    obj = json.loads(encode(REPORT)[0])
+    _changed(obj["detections"][1], changes)
     return json.dumps(obj).encode()
 
 
 @pytest.mark.parametrize(
     ("payload", "field"),
     [
-        (report_json(detected="yes"), "$.detected"),  # wrong type
+        (report_json(detections="yes"), "$.detections"),  # wrong type
         (report_json(seq=1.5), "$.seq"),
-        (report_json(detected=...), "$.detected"),  # missing
+        (report_json(vehicle_position_enu_m=...), "$.vehicle_position_enu_m"),  # missing
         (report_json(vehicle_id="uav 1"), "$.vehicle_id"),  # pattern
         (report_json(vehicle_id="uav1\n"), "$.vehicle_id"),  # Python's $ would allow this
         (report_json(seq=-1), "$.seq"),  # bound
-        (report_json(azimuth_rad=4.0), "$.azimuth_rad"),
+        (detection_json(azimuth_rad=4.0), "$.detections[1].azimuth_rad"),
         (report_json(extra_field=1), "$.extra_field"),  # unknown field
-        (report_json(azimuth_rad=None, azimuth_std_rad=None), "$.azimuth_rad"),  # detected w/o azimuth
-        (report_json(range_m=None), "$.range_std_m"),  # std without value
-        (report_json(detected=False), "$.range_m"),  # no detection carries no values
-        (report_json().replace(b'"range_m": 250.0', b'"range_m": 1e999'), "$.range_m"),  # inf in text
+        (detection_json(extra_field=1), "$.detections[1].extra_field"),
+        (detection_json(azimuth_rad=..., azimuth_std_rad=...), "$.detections[1].azimuth_rad"),  # no azimuth
+        (detection_json(azimuth_std_rad=None), "$.detections[1].azimuth_std_rad"),
+        (detection_json(range_m=None), "$.detections[1].range_std_m"),  # std without value
+        (detection_json(elevation_rad=-0.3), "$.detections[1].elevation_std_rad"),  # value without std
+        (report_json(detections=[{"azimuth_rad": 0.1, "azimuth_std_rad": 0.1}] * (MAX_DETECTIONS + 1)),
+         "$.detections"),  # too many
+        (report_json().replace(b'"range_m": 250.0', b'"range_m": 1e999', 1), "$.detections[0].range_m"),  # inf
         (report_json().replace(b"-20.0", b"-1e999"), "$.vehicle_position_enu_m[1]"),
     ],
 )
@@ -115,7 +132,8 @@ _optional_float = st.none() | _any_float
 def test_encode_never_passes_a_non_finite_float(position, std, azimuth) -> None:
     # The encoder looks closely only at payloads holding ``null``: NaN, the infinities and None all
     # encode to it. An optional field set to NaN would otherwise reach the wire as None.
-    changes = {"vehicle_position_enu_m": position, "vehicle_position_std_m": std, "azimuth_rad": azimuth}
+    changes = {"vehicle_position_enu_m": position, "vehicle_position_std_m": std,
+               "detections": (msgspec.structs.replace(DETECTION, azimuth_rad=azimuth),)}
     msg = msgspec.structs.replace(REPORT, **changes)
     values = [*position, std, azimuth]  # azimuth is required with a detection: never None
     # The wire's bounds, as protocols/fields.py documents them: positions within 1e8 m, a std in (0, 1e8] m.
@@ -143,8 +161,8 @@ def test_encode_catches_a_non_finite_float_beside_a_string_holding_null(bad: flo
 
 def test_encode_refuses_what_decode_would_reject() -> None:
     with pytest.raises(ProtocolError) as info:
-        encode(msgspec.structs.replace(REPORT, azimuth_rad=7.0))
-    assert info.value.field == "$.azimuth_rad"
+        encode(msgspec.structs.replace(REPORT, detections=(DETECTION, msgspec.structs.replace(DETECTION, azimuth_rad=7.0))))
+    assert info.value.field == "$.detections[1].azimuth_rad"
     with pytest.raises(ProtocolError, match="not a registered message type"):
         encode(msgspec.json.Decoder())  # type: ignore[arg-type]
     big = DaemonStatus(
@@ -162,7 +180,8 @@ def test_encode_refuses_what_decode_would_reject() -> None:
 @pytest.mark.parametrize(
     ("encoding", "words"),
     [
-        ("application/json;gcs.SensorReport/2", ["version", "'2'", "SensorReport"]),
+        ("application/json;gcs.SensorReport/3", ["version", "'3'", "SensorReport", "reads 1, 2"]),
+        ("application/json;gcs.SensorReport/0", ["version", "'0'"]),
         ("application/json;gcs.SensorReport/x", ["version", "'x'"]),
         ("application/json;gcs.Bogus/1", ["unknown message type", "'Bogus'"]),
         ("application/json;gcs.SensorReport", ["version"]),

@@ -12,12 +12,14 @@ import msgspec
 import pytest
 
 from protocols import (
+    MAX_DETECTIONS,
     MESSAGE_TYPES,
     REJECT_REASONS,
     TRACK_MODEL_DIMS,
     DaemonStatus,
     GpsFix,
     InsIncrement,
+    Measurement,
     NavReport,
     PlanCommand,
     PredictedPoint,
@@ -29,6 +31,7 @@ from protocols import (
     encoding_for,
     json_schema,
 )
+from protocols.legacy import SensorReportV1
 
 PROTOCOLS = Path(__file__).resolve().parents[2] / "protocols"
 BASE = dict(vehicle_id="uav1", seq=0, stamp_ns=0, vehicle_position_enu_m=(0.0, 0.0, 100.0))
@@ -61,30 +64,60 @@ def track(**changes: object) -> TrackEstimate:
         (dict(detected=False, elevation_std_rad=0.1), "$.elevation_std_rad"),
     ],
 )
-def test_sensor_report_cross_field_rules(kwargs: dict[str, object], field: str) -> None:
+def test_sensor_report_v1_keeps_its_cross_field_rules(kwargs: dict[str, object], field: str) -> None:
     with pytest.raises(ProtocolError) as info:
-        SensorReport(**BASE, **kwargs)  # type: ignore[arg-type]
+        SensorReportV1(**BASE, **kwargs)  # type: ignore[arg-type]
     assert info.value.field == field
     assert field.removeprefix("$.") in str(info.value)
 
 
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        (dict(range_m=10.0), "$.range_std_m"),
+        (dict(range_std_m=1.0), "$.range_std_m"),
+        (dict(elevation_rad=-0.2), "$.elevation_std_rad"),
+        (dict(elevation_std_rad=0.1), "$.elevation_std_rad"),
+    ],
+)
+def test_a_measurement_pairs_every_value_with_its_std(kwargs: dict[str, object], field: str) -> None:
+    with pytest.raises(ProtocolError) as info:
+        Measurement(azimuth_rad=0.1, azimuth_std_rad=0.01, **kwargs)  # type: ignore[arg-type]
+    assert info.value.field == field
+    assert field.removeprefix("$.") in str(info.value)
+
+
+def test_a_measurement_needs_an_azimuth() -> None:
+    with pytest.raises(TypeError, match="azimuth_rad"):
+        Measurement(range_m=10.0, range_std_m=1.0, azimuth_std_rad=0.01)  # type: ignore[call-arg]
+    with pytest.raises(TypeError, match="azimuth_std_rad"):
+        Measurement(azimuth_rad=0.1)  # type: ignore[call-arg]
+
+
 def test_sensor_report_valid_shapes() -> None:
-    bearing_only = SensorReport(**BASE, detected=True, azimuth_rad=-0.5, azimuth_std_rad=0.02)
-    assert bearing_only.range_m is None and bearing_only.target_id == "target"
-    full = SensorReport(
-        **BASE, detected=True, range_m=300.0, range_std_m=3.0, azimuth_rad=math.pi,
-        azimuth_std_rad=0.01, elevation_rad=-0.4, elevation_std_rad=0.01,
-    )
-    assert full.elevation_rad == -0.4
-    missed = SensorReport(**BASE, detected=False)
-    assert (missed.range_m, missed.azimuth_rad, missed.elevation_rad) == (None, None, None)
+    bearing_only = SensorReport(**BASE, detections=(Measurement(azimuth_rad=-0.5, azimuth_std_rad=0.02),))
+    assert bearing_only.detections[0].range_m is None and bearing_only.detected
+    full = Measurement(range_m=300.0, range_std_m=3.0, azimuth_rad=math.pi, azimuth_std_rad=0.01,
+                       elevation_rad=-0.4, elevation_std_rad=0.01)
+    several = SensorReport(**BASE, detections=(full, full))
+    assert several.detections[1].elevation_rad == -0.4 and len(several.detections) == 2
+    missed = SensorReport(**BASE)
+    assert missed.detections == () and not missed.detected
+
+
+def test_a_report_carries_at_most_max_detections() -> None:
+    one = Measurement(azimuth_rad=0.1, azimuth_std_rad=0.01)
+    assert len(SensorReport(**BASE, detections=(one,) * MAX_DETECTIONS).detections) == MAX_DETECTIONS
+    with pytest.raises(ProtocolError, match=f"at most {MAX_DETECTIONS}") as info:
+        SensorReport(**BASE, detections=(one,) * (MAX_DETECTIONS + 1))
+    assert info.value.field == "$.detections"
 
 
 def test_azimuth_minus_pi_is_accepted_on_the_wire() -> None:
     # atan2(-0.0, -1.0) == -pi: the same direction as pi, so producers need not special-case it.
-    msg = SensorReport(**BASE, detected=True, azimuth_rad=math.atan2(-0.0, -1.0), azimuth_std_rad=0.1)
-    assert msg.azimuth_rad == -math.pi
-    assert encode(msg)[1] == encoding_for(SensorReport)
+    msg = SensorReport(**BASE, detections=(Measurement(azimuth_rad=math.atan2(-0.0, -1.0), azimuth_std_rad=0.1),))
+    assert msg.detections[0].azimuth_rad == -math.pi
+    assert encode(msg)[1] == encoding_for(SensorReport) == "application/json;gcs.SensorReport/2"
 
 
 # ---------------------------------------------------------------- NavReport, covariances
@@ -147,7 +180,8 @@ def test_track_estimate_models() -> None:
 def test_struct_config(tp: type[msgspec.Struct]) -> None:
     config = tp.__struct_config__
     assert config.frozen and config.forbid_unknown_fields
-    version = 3 if tp is DaemonStatus else 1  # DaemonStatus 2: heartbeat, liveliness and control; 3: command age
+    # DaemonStatus 2: heartbeat, liveliness and control; 3: command age. SensorReport 2: detections.
+    version = {DaemonStatus: 3, SensorReport: 2}.get(tp, 1)
     assert tp.VERSION == version  # type: ignore[attr-defined]
     assert "VERSION" not in tp.__struct_fields__
     with pytest.raises(TypeError, match="positional"):
@@ -156,7 +190,7 @@ def test_struct_config(tp: type[msgspec.Struct]) -> None:
 
 
 def test_messages_are_immutable_and_version_is_not_on_the_wire() -> None:
-    msg = SensorReport(**BASE, detected=False)
+    msg = SensorReport(**BASE)
     with pytest.raises(AttributeError):
         msg.seq = 2  # type: ignore[misc]
     assert "VERSION" not in json.loads(encode(msg)[0])
@@ -184,6 +218,15 @@ def test_json_schema_carries_bounds_and_patterns() -> None:
     assert props["vehicle_id"]["pattern"].startswith("^[A-Za-z0-9_-]{1,64}$")
     assert props["seq"]["minimum"] == 0
     assert props["vehicle_position_enu_m"]["prefixItems"][0]["maximum"] == 1e8
+    assert props["detections"]["maxItems"] == MAX_DETECTIONS
+    measurement = json.loads(json_schema(SensorReport))["$defs"]["Measurement"]
+    assert set(measurement["required"]) == {"azimuth_rad", "azimuth_std_rad"}
+
+
+def test_json_schema_of_the_earlier_version_is_its_own() -> None:
+    old = json.loads(json_schema(SensorReport, 1))["$defs"]["SensorReportV1"]
+    assert {"detected", "range_m", "target_id"} <= set(old["properties"])
+    assert "detections" not in old["properties"]
 
 
 # ---------------------------------------------------------------- errors and purity

@@ -22,8 +22,7 @@ S = 1_000_000_000
 
 
 def _report(seq: int, vehicle: str = "uav1") -> SensorReport:
-    return SensorReport(vehicle_id=vehicle, seq=seq, stamp_ns=seq * S, vehicle_position_enu_m=(1.0, 2.0, 200.0),
-                        detected=False)
+    return SensorReport(vehicle_id=vehicle, seq=seq, stamp_ns=seq * S, vehicle_position_enu_m=(1.0, 2.0, 200.0))
 
 
 def test_round_trip_keeps_bytes_times_channels_and_order(tmp_path) -> None:
@@ -70,8 +69,7 @@ def test_a_killed_writer_leaves_a_readable_file(tmp_path) -> None:
         from protocols.messages import SensorReport
         recorder = Recorder({str(path)!r})
         for seq in range(1, 20001):
-            report = SensorReport(vehicle_id="uav1", seq=seq, stamp_ns=seq, vehicle_position_enu_m=(1.0, 2.0, 3.0),
-                                  detected=False)
+            report = SensorReport(vehicle_id="uav1", seq=seq, stamp_ns=seq, vehicle_position_enu_m=(1.0, 2.0, 3.0))
             recorder.write("gcs/vehicle/uav1/report", *encode(report), seq)
         os.kill(os.getpid(), signal.SIGKILL)
     """)

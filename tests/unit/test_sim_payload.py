@@ -188,8 +188,9 @@ def test_sensor_report_is_the_scenes_own_for_the_same_pose_and_the_target_geomet
         assert report.detected == clear
         if report.detected:
             offset = target - pose
-            assert abs(report.range_m - np.linalg.norm(offset)) < 5 * 10.0
-            assert abs(math.remainder(report.azimuth_rad - math.atan2(offset[1], offset[0]), 2 * math.pi)) < 0.25
+            (detection,) = report.detections
+            assert abs(detection.range_m - np.linalg.norm(offset)) < 5 * 10.0
+            assert abs(math.remainder(detection.azimuth_rad - math.atan2(offset[1], offset[0]), 2 * math.pi)) < 0.25
             assert report.vehicle_position_std_m == 2.0
     assert any(r.detected for r in reports)
 

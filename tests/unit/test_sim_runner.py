@@ -93,7 +93,7 @@ def test_a_scene_of_one_vehicle_draws_what_that_vehicle_draws_among_all() -> Non
         alone.advance(0.05, {})
     assert alone.sensor_report("uav2") == whole.sensor_report("uav2")
     assert alone.nav_report("uav2") == whole.nav_report("uav2")
-    assert alone.truth() == whole.truth()
+    assert alone.truths() == whole.truths()
     with pytest.raises(ValueError, match="nobody"):
         Scene(SCENARIO, WORLD, seed=5, only=("nobody",))
 
