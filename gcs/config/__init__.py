@@ -318,6 +318,9 @@ def _check_target(target: TargetConfig, path: str, width: float, height: float) 
         problems.append(f"{path}.path_file: required when motion = 'scripted' (or give path)")
     if target.path_file and target.path:
         problems.append(f"{path}.path: give path_file or path, not both")
+    times = [row[0] for row in target.path]
+    if any(later <= earlier for earlier, later in zip(times, times[1:])):
+        problems.append(f"{path}.path: the times t_s must be strictly increasing")
     return problems
 
 

@@ -157,6 +157,8 @@ def test_extra_targets_get_their_own_streams_and_leave_the_first_targets_alone()
     ('[[targets]]\nid = "b"\nstart_enu_m = [-5.0, 10.0]\n', "$.targets[0].start_enu_m"),
     ('[[targets]]\nid = "b"\nmotion = "scripted"\npath_file = "p.csv"\npath = [[0.0, 1.0, 2.0]]\n',
      "$.targets[0].path: give path_file or path"),
+    ('[[targets]]\nid = "b"\nmotion = "scripted"\npath = [[0.0, 1.0, 2.0], [0.0, 3.0, 2.0]]\n',
+     "$.targets[0].path: the times t_s must be strictly increasing"),
 ])
 def test_bad_targets_are_rejected_naming_the_key(extra: str, words: str) -> None:
     text = 'name = "t"\n[origin]\nlat_deg = 0.0\nlon_deg = 0.0\nheight_m = 0.0\n' \
