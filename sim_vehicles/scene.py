@@ -11,7 +11,7 @@ so a stream's draws do not depend on how often another stream is sampled.
 A scan (:meth:`Scene.sensor_report`) measures every target in range and in
 sight (occlusion by the city's buildings), keeps each with the sensor's
 ``detection_probability``, adds ``Poisson(clutter_rate)`` false detections
-uniform over the ground in the field (:func:`~sim_vehicles.truth.detections.clutter_points`)
+uniform over the ground in the field (:func:`~sim_vehicles.truth.clutter.clutter_points`)
 and lists them in random order, without identity. Its draws from the vehicle's
 sensor stream: the noise of every target (drawn in sight or not), then, only when
 ``detection_probability < 1``, one uniform per target, only when ``clutter_rate > 0``
@@ -41,7 +41,7 @@ from protocols.messages import GpsFix, InsIncrement, Measurement, NavReport, Sen
 from sim_vehicles.truth.fixed_wing import Airframe, AirframeState, Guidance
 from sim_vehicles.truth.gps import GpsModel, GpsReading, GpsState
 from sim_vehicles.truth.ins import InsModel
-from sim_vehicles.truth.detections import clutter_points, ground_disc_radius
+from sim_vehicles.truth.clutter import clutter_points, ground_disc_radius
 from sim_vehicles.truth.sensor import TargetSensor
 from sim_vehicles.truth.target import TargetModel, TargetState, start_state, target_model
 

@@ -28,9 +28,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from gcs.core.models.sensor import SensorModel
 from gcs.core.tracker import Detection
+from sim_vehicles.truth.clutter import clutter_points, ground_disc_radius
 from sim_vehicles.truth.sensor import exact_measurements, noisy_measurements
 
-__all__ = ["CLUTTER", "Scan", "clutter_points", "ground_disc_radius", "scan"]
+__all__ = ["CLUTTER", "Scan", "scan"]
 
 CLUTTER = -1
 """The source index of a false detection."""
@@ -42,24 +43,6 @@ class Scan:
 
     detections: tuple[list[Detection], ...]
     sources: tuple[NDArray[np.int64], ...]
-
-
-def ground_disc_radius(vehicle_xyz: NDArray[np.float64], max_range_m: float, target_height_m: float) -> NDArray[np.float64]:
-    """Horizontal radius (V,) of the ground disc within slant range ``max_range_m`` of each vehicle (V, 3); 0 if out of reach."""
-    dz = vehicle_xyz[:, 2] - target_height_m
-    return np.sqrt(np.maximum(max_range_m**2 - dz * dz, 0.0))
-
-
-def clutter_points(centre_xy: NDArray[np.float64], radius_m: float, rate: float,
-                   rng: np.random.Generator) -> NDArray[np.float64]:
-    """``Poisson(rate)`` false-detection points (k, 2), uniform over the disc of ``radius_m`` about ``centre_xy``.
-
-    Uniform over the disc: radius ``R sqrt(u)`` with ``u ~ U(0, 1)`` (the area within ``r`` grows
-    as ``r^2``), bearing uniform in [-pi, pi). Draws ``poisson``, then ``k`` uniforms, then ``k`` bearings.
-    """
-    k = rng.poisson(rate)
-    r, bearing = radius_m * np.sqrt(rng.random(k)), rng.uniform(-np.pi, np.pi, k)
-    return np.asarray(centre_xy, dtype=np.float64)[:2] + np.column_stack([r * np.cos(bearing), r * np.sin(bearing)])
 
 
 def _measure(points_xy: NDArray[np.float64], vehicle: NDArray[np.float64], sensor: SensorModel,

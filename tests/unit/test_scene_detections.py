@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from gcs.core.models.sensor import SensorModel
-from sim_vehicles.truth.detections import CLUTTER, ground_disc_radius, scan
+from sim_vehicles.truth.clutter import ground_disc_radius
+from sim_vehicles.truth.detections import CLUTTER, scan
 from sim_vehicles.truth.sensor import exact_measurements
 
 SENSOR = SensorModel.range_bearing(5.0, 0.01, 0.02)
