@@ -301,7 +301,7 @@ def add_bench(sub: argparse._SubParsersAction) -> None:
     dem.add_argument("--scenario", default="wang2012_urban", help="shipped name or .toml path (default wang2012_urban)")
     dem.add_argument("--runs", type=_positive_int, default=5, help="seeds (default 5)")
     dem.add_argument("--seed", type=int, default=0, help="the first seed (default 0, gcs demo's)")
-    dem.add_argument("--rate", type=_positive_float, help="the demo's speed-up (default: gcs demo's, 10)")
+    dem.add_argument("--rate", type=_positive_float, help="the demo's speed-up (default: gcs demo's)")
     dem.add_argument("--duration", type=_positive_float, help="simulated seconds per run (default: the scenario's)")
     dem.add_argument("--wait-for-plans", action="store_true",
                      help="run the vehicles with sim-vehicles run --wait-for-plans (default: as gcs demo, without)")

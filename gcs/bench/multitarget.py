@@ -54,14 +54,6 @@ ORBITS = ((1000.0, 1000.0, 400.0), (2000.0, 1000.0, 400.0), (1500.0, 2000.0, 400
 ORBIT_SPEED_MPS = 25.0
 RING_RADIUS_M = 1000.0
 """Distance from the city's centre (1500, 1500) of the orbits of UAVs beyond :data:`ORBITS`."""
-
-
-def orbits(count: int) -> tuple[tuple[float, float, float], ...]:
-    """Centre x, centre y and radius of ``count`` UAVs' orbits: :data:`ORBITS`, then more spread on a ring."""
-    extra = tuple((1500.0 + RING_RADIUS_M * math.cos(2.0 * math.pi * i / count),
-                   1500.0 + RING_RADIUS_M * math.sin(2.0 * math.pi * i / count), 400.0)
-                  for i in range(len(ORBITS), count))
-    return (ORBITS + extra)[:count]
 OURS = ("gnn", "jpda")
 PEERS = ("stonesoup_gnn", "stonesoup_jpda")
 PROCESS_NOISE = 2.0
@@ -71,6 +63,14 @@ MAX_MISSED_SCANS = 5
 """Consecutive scans without a detection that delete a confirmed track, for every method (the peers' default)."""
 MAX_POSITION_TRACE_M2 = 2.0e4
 """Trace of a track's (x, y) covariance above which every method deletes it (100 m per axis)."""
+
+
+def orbits(count: int) -> tuple[tuple[float, float, float], ...]:
+    """Centre x, centre y and radius of ``count`` UAVs' orbits: :data:`ORBITS`, then more spread on a ring."""
+    extra = tuple((1500.0 + RING_RADIUS_M * math.cos(2.0 * math.pi * i / count),
+                   1500.0 + RING_RADIUS_M * math.sin(2.0 * math.pi * i / count), 400.0)
+                  for i in range(len(ORBITS), count))
+    return (ORBITS + extra)[:count]
 
 
 @dataclass(frozen=True)

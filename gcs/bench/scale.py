@@ -1,7 +1,7 @@
 """``gcs bench scale``: what the many-target loop costs as targets and UAVs grow.
 
-For every team size ``V`` in :data:`UAVS` and target count ``N`` in :data:`TARGETS`
-one closed-loop run of :func:`gcs.bench.sharing.fly_run` in its chosen mode
+For every team size ``V`` and target count ``N`` asked for (``gcs bench scale``: 3 and
+10 UAVs, 1, 5 and 20 targets) one closed-loop run of :func:`gcs.bench.sharing.fly_run` in its chosen mode
 (``assign``: each UAV assigned one track, then each track planned for by its UAVs),
 on the scene of ``gcs bench multitarget`` with ``N`` targets
 (:func:`gcs.bench.multitarget.make_scene`) and ``V`` UAVs: the scenario's three, then
@@ -31,10 +31,8 @@ import numpy as np
 from gcs.bench import sharing
 from gcs.bench.multitarget import BenchConfig
 
-__all__ = ["TARGETS", "UAVS", "MODE", "run_benchmark", "format_report", "write_json"]
+__all__ = ["MODE", "run_benchmark", "format_report", "write_json"]
 
-TARGETS = (1, 5, 20)
-UAVS = (3, 10)
 MODE = "assign"
 """The chosen way of sharing UAVs between targets (``gcs bench sharing``, docs/benchmarks.md)."""
 
@@ -68,7 +66,7 @@ def _cell(world, scenario, targets: int, uavs: int, scene: BenchConfig, seed: in
             "gospa": run.gospa_m}
 
 
-def run_benchmark(scene: BenchConfig, seed: int, targets: Sequence[int] = TARGETS, uavs: Sequence[int] = UAVS,
+def run_benchmark(scene: BenchConfig, seed: int, targets: Sequence[int], uavs: Sequence[int],
                   progress: Callable[[str], None] = lambda _: None) -> dict:
     """Every (targets, UAVs) pair on seed ``seed``; the report as a dict."""
     from gcs.config.world import build_world

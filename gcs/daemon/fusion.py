@@ -80,7 +80,10 @@ def choose_measurement(candidates: Sequence[np.ndarray], sensor: SensorModel, tr
 
 
 def _track_now(config: TrackerConfig, estimate: GaussianEstimate | None, stamp_ns: int) -> GaussianEstimate | None:
-    """The track predicted to the step (as :func:`fuse` will), to choose among a report's detections."""
+    """The track predicted to the step (as :func:`fuse` will), to choose among a report's detections.
+
+    Predicted as a plain Gaussian of its mean and covariance, so an IMM estimate (a
+    :class:`~gcs.core.filters.imm_target.ImmEstimate`) is taken as its moment-matched whole."""
     if estimate is None or estimate.dim != config.uif.motion.dim or stamp_ns < estimate.stamp_ns:
         return estimate
     return config.uif.predict(GaussianEstimate(estimate.mean, estimate.cov, estimate.stamp_ns,
