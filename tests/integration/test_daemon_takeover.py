@@ -67,6 +67,9 @@ def test_vehicles_taken_over_are_given_back_in_rtl_when_the_daemon_stops() -> No
         runner = stack.enter_context(running_vehicles(options(
             port, rate=RATE, zenoh=ZenohSettings(connect=(endpoint,)), epoch_ns=EPOCH_NS, wait_for_subscriber_s=5)))
         wait_until(lambda: modes(runner) == dict.fromkeys(VEHICLES, GUIDED), 30, "every vehicle in GUIDED")
+        # the daemon learns the mode from each vehicle's next HEARTBEAT, up to a second of vehicle time later
+        wait_until(lambda: all(daemon.commander.control(v, 0.0) == "daemon" for v in VEHICLES), 10,
+                   "the daemon to hear every vehicle in GUIDED")
         status = query_status(ZenohSettings(connect=(endpoint,)), "gcs", 5.0)
         daemon_stack.close()  # the daemon stops: its loop returns, close() hands the vehicles back
         wait_until(lambda: modes(runner) == dict.fromkeys(VEHICLES, RTL), 10, "every vehicle in RTL")
