@@ -15,9 +15,11 @@ from gcs.adapters.recording import read_recording
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.app import Daemon, DaemonOptions
 from gcs.config.world import build_world
-from gcs.recordings.replay import process
+from gcs.core.navigation.skf import MIN_GPS_FIX
+from gcs.recordings.replay import key_kind, process
 from gcs.scenarios import load_scenario
-from protocols.codec import encode
+from protocols.codec import decode, encode
+from protocols.messages import NavReport
 from sim_vehicles.run_options import RunOptions
 from sim_vehicles.runner import Runner
 from tests.integration.sim_harness import wait_until
@@ -30,15 +32,39 @@ DURATION_S = 60.0
 EPOCH_NS = 1_000_000_000_000
 
 
-def _no_fix_runs(records, vehicle: str) -> list[tuple[int, int]]:
-    """(first, last) record indices of each run of steps the vehicle flew without GPS, with a fix on both sides."""
-    fix = [r.gps_fix.get(vehicle) for r in records]
+def _fixes_per_step(recording, records, vehicle: str) -> list[frozenset[bool]]:
+    """For each step record, whether the vehicle's nav reports the step applied had a GPS fix.
+
+    Read from the recorded wire traffic: step ``k`` applies the reports stamped in
+    ``(T_{k-1}, T_k]`` (``FleetNavigator.advance_to``). ``{True}``: every one had a fix,
+    ``{False}``: none had, both: the vehicle crossed the strip's edge during the step.
+    """
+    stamps = []
+    for recorded in read_recording(recording):
+        if key_kind(recorded.key) == ("nav", vehicle):
+            nav = decode(recorded.payload, recorded.encoding, NavReport)
+            stamps.append((nav.stamp_ns, nav.gps is not None and nav.gps.fix_type >= MIN_GPS_FIX))
+    fixes, previous = [], -1
+    for record in records:
+        fixes.append(frozenset(fix for stamp, fix in stamps if previous < stamp <= record.stamp_ns))
+        previous = record.stamp_ns
+    return fixes
+
+
+def _no_fix_runs(fixes: list[frozenset[bool]]) -> list[tuple[int, int, int]]:
+    """(first, last, back) record indices of each run of steps flown wholly without GPS.
+
+    ``first..last`` is the run (a step with a fix before it), ``back`` the first step after it
+    with a fix on every report.
+    """
     runs, start = [], None
-    for i, has in enumerate(fix):
-        if has is False and start is None and i > 0 and fix[i - 1]:
+    for i, step in enumerate(fixes):
+        if step == {False} and start is None and i > 0 and True in fixes[i - 1]:
             start = i
-        elif has and start is not None:
-            runs.append((start, i - 1))
+        elif step != {False} and start is not None:
+            back = next((j for j in range(i, len(fixes)) if fixes[j] == {True}), None)
+            if back is not None:
+                runs.append((start, i - 1, back))
             start = None
     return runs
 
@@ -72,20 +98,22 @@ def test_the_daemon_navigates_through_a_gps_denied_strip_and_replay_reproduces_i
     assert not thread.is_alive()
     counters = status.counters
     assert counters.get("errors.decision", 0) == 0 and counters.get("rejected.nav_update", 0) == 0
+    # The navigator's state at a step is a function of the reports' stamps when none arrived late.
+    assert counters.get("rejected.late", 0) == 0 and counters.get("rejected.late_nav", 0) == 0, counters
     records = daemon.records
-    runs = {v: _no_fix_runs(records, v) for v in daemon.roster}
+    runs = {v: _no_fix_runs(_fixes_per_step(recording, records, v)) for v in daemon.roster}
     assert any(runs.values()), f"no vehicle flew through the strip and out: {[r.gps_fix for r in records]}"
     for vehicle, vehicle_runs in runs.items():
-        for first, last in vehicle_runs:
-            std = [records[i].nav_std_m[vehicle] for i in range(first - 1, last + 2)]
-            if last - first >= 2:  # dead reckoning: the covariance grows step by step in the strip
-                assert all(b > a for a, b in zip(std[1:-2], std[2:-1])), (vehicle, std)
-            assert std[-2] > std[0] and std[-1] < std[-2], (vehicle, std)  # grew in the strip, shrinks after
+        for first, last, back in vehicle_runs:
+            std = [records[i].nav_std_m[vehicle] for i in range(first - 1, back + 1)]
+            run = std[: last - first + 2]  # the step before the run, then the run: dead reckoning, growing step by step
+            assert all(b > a for a, b in zip(run, run[1:])), (vehicle, std)
+            assert std[-1] < max(std[:-1]), (vehicle, std)  # shrinks once the fix is back
+            assert not records[last].gps_fix[vehicle] and records[back].gps_fix[vehicle], (vehicle, first, last, back)
     seen = sum(any(r.seen.values()) for r in records)
     assert seen >= 0.8 * len(records)
 
-    # The recording gives back the daemon's tracks bit for bit (when nothing arrived late, the condition).
-    assert counters.get("rejected.late", 0) == 0 and counters.get("rejected.late_nav", 0) == 0, counters
+    # The recording gives back the daemon's tracks bit for bit (nothing arrived late, the condition).
     live = [r.payload for r in read_recording(recording) if "/track/" in r.key]
     tracks, _, replay_counters = process(recording, SCENARIO)
     assert len(live) >= DURATION_S - 5 and [encode(t)[0] for t in tracks] == live
