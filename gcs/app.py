@@ -51,7 +51,7 @@ from gcs.daemon.records import PlanRecord, StepRecord
 from gcs.daemon.registry import LOST_AFTER_S
 from gcs.engine.engine import ALIVE_REFRESH_S, Engine, EngineOptions
 from gcs.engine.events import (Action, Arrived, Heartbeat, LetGo, Observed, PlanDone, PlannerFree, PublishPlan,
-                               PublishTrack, SubmitPlan, Tick)
+                               PublishTrack, RetireTrack, SubmitPlan, Tick)
 from gcs.engine.memory import MIN_PLAN_INTERVAL_S, PLAN_INTERVAL_PER_VEHICLE_S, STEER_RATE_HZ, plan_interval_s
 from protocols.keys import alive_key
 from protocols.messages import DaemonStatus, VehicleStatus
@@ -327,6 +327,8 @@ class Daemon:
         for action in actions:
             if isinstance(action, PublishTrack):
                 self.zenoh.publish_track(action.track)
+            elif isinstance(action, RetireTrack):
+                self.zenoh.retire_track(action.target_id)
             elif isinstance(action, PublishPlan):
                 self.zenoh.publish_plan(action.command)
             elif isinstance(action, Observed):

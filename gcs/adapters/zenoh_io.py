@@ -120,6 +120,17 @@ class ZenohIO:
         """Publish on ``<prefix>/track/<target>`` and keep it for queries."""
         self._put(track_key(track.target_id, self.prefix), track)
 
+    def retire_track(self, target_id: str) -> None:
+        """Stop publishing ``<prefix>/track/<target>`` and answering queries with it (the track was deleted)."""
+        key = track_key(target_id, self.prefix)
+        self._latest.pop(key, None)
+        publisher = self._publishers.pop(key, None)
+        if publisher is not None:
+            try:
+                publisher.undeclare()
+            except zenoh.ZError as error:  # already gone with a broken session
+                log.debug("undeclare failed: %s", error)
+
     def publish_plan(self, plan: PlanCommand) -> None:
         """Publish on ``<prefix>/plan/<vehicle>``."""
         self._put(plan_key(plan.vehicle_id, self.prefix), plan)

@@ -37,6 +37,7 @@ from gcs.core.metrics import StepTracks, gospa, ospa, track_scores
 from gcs.core.models.motion import constant_velocity
 from gcs.core.models.sensor import SensorModel
 from gcs.core.multitarget import MultiTargetTracker
+from gcs.core.multitarget.coverage import clutter_volume, coverage, in_field, sight_matrix
 from gcs.core.world import World
 from sim_vehicles.truth.detections import scan as detection_scan
 from sim_vehicles.truth.target import StreetTarget, TargetState
@@ -153,36 +154,8 @@ def make_scans(world: World, scene: Scene, sensor: SensorModel, max_range_m: flo
         visible = sight_matrix(world, truths, vehicles, sensor.target_height_m)
         result = detection_scan(truths, vehicles, sensor, config.pd, config.clutter, max_range_m, rng, visible)
         scans.append((k * STEP_NS, dict(enumerate(result.detections)), sensor,
-                      coverage(world, vehicles, sensor, max_range_m)))
+                      coverage(world, vehicles, sensor.target_height_m, max_range_m)))
     return scans
-
-
-def sight_matrix(world: World, truths: NDArray[np.float64], vehicles: NDArray[np.float64],
-                 target_height_m: float) -> NDArray[np.bool_]:
-    """(V, N): UAV v (V, 3) has a line of sight past the buildings to truth j (N, 2), 1 m above the target height."""
-    ground = np.column_stack([truths, np.full(len(truths), target_height_m + 1.0)])
-    return world.line_of_sight(np.broadcast_to(vehicles[:, None, :], (len(vehicles), len(truths), 3)),
-                               np.broadcast_to(ground[None], (len(vehicles), len(truths), 3)))
-
-
-def in_field(world: World, points_xy: NDArray[np.float64], vehicles: NDArray[np.float64], target_height_m: float,
-             max_range_m: float) -> NDArray[np.bool_]:
-    """(V, N): UAV v (V, 3) has ground point j (N, 2) within slant range and in sight past the buildings."""
-    sight = sight_matrix(world, points_xy, vehicles, target_height_m)
-    slant = np.sqrt(((points_xy[None] - vehicles[:, None, :2]) ** 2).sum(-1)
-                    + (vehicles[:, None, 2] - target_height_m) ** 2)
-    return sight & (slant <= max_range_m)
-
-
-def coverage(world: World, vehicles: NDArray[np.float64], sensor: SensorModel,
-             max_range_m: float) -> Callable[[NDArray[np.float64]], NDArray[np.bool_]]:
-    """The tracker's ``in_view`` for one scan: which ground points (T, 2) some UAV's sensor covers."""
-    return lambda points_xy: in_field(world, points_xy, vehicles, sensor.target_height_m, max_range_m).any(axis=0)
-
-
-def clutter_volume(max_range_m: float) -> float:
-    """Measurement-space volume (range x azimuth x downward elevation, m rad^2) our trackers spread clutter over."""
-    return max_range_m * 2.0 * math.pi * (math.pi / 2.0)
 
 
 def run_ours(association: str, scans, config: BenchConfig, max_range_m: float) -> MethodRun:

@@ -49,12 +49,11 @@ from gcs.bench import multitarget as mt
 from gcs.core.geometry import wrap_angle
 from gcs.core.kinematics import VehicleState, rollout
 from gcs.core.metrics import gospa
-from gcs.core.models.motion import LinearMotionModel, constant_velocity
+from gcs.core.models.motion import constant_velocity
 from gcs.core.multitarget import MultiTargetTracker
 from gcs.core.multitarget.lost import LostTargets
+from gcs.core.multitarget.planning import problems_for, targets_to_plan
 from gcs.core.planners.baselines import orbit_heading
-from gcs.core.planners.problem import PlanningProblem
-from gcs.core.planners.shared import target_weights
 from gcs.core.tracker import TrackerConfig
 from gcs.core.world import World
 from sim_vehicles.truth.detections import scan as detection_scan
@@ -108,20 +107,6 @@ def _start(scene: mt.Scene, speeds: NDArray[np.float64]) -> VehicleState:
     return VehicleState(xyz[:, :2].copy(), heading, speeds, xyz[:, 2].copy())
 
 
-def _problems(config: TrackerConfig, motion: LinearMotionModel, vehicles: VehicleState, turn_rate: NDArray[np.float64],
-              means: NDArray[np.float64], covs: NDArray[np.float64]) -> list[PlanningProblem]:
-    """One planning problem per track: its k+1..k+T prediction (wang2012 eq. 16-17) beside the same team."""
-    f_j, q_j = motion.horizon_matrices(config.step_s, config.horizon_steps)
-    problems = []
-    for mean, cov in zip(means, covs):
-        predicted_means = np.einsum("tab,b->ta", f_j, mean)
-        predicted_covs = np.einsum("tab,bc,tdc->tad", f_j, cov, f_j) + q_j
-        problems.append(PlanningProblem(vehicles, turn_rate, config.max_turn_rate, config.step_s, predicted_means,
-                                        predicted_covs, config.sensors, None, None, config.weights, config.sight,
-                                        config.guard, config.max_range_m))
-    return problems
-
-
 def fly_run(mode: str, world: World, config: TrackerConfig, speeds: NDArray[np.float64],
             altitudes: NDArray[np.float64], seed: int, sharing: SharingConfig) -> SharingRun:
     """One run of ``mode`` on seed ``seed`` (module docstring), UAVs at ``speeds`` (m/s) and ``altitudes`` (m)."""
@@ -172,8 +157,10 @@ def fly_run(mode: str, world: World, config: TrackerConfig, speeds: NDArray[np.f
         if len(means) == 0:
             turn_rate, plan = _home_turns(vehicles, config.max_turn_rate, config.step_s), None
         else:
-            problems = _problems(config, motion, vehicles, turn_rate, means, covs)
-            weights = target_weights(np.ones(len(problems)), unseen, sharing.starvation_s)
+            targets = targets_to_plan(tuple(map(str, range(len(means)))), means, covs, unseen, motion,
+                                      config.step_s, config.horizon_steps, sharing.starvation_s)
+            problems = problems_for(config, vehicles, turn_rate, targets.means, targets.covs)
+            weights = targets.weights
             solve = config.planner.solve_shared if mode == "sum" else config.planner.solve_assigned
             started = time.perf_counter()
             outcome = solve(problems, weights, plan_rng, plan)

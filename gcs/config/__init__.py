@@ -19,6 +19,7 @@ import msgspec
 
 from gcs.config.base import Config as _Config
 from gcs.config.base import Identifier, Metres, NonNegative, Point2, Positive, Radians
+from gcs.config.multitarget import MultiTargetConfig, check_multitarget
 from gcs.config.simulation import (AUTOPILOT_PERSONALITIES, AirframeConfig, GpsConfig, GpsDeniedZone, InsConfig,
                                    SimulationConfig)
 
@@ -34,6 +35,7 @@ __all__ = [
     "EstimatorConfig",
     "SightConfig",
     "PlannerConfig",
+    "MultiTargetConfig",
     "Scenario",
     "validate_scenario",
 ]
@@ -279,6 +281,8 @@ class Scenario(_Config, kw_only=True):
     single-target estimator's track is named for."""
     estimator: EstimatorConfig = EstimatorConfig()
     planner: PlannerConfig = PlannerConfig()
+    multitarget: MultiTargetConfig | None = None
+    """``[multitarget]``: track every target (:mod:`gcs.config.multitarget`); None: the one of ``[estimator]``."""
     simulation: SimulationConfig = SimulationConfig()
     gps_denied: list[GpsDeniedZone] = []
 
@@ -330,7 +334,8 @@ def validate_scenario(scenario: Scenario) -> Scenario:
     Rules: vehicle ids, target ids and MAVLink system ids are unique; every start point lies
     inside the city rectangle; a scripted target has one path; building heights are ordered; airspace bands
     are ordered; a GeoJSON city names its file; sensors that measure range have
-    a range standard deviation; autopilot personalities are known names.
+    a range standard deviation; autopilot personalities are known names; ``[multitarget]``'s rules
+    (:func:`gcs.config.multitarget.check_multitarget`).
     """
     problems: list[str] = []
     width, height = scenario.city.size_m
@@ -375,6 +380,8 @@ def validate_scenario(scenario: Scenario) -> Scenario:
     for index, zone in enumerate(scenario.restricted):
         if zone.floor_m >= zone.ceiling_m:
             problems.append(f"$.restricted[{index}].floor_m: must be below ceiling_m")
+    problems += check_multitarget(scenario.multitarget, [scenario.sensor_for(v) for v in scenario.vehicles],
+                                  scenario.planner.kind)
     if problems:
         raise ScenarioError("; ".join(problems))
     return scenario

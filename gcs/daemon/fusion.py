@@ -36,7 +36,7 @@ from gcs.daemon.steps import ReadyStep
 from gcs.config import VehicleConfig
 from protocols.messages import PlanCommand, PredictedPoint, SensorReport, TrackEstimate
 
-__all__ = ["choose_measurement", "step_detections", "fuse_step", "FusionDiverged", "check_estimate", "track_message", "plan_commands", "PlanMemory", "with_observers"]
+__all__ = ["choose_measurement", "step_detections", "scan_detections", "fuse_step", "FusionDiverged", "check_estimate", "track_message", "plan_commands", "PlanMemory", "with_observers"]
 
 
 _REPORT_FIELD = {"range": "range_m", "azimuth": "azimuth_rad", "elevation": "elevation_rad"}
@@ -129,16 +129,10 @@ def step_detections(ready: ReadyStep, roster: Sequence[str], config: TrackerConf
             usable.append((index, report, candidates))
     if not usable:
         return ()
-    positions = np.array([report.vehicle_position_enu_m for _, report, _ in usable], dtype=np.float64)  # (k, 3)
     detections = []
     track = None
-    for (index, report, candidates), xyz in zip(usable, positions):
-        navigated = None if navigator is None else navigator.position_at(report.vehicle_id, report.stamp_ns)
-        if navigated is None:
-            where, cov = xyz, _reported_cov(report)
-        else:
-            xy, cov = navigated
-            where = np.array([xy[0], xy[1], xyz[2]])
+    for index, report, candidates in usable:
+        where, cov = _vehicle_position(report, navigator)
         values = candidates[0]
         if len(candidates) > 1:
             if track is None:
@@ -204,6 +198,41 @@ def check_estimate(estimate: GaussianEstimate | None) -> None:
         np.linalg.cholesky(_symmetric(cov))
     except np.linalg.LinAlgError as error:
         raise FusionDiverged("the fused covariance is not positive definite") from error
+
+
+def _vehicle_position(report: SensorReport, navigator: FleetNavigator | None) -> tuple[np.ndarray, np.ndarray | float | None]:
+    """Where the vehicle was at the report's stamp (3,) and the covariance of that (see :func:`step_detections`)."""
+    xyz = np.array(report.vehicle_position_enu_m, dtype=np.float64)
+    navigated = None if navigator is None else navigator.position_at(report.vehicle_id, report.stamp_ns)
+    if navigated is None:
+        return xyz, _reported_cov(report)
+    xy, cov = navigated
+    return np.array([xy[0], xy[1], xyz[2]]), cov
+
+
+def scan_detections(ready: ReadyStep, roster: Sequence[str], sensors: Sequence[SensorModel],
+                    navigator: FleetNavigator | None = None) -> tuple[dict[int, list[Detection]], np.ndarray]:
+    """Every detection of the step by roster index (a vehicle's first report of the step counts), for the
+    multi-target tracker, and where each vehicle that reported was (R, 3), detections or not.
+
+    Positions as in :func:`step_detections`; a detection without every component of its
+    vehicle's sensor model is left out."""
+    first: dict[str, SensorReport] = {}
+    for report in ready.reports:
+        first.setdefault(report.vehicle_id, report)
+    detections: dict[int, list[Detection]] = {}
+    positions = []
+    for index, vehicle_id in enumerate(roster):
+        report = first.get(vehicle_id)
+        if report is None:
+            continue
+        where, cov = _vehicle_position(report, navigator)
+        positions.append(where)
+        found = [Detection(index, where, values, vehicle_cov=cov)
+                 for values in _measurements(report, sensors[index].components)]
+        if found:
+            detections[index] = found
+    return detections, np.array(positions, dtype=np.float64).reshape(-1, 3)
 
 
 def fuse_step(config: TrackerConfig, estimate: GaussianEstimate | None, ready: ReadyStep, roster: Sequence[str],

@@ -45,6 +45,7 @@ import numpy as np
 
 from gcs.core.filters.prediction import HorizonPrediction
 from gcs.core.kinematics import VehicleState
+from gcs.core.multitarget.planning import TargetsToPlan, plan_targets
 from gcs.core.planners.problem import PlanResult
 from gcs.core.tracker import TrackerConfig, TrackerState, plan
 
@@ -98,6 +99,10 @@ class PlanJob:
     submitted_s : float
         ``time.monotonic`` when its step was fused (the daemon keeps the newest step's
         planning until the planner is free, then builds the job).
+    targets : TargetsToPlan or None
+        With ``[multitarget]``: the tracks the vehicles are shared between
+        (:func:`gcs.core.multitarget.planning.plan_targets`); ``state.estimate`` and
+        ``predicted`` are then None.
     """
 
     index: int
@@ -106,9 +111,10 @@ class PlanJob:
     indices: tuple[int, ...]
     state: TrackerState
     vehicles: VehicleState
-    predicted: HorizonPrediction
+    predicted: HorizonPrediction | None
     clock_scale: float
     submitted_s: float
+    targets: TargetsToPlan | None = None
 
 
 @dataclass(frozen=True)
@@ -147,14 +153,22 @@ class PlanOutcome:
 def run_job(job: PlanJob, config: TrackerConfig, rng: np.random.Generator) -> PlanOutcome:
     """Plan one job with the tracker for its vehicles; an exception becomes the outcome's ``error``."""
     started, scale = time.monotonic(), job.clock_scale
+
+    def clock() -> float:  # the planner's deadline is in data time
+        return time.monotonic() * scale
+
     try:
-        state, turn_rates, diagnostics = plan(config, job.state, job.vehicles, rng,
-                                              now=lambda: time.monotonic() * scale, predicted=job.predicted)
+        if job.targets is not None:
+            state, turn_rates, result = plan_targets(config, job.state, job.vehicles, job.targets, rng, clock)
+        else:
+            state, turn_rates, diagnostics = plan(config, job.state, job.vehicles, rng, now=clock,
+                                                  predicted=job.predicted)
+            result = diagnostics.plan
     except Exception as error:  # a bug in one plan must not stop planning
         log.exception("planning step %d failed; continuing", job.index)
         return PlanOutcome(job, None, None, None, started, time.monotonic(), time.time_ns(),
                            error=f"{type(error).__name__}: {error}")
-    return PlanOutcome(job, state, turn_rates, diagnostics.plan, started, time.monotonic(), time.time_ns())
+    return PlanOutcome(job, state, turn_rates, result, started, time.monotonic(), time.time_ns())
 
 
 class Planner:

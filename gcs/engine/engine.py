@@ -15,7 +15,9 @@ decides lives here, so that live and replayed runs cannot drift apart:
   vehicles alive (token or heartbeat; with ``accept_unlisted`` the observers' tokens too; less those
   whose clocks went wrong), or whose wait ran out,
   are fused (:func:`gcs.daemon.fusion.fuse_step`, every roster vehicle's reports and the unlisted
-  observers') and their tracks published with the k+1..k+n prediction; each is recorded
+  observers') and their tracks published with the k+1..k+n prediction (with ``[multitarget]``, a scan
+  of the multi-target tracker, :class:`~gcs.engine.multitarget.TrackKeeper`, and every confirmed
+  track published); each is recorded
   (:class:`~gcs.daemon.records.StepRecord`) and watched for the target being lost;
 * **what to plan and when** (a :class:`~gcs.engine.events.PlannerFree`): the newest fused step,
   for the vehicles alive when it was fused, at most every :func:`~gcs.engine.memory.plan_interval_s`;
@@ -33,12 +35,12 @@ from __future__ import annotations
 import logging
 from collections import Counter, deque
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 
 from gcs.config import Scenario
 from gcs.core.kinematics import VehicleState
+from gcs.core.multitarget.planning import plans_targets
 from gcs.core.steering import PlannedPath
 from gcs.core.tracker import TrackerConfig, prediction
 from gcs.core.world import World
@@ -50,11 +52,13 @@ from gcs.daemon.records import PlanRecord, StepRecord, StepScorer, keep_newest
 from gcs.daemon.registry import Registry
 from gcs.daemon.steps import ReadyStep, StepAssembler
 from gcs.engine.events import (Action, Arrived, Heartbeat, Input, LetGo, Observed, PlanDone, PlannerFree,
-                               PublishPlan, PublishTrack, SubmitPlan, Tick)
+                               PublishPlan, PublishTrack, RetireTrack, SubmitPlan, Tick)
 from gcs.engine.memory import CommandAges, LoopMemory, Planning, plan_interval_s
-from gcs.engine.tracking import observer_sensor_model, scenario_planner, subset_config, tracker_config
+from gcs.engine.multitarget import TrackKeeper
+from gcs.engine.options import EngineOptions
+from gcs.engine.tracking import SIGHT_PLANNERS, observer_sensor_model, scenario_planner, subset_config, tracker_config
 from protocols.keys import parse_key
-from protocols.messages import NavReport, SensorReport, TargetTruth
+from protocols.messages import NavReport, SensorReport, TargetTruth, TrackEstimate
 
 __all__ = ["EngineOptions", "Engine", "ALIVE_REFRESH_S", "MAX_OBSERVER_TOKENS", "NS_PER_S"]
 
@@ -72,29 +76,6 @@ liveliness sample (a MAVLink heartbeat that arrives, or one that ages past
 ``LOST_AFTER_S``, 5 s) is seen within this. Asking every vehicle on every pass
 cost the loop a quarter of its time at 100 vehicles, where a pass handles a report
 or two."""
-
-
-@dataclass(frozen=True)
-class EngineOptions:
-    """What changes the engine's decisions (``gcs run`` and ``gcs replay --process`` take the same flags).
-
-    ``prefix``: the key space's; ``accept_unlisted``: fuse vehicles outside the roster too;
-    ``navigation``: :data:`gcs.daemon.navigation.NAVIGATION_MODES`; ``max_wait_s``: a step's wait for
-    missing reports (loop time); ``planner``: the planner's name (None: the scenario's);
-    ``plan_fraction``: share of a step of data time the planner may use; ``handback_after_lost_s``:
-    stamp time without the target before the vehicles are given back; ``plan_every_step``: hand every
-    fused step to a free planner, without the :func:`~gcs.engine.memory.plan_interval_s` that spares a
-    live loop's time (``gcs replay --plan``, whose plans are reproducible and made at leisure).
-    """
-
-    prefix: str = "gcs"
-    accept_unlisted: bool = False
-    navigation: str = "auto"
-    max_wait_s: float = 0.5
-    planner: str | None = None
-    plan_fraction: float = 0.6
-    handback_after_lost_s: float = 60.0
-    plan_every_step: bool = False
 
 
 class Engine:
@@ -126,6 +107,12 @@ class Engine:
         self._alive_since_s = 0.0
         self._released: deque[ReadyStep] = deque()
         self._observer_tokens: set[str] = set()
+        self.keeper = TrackKeeper(scenario, world, self.tracker) if scenario.multitarget is not None else None
+        if self.keeper is not None and not plans_targets(self.tracker):
+            raise ValueError(f"planner {self.planner_name!r} cannot share the vehicles between targets; "
+                             f"scenario {scenario.name!r} has [multitarget] ({', '.join(SIGHT_PLANNERS)} can)")
+        self.tracks_now: dict[str, TrackEstimate] = {}
+        """The newest step's tracks by target id (one without [multitarget])."""
 
     # ------------------------------------------------------------------ input
 
@@ -248,36 +235,53 @@ class Engine:
         roster, tracker = with_observers(self.tracker, self.roster, self.ingest.unlisted, self._observer_sensor)
         if self.navigator is not None:
             self.navigator.advance_to(ready.stamp_ns)
-        estimate, detections = fuse_step(tracker, self.loop.estimate, ready, roster, self.navigator)
-        self.loop.estimate = estimate
-        predicted = None
-        if estimate is not None:
-            predicted = prediction(self.tracker, estimate)  # published with the track, and planned on
+        estimate = predicted = targets = seen = None
+        tracks: tuple[TrackEstimate, ...] = ()
+        if self.keeper is not None:  # every target: the multi-target tracker's confirmed tracks
+            scanned = self.keeper.scan(ready, roster, tracker, self.loop.track_seq + 1, self.navigator)
+            tracks, targets, seen = scanned.tracks, self.keeper.targets(), scanned.detected
+            current = {track.target_id: track for track in tracks}
+            actions.extend(RetireTrack(target_id) for target_id in self.tracks_now if target_id not in current)
+            self.tracks_now = current
+        else:
+            estimate, detections = fuse_step(tracker, self.loop.estimate, ready, roster, self.navigator)
+            self.loop.estimate = estimate
+            if estimate is not None:
+                predicted = prediction(self.tracker, estimate)  # published with the track, and planned on
+                contributing = sorted({roster[d.vehicle] for d in detections})
+                tracks = (track_message(self.tracker, estimate, self.scenario.target.id,
+                                        self.scenario.estimator.model, self.loop.track_seq + 1, contributing,
+                                        predicted),)
+                self.tracks_now = {tracks[0].target_id: tracks[0]}
+        if tracks:
             self.loop.track_seq += 1
             self.loop.last_track_stamp_ns = ready.stamp_ns
-            contributing = sorted({roster[d.vehicle] for d in detections})
-            actions.append(PublishTrack(track_message(self.tracker, estimate, self.scenario.target.id,
-                                                      self.scenario.estimator.model, self.loop.track_seq,
-                                                      contributing, predicted)))
+            actions.extend(PublishTrack(track) for track in tracks)
         active = self.registry.plannable(now)
         scale = self.loop.clock_scale(now, ready.stamp_ns, self.options.plan_fraction)
-        self._record(ready, active, estimate, tick.wall_ns, actions)
+        self._record(ready, active, estimate, tick.wall_ns, actions, seen)
         if not active:
             self.counters["steps_without_vehicles"] += 1
             return None
-        if estimate is None:
+        if estimate is None and targets is None:
             return None
         # What is known of the vehicles now: by the time the planner is free, newer reports may be in.
         return Planning(ready, tuple(active), self.registry.snapshot(active), estimate, predicted, scale,
-                        tick.monotonic_s)
+                        tick.monotonic_s, targets)
 
-    def _record(self, ready: ReadyStep, active: list[str], estimate, wall_ns: int, actions: list[Action]) -> None:
-        """Note what the step did; it is scored against the simulator's truth once that is in (:class:`StepScorer`)."""
+    def _record(self, ready: ReadyStep, active: list[str], estimate, wall_ns: int, actions: list[Action],
+                detected: dict[str, bool] | None = None) -> None:
+        """Note what the step did; it is scored against the simulator's truth once that is in (:class:`StepScorer`).
+
+        A vehicle saw the target when one of its reports has a detection, or, given ``detected`` (many
+        targets), when its detections were associated with a confirmed track."""
         estimate_xy = None if estimate is None else (float(estimate.mean[0]), float(estimate.mean[1]))
         seen = {v: False for v in self.roster}
         for report in ready.reports:
             if report.vehicle_id in seen:
                 seen[report.vehicle_id] = seen[report.vehicle_id] or report.detected
+        if detected is not None:
+            seen = {v: detected.get(v, False) for v in self.roster}
         nav_std, fix = {}, {}
         if self.navigator is not None:
             for vehicle_id in self.roster:
@@ -328,7 +332,7 @@ class Engine:
             indices=tuple(self.roster.index(v) for v in active),
             state=self.loop.memory.state_for(active, estimate),
             vehicles=planning.vehicles.at(ready.stamp_ns), predicted=planning.predicted,
-            clock_scale=planning.clock_scale, submitted_s=planning.fused_s))]
+            clock_scale=planning.clock_scale, submitted_s=planning.fused_s, targets=planning.targets))]
 
     def _plan_done(self, outcome: PlanOutcome) -> list[Action]:
         """A finished plan: keep it as the warm start, publish the plans, steer the vehicles along them."""

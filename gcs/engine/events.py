@@ -101,6 +101,13 @@ class PublishTrack:
 
 
 @dataclass(frozen=True)
+class RetireTrack:
+    """A track the multi-target tracker deleted: no longer published, nor answered to queries."""
+
+    target_id: str
+
+
+@dataclass(frozen=True)
 class PublishPlan:
     """One vehicle's plan, to publish."""
 
@@ -122,4 +129,4 @@ class LetGo:
     why: str
 
 
-Action = Observed | PublishTrack | PublishPlan | SubmitPlan | LetGo
+Action = Observed | PublishTrack | RetireTrack | PublishPlan | SubmitPlan | LetGo

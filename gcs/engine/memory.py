@@ -17,6 +17,7 @@ import numpy as np
 
 from gcs.core.filters.prediction import HorizonPrediction
 from gcs.core.filters.uif import GaussianEstimate
+from gcs.core.multitarget.planning import TargetsToPlan
 from gcs.core.steering import PlannedPath
 from gcs.daemon.fusion import PlanMemory
 from gcs.daemon.registry import VehicleSnapshot
@@ -72,10 +73,12 @@ class Planning:
     ready: ReadyStep
     active: tuple[str, ...]
     vehicles: VehicleSnapshot
-    estimate: GaussianEstimate
-    predicted: HorizonPrediction
+    estimate: GaussianEstimate | None
+    predicted: HorizonPrediction | None
     clock_scale: float
     fused_s: float
+    targets: TargetsToPlan | None = None
+    """With ``[multitarget]`` (``estimate`` and ``predicted`` None): the tracks to share the vehicles between."""
 
 
 @dataclass

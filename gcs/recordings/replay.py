@@ -36,6 +36,7 @@ import zenoh
 from gcs.adapters.recording import HEARTBEAT_ENCODING, LIVELINESS_ENCODING, Recorded, Recorder, read_recording
 from gcs.adapters.zenoh_session import open_session
 from gcs.config import Scenario
+from gcs.config.world import build_world
 from gcs.core.world import World
 from gcs.daemon.steps import HOLD_WAITS
 from gcs.engine.engine import Engine, EngineOptions
@@ -108,7 +109,7 @@ def summarise(path: Path) -> dict:
 
 def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world: World | None = None,
             seed: int = 0, navigation: str = "auto", accept_unlisted: bool = False, max_wait_s: float = 0.5,
-            planner: str | None = None) -> tuple[list[TrackEstimate], list[PlanCommand], Counter]:
+            planner: str | None = None, plan: bool = True) -> tuple[list[TrackEstimate], list[PlanCommand], Counter]:
     """The daemon's engine (:class:`~gcs.engine.engine.Engine`) on a recording: its tracks, plans and counters.
 
     The recorded inputs go to the same engine as live, in recorded order, each with its recorded
@@ -124,8 +125,15 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
     plans at once, with ``seed``, to the end of every generation (no deadline), so the plans are
     reproducible; the daemon's own plans stop at its deadline.
 
+    ``plan`` False fuses without planning, even with a world. A ``[multitarget]`` scenario needs its
+    world to fuse (which tracks a sensor covered, past the buildings): without one given, it is
+    built from the scenario (a generated city; a GeoJSON city needs it passed in).
+
     Returns the tracks, the plans (empty without a world) and the counters.
     """
+    plans_too = world is not None and plan
+    if world is None and scenario.multitarget is not None:
+        world = build_world(scenario)
     engine = Engine(scenario, world, EngineOptions(prefix=prefix, accept_unlisted=accept_unlisted,
                                                    navigation=navigation, max_wait_s=max_wait_s, planner=planner,
                                                    plan_every_step=True))
@@ -147,7 +155,7 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
         tick = Tick(now, max_steps=1)
         while True:
             carry_out(engine.feed(tick))
-            if world is not None:
+            if plans_too:
                 carry_out(engine.feed(PlannerFree(now)))
             if not engine.released:
                 return

@@ -127,9 +127,10 @@ def _print_info(info: dict, as_json: bool) -> None:
 
 def _process(args: argparse.Namespace) -> None:
     scenario = load_scenario(args.scenario)
-    world = build_world(scenario, scenario_base_dir(args.scenario)) if args.plan else None
+    needs_world = args.plan or scenario.multitarget is not None  # many targets: the coverage past the buildings
+    world = build_world(scenario, scenario_base_dir(args.scenario)) if needs_world else None
     tracks, plans, counters = process(args.file, scenario, args.prefix, world, args.seed, args.navigation,
-                                      accept_unlisted=args.accept_unlisted, max_wait_s=args.max_wait)
+                                      accept_unlisted=args.accept_unlisted, max_wait_s=args.max_wait, plan=args.plan)
     if args.out is not None:
         write_outputs(tracks, plans, args.out, args.prefix)
     print(f"{len(tracks)} track estimates" + (f" and {len(plans)} plan commands" if args.plan else "")

@@ -9,21 +9,14 @@ for bit.
 
 from __future__ import annotations
 
-import threading
-
 from gcs.adapters.recording import read_recording
-from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions
 from gcs.config.world import build_world
 from gcs.core.navigation.skf import MIN_GPS_FIX
 from gcs.recordings.replay import key_kind, process
 from gcs.scenarios import load_scenario
 from protocols.codec import decode, encode
 from protocols.messages import NavReport
-from sim_vehicles.run_options import RunOptions
-from sim_vehicles.runner import Runner
-from tests.integration.sim_harness import wait_until
-from tests.loopback import ANY_PORT_ENDPOINT, ANY_UDP, daemon_ports
+from tests.integration.daemon_flight import daemon_through_a_flight
 
 SCENARIO = load_scenario("wang2012_gps_denied")
 WORLD = build_world(SCENARIO)
@@ -71,31 +64,10 @@ def _no_fix_runs(fixes: list[frozenset[bool]]) -> list[tuple[int, int, int]]:
 
 def test_the_daemon_navigates_through_a_gps_denied_strip_and_replay_reproduces_its_tracks(tmp_path) -> None:
     recording = tmp_path / "run.mcap"
-    daemon = Daemon(SCENARIO, WORLD, DaemonOptions(
-        zenoh=ZenohSettings(listen=(ANY_PORT_ENDPOINT,), connect=()), record=recording,
-        mavlink={v.id: ANY_UDP for v in SCENARIO.vehicles}))
-    assert daemon.options.navigation == "auto" and daemon.navigator is not None  # the default, on GPS-denied zones
-    daemon.open()
-    endpoint, ports = daemon_ports(daemon)
-    thread = threading.Thread(target=daemon.run, name="daemon", daemon=True)
-    thread.start()
-    runner = Runner(SCENARIO, WORLD, RunOptions(
-        rate=RATE, seed=3, duration_s=DURATION_S, epoch_ns=EPOCH_NS, wait_for_subscriber_s=5,
-        mavlink={v.id: f"udpout:127.0.0.1:{ports[v.id]}" for v in SCENARIO.vehicles},
-        zenoh=ZenohSettings(connect=(endpoint,))))
-    vehicles = threading.Thread(target=runner.run, name="sim-vehicles", daemon=True)
-    try:
-        vehicles.start()
-        vehicles.join(timeout=DURATION_S / RATE * 4 + 30)
-        assert not vehicles.is_alive(), "the simulated vehicles did not finish"
-        wait_until(lambda: len(daemon.records) >= DURATION_S - 2, 10, "the last steps to be fused")
+    with daemon_through_a_flight(SCENARIO, WORLD, recording, seed=3, duration_s=DURATION_S, rate=RATE,
+                                 epoch_ns=EPOCH_NS) as (daemon, _):
+        assert daemon.options.navigation == "auto" and daemon.navigator is not None  # the default, on GPS-denied zones
         status = daemon.status(0.0)
-    finally:
-        runner.stop()
-        daemon.stop()
-        thread.join(timeout=15)
-        vehicles.join(timeout=10)
-    assert not thread.is_alive()
     counters = status.counters
     assert counters.get("errors.decision", 0) == 0 and counters.get("rejected.nav_update", 0) == 0
     # The navigator's state at a step is a function of the reports' stamps when none arrived late.

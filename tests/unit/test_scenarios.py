@@ -108,3 +108,20 @@ def test_simulation_section_defaults_and_airspeed_band_checked():
     slow = msgspec.structs.replace(scenario, simulation=SimulationConfig(airframe=AirframeConfig(min_airspeed_mps=30.0)))
     with pytest.raises(ScenarioError, match=r"\$\.vehicles\[0\]\.speed_mps"):
         validate_scenario(slow)
+
+
+def test_multitarget_table_defaults_and_its_rules_name_the_key() -> None:
+    assert parse_scenario(MINIMAL).multitarget is None  # without the table: the single-target estimator
+    tracked = parse_scenario(MINIMAL + b"[multitarget]\n").multitarget
+    assert (tracked.association, tracked.confirm_m, tracked.confirm_n, tracked.max_misses) == ("jpda", 3, 4, 5)
+    assert load_scenario("multitarget_urban").multitarget is not None
+    with pytest.raises(ScenarioError, match=r"\$\.multitarget\.confirm_m: 4 is more than confirm_n 3"):
+        parse_scenario(MINIMAL + b"[multitarget]\nconfirm_m = 4\nconfirm_n = 3\n")
+    with pytest.raises(ScenarioError, match=r"\$\.multitarget: needs every vehicle's sensor of kind 'range_bearing'"):
+        parse_scenario(MINIMAL + b'[sensor]\nkind = "bearing_only"\n[multitarget]\n')
+    with pytest.raises(ScenarioError, match=r"\$\.multitarget: needs every sensor's detection_probability above 0"):
+        parse_scenario(MINIMAL + b"[sensor]\ndetection_probability = 0.0\n[multitarget]\n")
+    with pytest.raises(ScenarioError, match=r"\$\.planner\.kind: 'orbit' cannot share the UAVs"):
+        parse_scenario(MINIMAL + b'[planner]\nkind = "orbit"\n[multitarget]\n')
+    with pytest.raises(ScenarioError, match=r"association"):
+        parse_scenario(MINIMAL + b'[multitarget]\nassociation = "mht"\n')

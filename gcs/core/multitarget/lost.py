@@ -44,13 +44,16 @@ class LostTargets:
     def size(self) -> int:
         return len(self.ids)
 
-    def add(self, deleted: TrackSet, was_confirmed: NDArray[np.bool_], step_s: float) -> LostTargets:
-        """These deleted tracks' last estimates, where ``was_confirmed``; each unseen for its missed scans."""
+    def add(self, deleted: TrackSet, was_confirmed: NDArray[np.bool_], step_s: float,
+            unseen_s: NDArray[np.float64] | None = None) -> LostTargets:
+        """These deleted tracks' last estimates, where ``was_confirmed``; each unseen for ``unseen_s`` (one per
+        deleted track), or when not given for its missed scans of ``step_s``."""
         keep = np.asarray(was_confirmed, dtype=bool)
+        unseen = deleted.misses * float(step_s) if unseen_s is None else np.asarray(unseen_s, dtype=np.float64)
         return LostTargets(np.concatenate([self.ids, deleted.ids[keep]]),
                            np.concatenate([self.mean, deleted.mean[keep]]),
                            np.concatenate([self.cov, deleted.cov[keep]]),
-                           np.concatenate([self.unseen_s, deleted.misses[keep] * float(step_s)]))
+                           np.concatenate([self.unseen_s, unseen[keep]]))
 
     def advance(self, motion: LinearMotionModel, step_s: float) -> LostTargets:
         """Every lost target predicted one step of ``step_s`` on (module docstring)."""

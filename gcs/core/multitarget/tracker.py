@@ -79,6 +79,8 @@ class ScanDiagnostics:
     jpda_clusters: int = 0
     jpda_clusters_over_cap: int = 0
     fusion_fallbacks: int = 0
+    detected_by: Mapping[int, tuple[int, ...]] = field(default_factory=dict)
+    """Per vehicle index with detections, the ids of the tracks its association detected (module docstring)."""
 
     @property
     def initiations(self) -> int:
@@ -189,12 +191,14 @@ class MultiTargetTracker:
         hit = np.zeros(tracks.size, dtype=bool)
         counts = {"gated": 0, "associated": 0, "clusters": 0, "over": 0}
         free = []  # per batch: detections no track took
+        detected_by = {}
         for batch in batches:
             a, b, detected, used = self._associate(mean, cov, batch, counts)
             a_parts.append(a)
             b_parts.append(b)
             hit |= detected
             free.append(~used)
+            detected_by[batch.vehicle] = tuple(tracks.ids[detected].tolist())
         fallbacks = 0
         if a_parts:
             a_sum, b_sum = np.sum(a_parts, axis=0), np.sum(b_parts, axis=0)
@@ -217,7 +221,7 @@ class MultiTargetTracker:
             unassociated=total - counts["associated"], initiated_ids=tuple(born.ids.tolist()),
             confirmed_ids=tuple(advanced.confirmed_ids.tolist()) + tuple(born.confirmed().ids.tolist()),
             deleted=advanced.deleted, jpda_clusters=counts["clusters"], jpda_clusters_over_cap=counts["over"],
-            fusion_fallbacks=fallbacks)
+            fusion_fallbacks=fallbacks, detected_by=detected_by)
         return new_state, diagnostics
 
     def _associate(self, mean: NDArray[np.float64], cov: NDArray[np.float64], batch: _Batch, counts: dict):

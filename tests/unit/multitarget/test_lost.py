@@ -27,6 +27,13 @@ def test_only_deleted_tracks_that_were_confirmed_are_kept_with_their_missed_time
     np.testing.assert_array_equal(lost.mean[0, :2], [100.0, 0.0])
 
 
+def test_the_time_unseen_may_be_given_instead_of_the_missed_scans() -> None:
+    """A track that coasted out of every sensor's view missed no scan, yet went unseen for a while."""
+    deleted = _tracks([4, 7], [[0.0, 0.0], [100.0, 0.0]], misses=2)
+    lost = LostTargets.none().add(deleted, np.array([True, True]), 1.0, np.array([30.0, 12.5]))
+    assert lost.ids.tolist() == [4, 7] and lost.unseen_s.tolist() == [30.0, 12.5]
+
+
 def test_a_lost_target_is_predicted_with_the_motion_model() -> None:
     lost = LostTargets.none().add(_tracks([1], [[0.0, 0.0]], misses=5), np.array([True]), 1.0)
     f, q = MOTION.matrices(2.0)

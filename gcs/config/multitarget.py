@@ -1,0 +1,69 @@
+"""``[multitarget]``: the daemon tracks every target in sight, not one (:mod:`gcs.core.multitarget`).
+
+Without the table the daemon runs the single-target estimator of ``[estimator]``. With it,
+each decision step's detections, none of which says which target it is, go to the
+multi-target tracker (GNN or JPDA association, M-of-N confirmation, deletion), every
+confirmed track is published on ``<prefix>/track/t<id>``, and the UAVs are shared
+between the tracks by assignment (:mod:`gcs.core.multitarget.planning`). The sensor's
+``detection_probability`` and ``clutter_rate`` (``[sensor]``) are the tracker's ``P_D``
+and clutter. The defaults are those ``gcs bench multitarget`` and ``gcs bench sharing``
+measure.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+import msgspec
+
+from gcs.config.base import Config, NonNegative, Positive
+
+__all__ = ["MultiTargetConfig", "check_multitarget"]
+
+Window = Annotated[int, msgspec.Meta(ge=1, le=62)]
+
+
+class MultiTargetConfig(Config):
+    """The multi-target tracker and the sharing of the UAVs between its tracks.
+
+    ``association``: ``gnn`` or ``jpda``; ``accel_psd_m2_s3``: the tracks' constant-velocity
+    white acceleration; ``gate_probability``: ``P_G`` of the chi-square gate;
+    ``confirm_m`` of ``confirm_n``: the confirmation rule; ``max_misses``: consecutive
+    scans that a sensor covered without a detection that delete a track;
+    ``max_position_trace_m2``: a track coasting beyond this ``tr P_pp`` is deleted;
+    ``initial_velocity_std_mps``: a new track's velocity spread; ``starvation_s``: the time
+    in which an unseen track's claim on the UAVs doubles; ``forget_s``: how long a deleted
+    track's target is still searched for.
+    """
+
+    association: Literal["gnn", "jpda"] = "jpda"
+    accel_psd_m2_s3: NonNegative = 2.0
+    gate_probability: Annotated[float, msgspec.Meta(gt=0.0, lt=1.0)] = 0.99
+    confirm_m: Window = 3
+    confirm_n: Window = 4
+    max_misses: Annotated[int, msgspec.Meta(ge=1, le=1000)] = 5
+    max_position_trace_m2: Positive = 2.0e4
+    initial_velocity_std_mps: Positive = 10.0
+    starvation_s: Positive = 20.0
+    forget_s: Positive = 90.0
+
+
+def check_multitarget(config: MultiTargetConfig | None, sensors: list, planner_kind: str) -> list[str]:
+    """The rules a schema cannot express: M <= N; every vehicle's sensor (``sensors``, SensorConfig) measures
+    range (a track starts from one detection's ground position) and detects at all; and a planner that can
+    share the UAVs (``sight`` or ``sight_k0``)."""
+    if config is None:
+        return []
+    problems = []
+    if config.confirm_m > config.confirm_n:
+        problems.append(f"$.multitarget.confirm_m: {config.confirm_m} is more than confirm_n {config.confirm_n}")
+    kinds = sorted({sensor.kind for sensor in sensors})
+    if kinds != ["range_bearing"]:
+        problems.append("$.multitarget: needs every vehicle's sensor of kind 'range_bearing' (tracks start from "
+                        f"a detection's range), got {', '.join(kinds)}")
+    if any(sensor.detection_probability <= 0.0 for sensor in sensors):
+        problems.append("$.multitarget: needs every sensor's detection_probability above 0")
+    if planner_kind not in ("sight", "sight_k0"):
+        problems.append(f"$.planner.kind: {planner_kind!r} cannot share the UAVs between targets; "
+                        "[multitarget] needs 'sight' or 'sight_k0'")
+    return problems

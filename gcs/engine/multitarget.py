@@ -1,0 +1,153 @@
+"""The engine's many-target tracking (a scenario's ``[multitarget]``): scans, tracks on the wire, what to plan for.
+
+:class:`TrackKeeper` holds the multi-target tracker's state between decision steps. Each
+released step's detections, every vehicle's and none with an identity
+(:func:`gcs.daemon.fusion.scan_detections`), are one scan of
+:class:`gcs.core.multitarget.MultiTargetTracker`, with the coverage of the vehicles that
+reported in it (in range and in sight past the buildings,
+:func:`gcs.core.multitarget.coverage.coverage`; with no world, every track counts as
+covered). Every confirmed track is published as a ``TrackEstimate`` named ``t<id>``
+(its id never reused) with its k+1..k+n prediction; a confirmed track that the tracker
+deletes becomes a lost target, searched for ``forget_s`` (:class:`gcs.core.multitarget.lost.LostTargets`).
+The planner is given the confirmed tracks and the lost targets
+(:mod:`gcs.core.multitarget.planning`).
+
+The tracker's detection probability and clutter are the scenario's sensor's
+(``detection_probability``; ``clutter_rate`` false detections per scan spread over the
+measurement volume of :func:`~gcs.core.multitarget.coverage.clutter_volume`, at least
+1e-3 per scan so that a clutter-free scenario still allows for an odd false alarm).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from gcs.config import Scenario
+from gcs.core.filters.estimate import GaussianEstimate
+from gcs.core.filters.prediction import HorizonPrediction
+from gcs.core.models.motion import constant_velocity
+from gcs.core.multitarget import MultiTargetState, MultiTargetTracker, ScanDiagnostics
+from gcs.core.multitarget.coverage import clutter_volume, coverage
+from gcs.core.multitarget.gating import gate_threshold
+from gcs.core.multitarget.lost import LostTargets
+from gcs.core.multitarget.planning import TargetsToPlan, targets_to_plan
+from gcs.core.tracker import TrackerConfig
+from gcs.core.world import World
+from gcs.daemon.fusion import scan_detections, track_message
+from gcs.daemon.navigation import FleetNavigator
+from gcs.daemon.steps import ReadyStep
+from protocols.messages import TrackEstimate
+
+__all__ = ["TrackKeeper", "Scanned", "MIN_CLUTTER_PER_SCAN", "FOUND_PROBABILITY", "track_name"]
+
+NS_PER_S = 1_000_000_000
+MIN_CLUTTER_PER_SCAN = 1e-3
+FOUND_PROBABILITY = 0.999
+"""A lost target is found again when a confirmed track lies inside its gate of this probability (2 dof)."""
+MODEL = "cv2d"
+
+
+def track_name(track_id: int) -> str:
+    """The wire id of a multi-target track: ``t<id>``."""
+    return f"t{int(track_id)}"
+
+
+@dataclass(frozen=True)
+class Scanned:
+    """One step's scan: the confirmed tracks' messages, and per roster vehicle whether it detected one."""
+
+    tracks: tuple[TrackEstimate, ...]
+    detected: dict[str, bool]
+    diagnostics: ScanDiagnostics
+
+
+class TrackKeeper:
+    """The multi-target tracker's memory between steps; see the module docstring."""
+
+    def __init__(self, scenario: Scenario, world: World | None, tracker: TrackerConfig) -> None:
+        config = scenario.multitarget
+        if config is None:
+            raise ValueError(f"scenario {scenario.name!r} has no [multitarget] table")
+        self.config, self.world, self.tracker_config = config, world, tracker
+        self.motion = constant_velocity(config.accel_psd_m2_s3)
+        clutter = max(scenario.sensor.clutter_rate, MIN_CLUTTER_PER_SCAN) / clutter_volume(tracker.max_range_m)
+        self.tracker = MultiTargetTracker(
+            association=config.association, motion=self.motion,
+            detection_probability=scenario.sensor.detection_probability, gate_probability=config.gate_probability,
+            clutter_density=clutter, confirm_m=config.confirm_m, confirm_n=config.confirm_n,
+            max_misses=config.max_misses, max_position_trace_m2=config.max_position_trace_m2,
+            initial_velocity_std_mps=config.initial_velocity_std_mps)
+        self.state: MultiTargetState = self.tracker.start()
+        self.lost = LostTargets.none()
+        self._confirmed_ids: set[int] = set()
+        self._detected_ns: dict[int, int] = {}
+        """Stamp of each live track's newest detection (its birth counts)."""
+
+    def scan(self, ready: ReadyStep, roster: Sequence[str], config: TrackerConfig, seq: int,
+             navigator: FleetNavigator | None = None) -> Scanned:
+        """Take one released step (every roster vehicle's first report in it); the tracks to publish, seq ``seq``."""
+        detections, positions = scan_detections(ready, roster, config.sensors, navigator)
+        in_view = None
+        if self.world is not None and len(positions):
+            in_view = coverage(self.world, positions, config.sensors[0].target_height_m, config.max_range_m)
+        before = self.state.stamp_ns
+        self.state, diagnostics = self.tracker.scan(self.state, ready.stamp_ns, detections, config.sensors, in_view)
+        confirmed = self.state.tracks.confirmed()
+        if before is not None and ready.stamp_ns > before:
+            self.lost = self.lost.advance(self.motion, (ready.stamp_ns - before) / NS_PER_S)
+        for track_id in diagnostics.initiated_ids + tuple(i for ids in diagnostics.detected_by.values() for i in ids):
+            self._detected_ns[track_id] = ready.stamp_ns
+        deleted = diagnostics.deleted
+        self.lost = self.lost.add(deleted, np.isin(deleted.ids, list(self._confirmed_ids)), config.step_s,
+                                  self._unseen_s(deleted.ids, ready.stamp_ns))
+        self.lost = self.lost.forget(confirmed, gate_threshold(FOUND_PROBABILITY, 2), self.config.forget_s)
+        self._confirmed_ids = {int(i) for i in confirmed.ids}
+        for track_id in deleted.ids.tolist():
+            self._detected_ns.pop(track_id, None)
+        contributing: dict[int, list[str]] = {int(i): [] for i in confirmed.ids}
+        detected = {v: False for v in roster}
+        for index, ids in sorted(diagnostics.detected_by.items()):
+            for track_id in ids:
+                if track_id in contributing:
+                    contributing[track_id].append(roster[index])
+                    detected[roster[index]] = True
+        plan = self._to_plan(confirmed.ids, confirmed.mean, confirmed.cov, np.zeros(confirmed.size))
+        messages = []
+        for row, track_id in enumerate(confirmed.ids.tolist()):
+            estimate = GaussianEstimate(confirmed.mean[row], confirmed.cov[row], ready.stamp_ns)
+            messages.append(track_message(config, estimate, track_name(track_id), MODEL, seq, contributing[track_id],
+                                          self._prediction(plan, row, ready.stamp_ns)))
+        return Scanned(tuple(messages), detected, diagnostics)
+
+    def targets(self) -> TargetsToPlan | None:
+        """The confirmed tracks and the lost targets to plan for, weighted by the time each has gone unseen
+        (:func:`gcs.core.planners.shared.target_weights`); None when there are none."""
+        confirmed = self.state.tracks.confirmed()
+        lost = self.lost
+        if confirmed.size + lost.size == 0:
+            return None
+        ids = np.concatenate([confirmed.ids, lost.ids])
+        unseen = np.concatenate([self._unseen_s(confirmed.ids, self.state.stamp_ns), lost.unseen_s])
+        return self._to_plan(ids, np.concatenate([confirmed.mean, lost.mean]),
+                             np.concatenate([confirmed.cov, lost.cov]), unseen)
+
+    def _unseen_s(self, ids: np.ndarray, stamp_ns: int) -> np.ndarray:
+        """Seconds since each track (ids) last had a detection, at ``stamp_ns``, whether or not a sensor covered it."""
+        return np.array([(stamp_ns - self._detected_ns.get(int(i), stamp_ns)) / NS_PER_S for i in ids], dtype=float)
+
+    def _to_plan(self, ids, means, covs, unseen_s) -> TargetsToPlan | None:
+        if len(ids) == 0:
+            return None
+        config = self.tracker_config
+        return targets_to_plan(tuple(track_name(i) for i in ids), means, covs, np.asarray(unseen_s, dtype=float),
+                               self.motion, config.step_s, config.horizon_steps, self.config.starvation_s)
+
+    def _prediction(self, plan: TargetsToPlan, row: int, stamp_ns: int) -> HorizonPrediction:
+        """Track ``row``'s k+1..k+n prediction as the single-target track carries it."""
+        step_ns = round(self.tracker_config.step_s * NS_PER_S)
+        steps = plan.means.shape[1]
+        stamps = tuple(stamp_ns + (j + 1) * step_ns for j in range(steps))
+        return HorizonPrediction(stamps, GaussianEstimate(plan.means[row], plan.covs[row], stamps[0]))
