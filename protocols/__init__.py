@@ -5,7 +5,8 @@ Imports only the standard library and msgspec; no numpy, no I/O, no Zenoh.
 - :mod:`protocols.messages`: frozen msgspec Structs (frames and units documented there);
   :mod:`protocols.sensor_report` holds the sensor's report of its detections and
   :mod:`protocols.legacy` the earlier versions still read;
-  :mod:`protocols.status` holds the daemon's health and :mod:`protocols.base` their common base.
+  :mod:`protocols.status` holds the daemon's health (its vehicles and tracks) and
+  :mod:`protocols.base` their common base.
 - :mod:`protocols.keys`: the Zenoh key space, builders, selectors and :func:`parse_key`.
 - :mod:`protocols.codec`: :func:`encode` / :func:`decode` with the Zenoh encoding
   ``application/json;gcs.<TypeName>/<VERSION>``.
@@ -59,6 +60,7 @@ from protocols.messages import (
     SensorReport,
     TargetTruth,
     TrackEstimate,
+    TrackSummary,
     VehicleStatus,
 )
 
@@ -84,6 +86,7 @@ __all__ = [
     "SensorReport",
     "TargetTruth",
     "TrackEstimate",
+    "TrackSummary",
     "VehicleStatus",
     "alive_key",
     "alive_selector",

@@ -12,7 +12,8 @@ travel in the Zenoh encoding ``application/json;gcs.<TypeName>/<VERSION>``.
   path, e.g. ``$.prediction[1].position_cov_m2``) and has a ``.reason`` to count by.
 - Earlier versions (:data:`protocols.legacy.LEGACY_VERSIONS`) decode too: validated by
   their own rules, then upgraded, so :func:`decode` returns the current type only.
-  The version comes from the encoding string; without one, from the payload's fields.
+  The version comes from the encoding string; without one, from the payload's fields
+  (an earlier version the current one reads as it is decodes as the current one).
   :func:`encode` always writes the current version.
 """
 
@@ -226,7 +227,7 @@ def _decode_any_version(payload: bytes | bytearray | memoryview, tp: type[Messag
         return _decode_as(payload, tp)
     except ProtocolError:
         for (current, _), old in _LEGACY.items():
-            if current is tp and old.marker in bytes(payload):
+            if current is tp and old.marker is not None and old.marker in bytes(payload):
                 return _decode_legacy(payload, old)
         raise
 

@@ -50,7 +50,9 @@ __all__ = [
     "Seq",
     "StampNs",
     "StateValue",
+    "SpeedMps",
     "StdM",
+    "StdOrZeroM",
     "StdRad",
     "Text",
     "UptimeS",
@@ -84,6 +86,9 @@ PositionM = Annotated[
 ]
 DistanceM = Annotated[float, Meta(ge=0.0, le=MAX_POSITION_M, description="metres")]
 StdM = Annotated[float, Meta(gt=0.0, le=MAX_POSITION_M, description="standard deviation, metres")]
+StdOrZeroM = Annotated[float, Meta(ge=0.0, le=1e11, description="standard deviation, metres")]
+"""A standard deviation that may be 0 (an exact value); 1e11 bounds the square root of any eigenvalue of a
+2x2 block of a wire covariance (entries within +-1e20), so a summary of any valid track fits."""
 AltitudeM = Annotated[float, Meta(ge=-1e4, le=1e5, description="metres")]
 
 AngleRad = Annotated[
@@ -100,6 +105,8 @@ RateRadS = Annotated[
 ]
 
 VelocityMps = Annotated[float, Meta(ge=-1e4, le=1e4, description="metres per second, ENU")]
+SpeedMps = Annotated[float, Meta(ge=0.0, le=1e9, description="metres per second, ground speed")]
+"""A speed (>= 0); 1e9 bounds the norm of any two state entries (within +-1e8), so any valid track's fits."""
 AirspeedMps = Annotated[float, Meta(gt=0.0, le=1e3, description="metres per second")]
 DurationS = Annotated[float, Meta(gt=0.0, le=3600.0, description="seconds")]
 UptimeS = Annotated[float, Meta(ge=0.0, le=1e10, description="seconds")]

@@ -9,20 +9,36 @@ a legacy version.
   detection (``detected = false``) or one (``detected = true``), the measurement's
   values and standard deviations unchanged; ``target_id`` is dropped, since a
   detection carries no identity.
+- ``DaemonStatus/3``: the status without its tracks. It becomes a ``DaemonStatus/4``
+  with every field as it was and no tracks (``tracks = ()``). Every version-3 payload
+  is a valid version-4 one, so one without an encoding string decodes as version 4
+  directly; only the encoding ``gcs.DaemonStatus/3`` selects the version-3 Struct.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Annotated, ClassVar
+
+import msgspec
+from msgspec import Meta
 
 from protocols.base import Message
 from protocols.errors import ProtocolError
-from protocols.fields import AngleRad, DistanceM, ElevationRad, Ident, PositionM, Seq, StampNs, StdM, StdRad
+from protocols.fields import (AngleRad, CommandAgeMs, Count, CounterName, DistanceM, ElevationRad, Ident, PositionM,
+                              Seq, StampNs, StdM, StdRad, Text, UptimeS)
 from protocols.sensor_report import Measurement, SensorReport, check_pairs
+from protocols.status import DaemonStatus, VehicleStatus
 
-__all__ = ["LEGACY_VERSIONS", "LegacyVersion", "SensorReportV1", "upgrade_sensor_report_v1"]
+__all__ = [
+    "LEGACY_VERSIONS",
+    "DaemonStatusV3",
+    "LegacyVersion",
+    "SensorReportV1",
+    "upgrade_daemon_status_v3",
+    "upgrade_sensor_report_v1",
+]
 
 
 class SensorReportV1(Message, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -76,22 +92,47 @@ def upgrade_sensor_report_v1(old: SensorReportV1) -> SensorReport:
                         vehicle_position_std_m=old.vehicle_position_std_m, detections=detections)
 
 
+class DaemonStatusV3(Message, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """``DaemonStatus`` version 3: the daemon's health without its tracks (fields as in version 4)."""
+
+    VERSION: ClassVar[int] = 3
+
+    stamp_ns: StampNs
+    uptime_s: UptimeS
+    scenario: Text
+    vehicles: Annotated[tuple[VehicleStatus, ...], Meta(max_length=256)]
+    counters: dict[CounterName, Count] = msgspec.field(default_factory=dict)
+    last_track_stamp_ns: StampNs | None = None
+    command_age_ms_median: CommandAgeMs | None = None
+    command_age_ms_p99: CommandAgeMs | None = None
+
+
+def upgrade_daemon_status_v3(old: DaemonStatusV3) -> DaemonStatus:
+    """The version-4 status equal to a version-3 one: every field as it was, no tracks."""
+    return DaemonStatus(**msgspec.structs.asdict(old), tracks=())
+
+
 @dataclass(frozen=True)
 class LegacyVersion:
     """An earlier ``version`` of ``current``: decoded as ``struct``, then ``upgrade``\\ d.
 
     ``marker`` is a JSON key only that version has: a payload that arrives without an
     encoding string, fails as the current version and holds the marker is read as this one.
+    It is None when the current version accepts every payload of the earlier one (the
+    current version only adds fields with defaults): such a payload decodes as the current
+    version, and one the current version rejects the earlier one rejects too, so only its
+    encoding string selects the earlier Struct.
     """
 
     current: type[Message]
     version: int
     struct: type[Message]
     upgrade: Callable[[Message], Message]
-    marker: bytes
+    marker: bytes | None
 
 
 LEGACY_VERSIONS: tuple[LegacyVersion, ...] = (
     LegacyVersion(SensorReport, 1, SensorReportV1, upgrade_sensor_report_v1, b'"detected"'),
+    LegacyVersion(DaemonStatus, 3, DaemonStatusV3, upgrade_daemon_status_v3, None),
 )
 """Every earlier version the codec reads."""

@@ -61,7 +61,7 @@ from protocols.fields import (
     check_covariance,
 )
 from protocols.sensor_report import MAX_DETECTIONS, Measurement, SensorReport
-from protocols.status import DaemonStatus, VehicleStatus
+from protocols.status import DaemonStatus, TrackSummary, VehicleStatus
 
 __all__ = [
     "COVARIANCE_SYMMETRY_RTOL",
@@ -80,6 +80,7 @@ __all__ = [
     "SensorReport",
     "TargetTruth",
     "TrackEstimate",
+    "TrackSummary",
     "VehicleStatus",
 ]
 
@@ -293,5 +294,5 @@ class TargetTruth(Message, frozen=True, forbid_unknown_fields=True, kw_only=True
 #: Every message type the codec knows, top-level and nested.
 MESSAGE_TYPES: tuple[type[Message], ...] = (
     SensorReport, Measurement, GpsFix, InsIncrement, NavReport, PredictedPoint,
-    TrackEstimate, PlanCommand, VehicleStatus, DaemonStatus, TargetTruth,
+    TrackEstimate, PlanCommand, VehicleStatus, TrackSummary, DaemonStatus, TargetTruth,
 )

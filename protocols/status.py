@@ -1,6 +1,6 @@
-"""The daemon's health as published on ``gcs/status``: :class:`DaemonStatus` and its vehicles.
+"""The daemon's health as published on ``gcs/status``: :class:`DaemonStatus`, its vehicles and its tracks.
 
-Frames, units and validation are as in :mod:`protocols.messages`, which re-exports both types.
+Frames, units and validation are as in :mod:`protocols.messages`, which re-exports these types.
 """
 
 from __future__ import annotations
@@ -11,9 +11,10 @@ import msgspec
 from msgspec import Meta
 
 from protocols.base import Message
-from protocols.fields import CommandAgeMs, Count, CounterName, Ident, StampNs, Text, UptimeS
+from protocols.fields import (CommandAgeMs, Count, CounterName, Ident, PositionM, SpeedMps, StampNs, StdOrZeroM,
+                              Text, UptimeS)
 
-__all__ = ["DaemonStatus", "VehicleStatus"]
+__all__ = ["DaemonStatus", "TrackSummary", "VehicleStatus"]
 
 
 class VehicleStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=True):
@@ -52,6 +53,36 @@ class VehicleStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=Tr
     control: Text | None = None
 
 
+class TrackSummary(Message, frozen=True, forbid_unknown_fields=True, kw_only=True):
+    """One of the daemon's current tracks in brief, part of :class:`DaemonStatus`.
+
+    The full estimate is the :class:`~protocols.messages.TrackEstimate` on ``<prefix>/track/<target_id>``.
+
+    Attributes
+    ----------
+    target_id : str
+    stamp_ns : int
+        Time the track's newest estimate is valid for.
+    x_m, y_m : float
+        Estimated position, metres ENU.
+    position_std_m : float
+        1-sigma of the position along its worst horizontal axis (>= 0), metres: the square root of
+        the largest eigenvalue of the estimate's 2x2 (x, y) covariance block.
+    speed_mps : float or None
+        Estimated ground speed (>= 0), m/s; None when the track's model has no velocity.
+    contributing_vehicles : tuple of str
+        Vehicles whose reports went into the estimate.
+    """
+
+    target_id: Ident
+    stamp_ns: StampNs
+    x_m: PositionM
+    y_m: PositionM
+    position_std_m: StdOrZeroM
+    speed_mps: SpeedMps | None = None
+    contributing_vehicles: Annotated[tuple[Ident, ...], Meta(max_length=256)]
+
+
 class DaemonStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """Health of the ``gcs`` daemon (published and queryable).
 
@@ -72,11 +103,14 @@ class DaemonStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=Tru
         Median and 99th percentile of the steering commands' age, ms: the vehicle time at which a
         command was flown less the stamp of the decision step its plan came from, over the newest
         commands (:class:`gcs.engine.memory.CommandAges`); None before the first command.
+    tracks : tuple of TrackSummary
+        The daemon's current tracks, one per target (empty before the first track).
     """
 
-    VERSION: ClassVar[int] = 3
+    VERSION: ClassVar[int] = 4
     """Version 2: :class:`VehicleStatus` says the heartbeat, the liveliness and who flies the vehicle.
-    Version 3: the steering commands' age (``command_age_ms_median``, ``command_age_ms_p99``)."""
+    Version 3: the steering commands' age (``command_age_ms_median``, ``command_age_ms_p99``).
+    Version 4: the current tracks (``tracks``); version 3 still decodes (:mod:`protocols.legacy`)."""
 
     stamp_ns: StampNs
     uptime_s: UptimeS
@@ -86,3 +120,4 @@ class DaemonStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=Tru
     last_track_stamp_ns: StampNs | None = None
     command_age_ms_median: CommandAgeMs | None = None
     command_age_ms_p99: CommandAgeMs | None = None
+    tracks: Annotated[tuple[TrackSummary, ...], Meta(max_length=256)] = ()

@@ -4,8 +4,9 @@
 reports, the simulator's truth) and every message it publishes (tracks, plans,
 status), or, in ``gcs replay --view``, every message of a recording, and keeps
 just what the page draws: each vehicle's latest position, heading, detection
-and a trail; the newest track per target with its prediction; each vehicle's
-planned path; the truth and its trail; and the track error against the truth.
+and a trail; the newest track per target with its prediction, while it is
+published (:data:`TRACK_STALE_S`); each vehicle's planned path; the truth and
+its trail; and the track error against the truth.
 :meth:`Picture.snapshot` turns that into two plain dicts (JSON-ready), the
 ``/api/tracks`` and ``/api/status`` documents of :mod:`gcs.adapters.web`; the
 page's own format is described in ``docs/live_map.md``.
@@ -40,7 +41,7 @@ from protocols.errors import ProtocolError
 from protocols.messages import (DaemonStatus, Message, NavReport, PlanCommand, SensorReport, TargetTruth,
                                 TrackEstimate, VehicleStatus)
 
-__all__ = ["Picture", "TRAIL_POINTS", "TRAIL_STEP_S"]
+__all__ = ["Picture", "TRACK_STALE_S", "TRAIL_POINTS", "TRAIL_STEP_S"]
 
 NS_PER_S = 1_000_000_000
 TRAIL_POINTS = 600
@@ -51,6 +52,11 @@ MAX_VEHICLES = 1000
 """Vehicles tracked for the page; ids beyond these are counted, not drawn (bounded memory)."""
 LOST_AFTER_S = 5.0
 """Without a status (replay), a vehicle is ``ok`` while its data is at most this old in stamp time."""
+TRACK_STALE_S = 2.5
+"""A target's track leaves the map (with its ellipse, prediction and trail) once its stamp is this much older
+than the newest track of any target: a track is published every decision step (1 s) while the tracker keeps it,
+so one that misses two steps and a half has been deleted."""
+TRACK_STALE_NS = round(TRACK_STALE_S * NS_PER_S)
 
 
 class _Trail:
@@ -232,6 +238,8 @@ class Picture:
         target = self._target(track.target_id)
         if target.track is not None and track.stamp_ns < target.track.stamp_ns:
             return
+        if target.track is not None and track.stamp_ns - target.track.stamp_ns > TRACK_STALE_NS:
+            target.track_trail = _Trail()  # a new track under the id of one that left the map: a trail of its own
         target.track = track
         target.track_trail.add(track.stamp_ns, track.state[0], track.state[1])
         if not self._score(target, track):
@@ -308,8 +316,9 @@ class Picture:
                     "planner": None if plan is None else plan.planner,
                 })
             tracks, truths, errors = [], [], {}
+            fresh_ns = self._forget_stale_tracks()
             for target_id, t in self.targets.items():
-                if t.track is not None:
+                if t.track is not None and t.track.stamp_ns >= fresh_ns:
                     tracks.append(self._track(t))
                 if t.truth is not None:
                     truths.append({"target_id": target_id, "stamp_ns": t.truth.stamp_ns,
@@ -337,6 +346,17 @@ class Picture:
         if extra:
             summary.update(extra)
         return document, summary
+
+    def _forget_stale_tracks(self) -> int:
+        """The oldest stamp of a track still on the map (:data:`TRACK_STALE_S` before the newest track of
+        any target); the targets known by an older track alone (no truth) are dropped, since the tracker
+        deleted them and their trails would otherwise be kept for ever (the caller holds the lock)."""
+        newest_ns = max((t.track.stamp_ns for t in self.targets.values() if t.track is not None), default=0)
+        fresh_ns = newest_ns - TRACK_STALE_NS
+        for target_id in [target_id for target_id, t in self.targets.items()
+                          if t.truth is None and t.track is not None and t.track.stamp_ns < fresh_ns]:
+            del self.targets[target_id]
+        return fresh_ns
 
     @staticmethod
     def _track(target: _Target) -> dict:

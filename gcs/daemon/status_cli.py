@@ -1,4 +1,4 @@
-"""``gcs status``: ask a running daemon how it is (vehicles, links, last track, counters).
+"""``gcs status``: ask a running daemon how it is (vehicles, links, tracks, counters).
 
 Kept apart from ``gcs run`` so that the command imports only Zenoh and the
 message definitions: it is the Docker healthcheck, run every few seconds.
@@ -27,7 +27,7 @@ log = logging.getLogger(__name__)
 
 def add_status(sub: argparse._SubParsersAction) -> None:
     """Register ``gcs status``."""
-    parser = sub.add_parser("status", help="print a running daemon's status (vehicles, links, last track, counters)",
+    parser = sub.add_parser("status", help="print a running daemon's status (vehicles, links, tracks, counters)",
                             description="Query gcs/daemon/status over Zenoh and print it.")
     add_zenoh_arguments(parser, listen=(), connect=(DEFAULT_ENDPOINT,))
     parser.add_argument("--timeout", type=float, default=3.0, help="seconds to wait for the daemon (default 3)")
@@ -44,7 +44,7 @@ def query_status(settings, prefix: str, timeout_s: float) -> DaemonStatus | None
 
 
 def format_status(status: DaemonStatus) -> list[str]:
-    """Human-readable lines."""
+    """Human-readable lines: the daemon, one line per vehicle, one per track (or ``no tracks``), the counters."""
     lines = [f"scenario {status.scenario}, up {status.uptime_s:.0f} s, last track stamp "
              f"{status.last_track_stamp_ns if status.last_track_stamp_ns is not None else 'none'}"]
     if status.command_age_ms_median is not None:
@@ -55,6 +55,13 @@ def format_status(status: DaemonStatus) -> list[str]:
                      f"(heartbeat {vehicle.heartbeat or '-'}, liveliness {vehicle.liveliness or '-'})  "
                      f"reports {vehicle.reports:>6}  autopilot {vehicle.autopilot or '-'}  "
                      f"control {vehicle.control or '-'}")
+    for track in status.tracks:
+        speed = "-" if track.speed_mps is None else f"{track.speed_mps:.1f} m/s"
+        lines.append(f"  track {track.target_id:<10} at ({track.x_m:.1f}, {track.y_m:.1f}) m  "
+                     f"1-sigma {track.position_std_m:.1f} m  speed {speed}  stamp {track.stamp_ns}  "
+                     f"vehicles {', '.join(track.contributing_vehicles) or '-'}")
+    if not status.tracks:
+        lines.append("  no tracks")
     for name, value in sorted(status.counters.items()):
         lines.append(f"  {name:<40} {value:>10}")
     return lines

@@ -93,10 +93,10 @@ def test_command_ages_keep_the_newest_and_the_p99_interpolates() -> None:
     assert ages.p99_ms() == pytest.approx(101 + 0.99 * 99)  # numpy's linear interpolation between ranks
 
 
-def test_status_says_the_command_age_and_its_version_is_3() -> None:
+def test_status_says_the_command_age_and_its_version_is_4() -> None:
     status = DaemonStatus(stamp_ns=1, uptime_s=0.0, scenario="city", vehicles=(), command_age_ms_median=812.4,
                           command_age_ms_p99=1930.0)
-    assert DaemonStatus.VERSION == 3 and encode(status)[1].endswith("gcs.DaemonStatus/3")
+    assert DaemonStatus.VERSION == 4 and encode(status)[1].endswith("gcs.DaemonStatus/4")
     assert "command age median 812 ms, p99 1930 ms (vehicle time flown less the decision step's stamp)" in \
         format_status(status)
     assert not any("command age" in line for line in format_status(DaemonStatus(

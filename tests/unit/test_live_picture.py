@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from gcs.core.geometry import LocalFrame
 from gcs.core.world import Buildings, RestrictedAirspace, World
-from gcs.daemon.picture import TRAIL_STEP_S, Picture
+from gcs.daemon.picture import TRACK_STALE_S, TRAIL_STEP_S, Picture
 from gcs.daemon.picture_geometry import SIGMAS, ellipse, encode_json, world_geometry
 from gcs.scenarios import load_scenario
 from protocols.codec import encode
@@ -29,18 +29,19 @@ def _report(vehicle: str, stamp: int, xyz: tuple[float, float, float], detected:
                         detections=(Measurement(**values),) if detected else ())
 
 
-def _track(stamp: int, xy: tuple[float, float], cov_xy=(100.0, 0.0, 0.0, 25.0), seq: int = 1) -> TrackEstimate:
+def _track(stamp: int, xy: tuple[float, float], cov_xy=(100.0, 0.0, 0.0, 25.0), seq: int = 1,
+           target_id: str = "target") -> TrackEstimate:
     cov = np.zeros((4, 4))
     cov[:2, :2] = np.reshape(cov_xy, (2, 2))
     cov[2, 2] = cov[3, 3] = 4.0
     prediction = tuple(PredictedPoint(stamp_ns=stamp + k * NS, position_enu_m=(xy[0] + k, xy[1]),
                                       position_cov_m2=(4.0 * k, 0.0, 0.0, 4.0 * k)) for k in (1, 2, 3))
-    return TrackEstimate(target_id="target", seq=seq, stamp_ns=stamp, model="cv2d", state=(*xy, 1.0, 0.0),
+    return TrackEstimate(target_id=target_id, seq=seq, stamp_ns=stamp, model="cv2d", state=(*xy, 1.0, 0.0),
                          covariance=tuple(cov.ravel()), contributing_vehicles=("uav1",), prediction=prediction)
 
 
-def _truth(stamp: int, xy: tuple[float, float]) -> TargetTruth:
-    return TargetTruth(target_id="target", seq=1, stamp_ns=stamp, position_enu_m=xy, velocity_enu_mps=(0.0, 0.0))
+def _truth(stamp: int, xy: tuple[float, float], target_id: str = "target") -> TargetTruth:
+    return TargetTruth(target_id=target_id, seq=1, stamp_ns=stamp, position_enu_m=xy, velocity_enu_mps=(0.0, 0.0))
 
 
 def _snapshot(picture: Picture, *args, **kwargs) -> tuple[dict, dict]:
@@ -178,3 +179,37 @@ def test_gps_fixes_place_the_vehicle_and_its_trail_in_enu() -> None:
     uav3 = _vehicle(_snapshot(picture)[0], "uav3")
     assert (uav3["x"], uav3["y"], uav3["stamp_ns"]) == (130.0, 50.0, T0 + 3 * NS // 2)  # the newest fix
     assert uav3["trail"] == [[100.0, 50.0], [120.0, 50.0]]  # one point a second of stamp time
+
+
+def test_a_track_no_longer_published_leaves_the_map_and_one_still_published_stays() -> None:
+    assert TRACK_STALE_S == 2.5
+    picture = Picture(SCENARIO, World.empty())
+    for k in range(3):
+        picture.observe(_track(T0 + k * NS, (float(k), 0.0), seq=k + 1, target_id="t1"))
+        picture.observe(_track(T0 + k * NS, (0.0, float(k)), seq=k + 1, target_id="t2"))
+    assert [t["target_id"] for t in _snapshot(picture)[0]["tracks"]] == ["t1", "t2"]
+    listed = []
+    for k in range(3, 6):  # t2 stops at T0 + 2 s; t1 goes on to T0 + 5 s
+        picture.observe(_track(T0 + k * NS, (float(k), 0.0), seq=k + 1, target_id="t1"))
+        listed.append([t["target_id"] for t in _snapshot(picture)[0]["tracks"]])
+    assert listed == [["t1", "t2"], ["t1", "t2"], ["t1"]]  # 1 and 2 s behind: kept; 3 s: gone
+    tracks, status = _snapshot(picture)
+    (t1,) = tracks["tracks"]
+    assert (t1["x"], t1["stamp_ns"], len(t1["trail"])) == (5.0, T0 + 5 * NS, 6)
+    assert status["last_track_stamp_ns"] == T0 + 5 * NS
+    assert "t2" not in picture.targets  # known by its track alone: forgotten with its trail
+
+
+def test_the_staleness_bound_is_inclusive_and_a_track_back_under_its_id_starts_a_new_trail() -> None:
+    picture = Picture(SCENARIO, World.empty())
+    picture.observe(_truth(T0, (0.0, 0.0), target_id="t2"))
+    picture.observe(_track(T0, (0.0, 0.0), target_id="t2"))
+    picture.observe(_track(T0 + 5 * NS // 2, (9.0, 9.0), target_id="t1"))  # exactly TRACK_STALE_S newer
+    assert [t["target_id"] for t in _snapshot(picture)[0]["tracks"]] == ["t2", "t1"]
+    picture.observe(_track(T0 + 5 * NS // 2 + 1, (9.0, 9.0), target_id="t1"))  # one nanosecond more
+    tracks, _ = _snapshot(picture)
+    assert [t["target_id"] for t in tracks["tracks"]] == ["t1"]
+    assert [t["target_id"] for t in tracks["truth"]] == ["t2"]  # the truth is drawn as before
+    picture.observe(_track(T0 + 3 * NS, (50.0, 60.0), target_id="t2"))  # a new track under the old id
+    t2 = next(t for t in _snapshot(picture)[0]["tracks"] if t["target_id"] == "t2")
+    assert t2["trail"] == [[50.0, 60.0]]

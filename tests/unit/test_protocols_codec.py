@@ -28,6 +28,7 @@ from protocols import (
     ProtocolError,
     SensorReport,
     TrackEstimate,
+    TrackSummary,
     VehicleStatus,
     decode,
     encode,
@@ -189,6 +190,16 @@ vehicle_statuses = st.builds(
     reports=st.integers(0, INT64_MAX),
     autopilot=st.none() | texts,
 )
+track_summaries = st.builds(
+    TrackSummary,
+    target_id=ids,
+    stamp_ns=stamps,
+    x_m=positions,
+    y_m=positions,
+    position_std_m=floats(0.0, 1e11),
+    speed_mps=st.none() | floats(0.0, 1e9),
+    contributing_vehicles=st.lists(ids, max_size=4).map(tuple),
+)
 daemon_statuses = st.builds(
     DaemonStatus,
     stamp_ns=stamps,
@@ -201,6 +212,7 @@ daemon_statuses = st.builds(
     last_track_stamp_ns=st.none() | stamps,
     command_age_ms_median=st.none() | floats(-1e9, 1e12),
     command_age_ms_p99=st.none() | floats(-1e9, 1e12),
+    tracks=st.lists(track_summaries, max_size=4).map(tuple),
 )
 target_truths = st.builds(
     TargetTruth,
@@ -221,6 +233,7 @@ STRATEGIES = {
     TrackEstimate: track_estimates(),
     PlanCommand: plan_commands,
     VehicleStatus: vehicle_statuses,
+    TrackSummary: track_summaries,
     DaemonStatus: daemon_statuses,
     TargetTruth: target_truths,
 }
@@ -239,8 +252,8 @@ def test_every_message_type_has_a_strategy() -> None:
 def test_round_trip(tp: type, data: st.DataObject) -> None:
     msg = data.draw(STRATEGIES[tp])
     payload, encoding = encode(msg)
-    # DaemonStatus 2: heartbeat, liveliness, control; 3: age. SensorReport 2: detections.
-    version = {"DaemonStatus": 3, "SensorReport": 2}.get(tp.__name__, 1)
+    # DaemonStatus 2: heartbeat, liveliness, control; 3: age; 4: tracks. SensorReport 2: detections.
+    version = {"DaemonStatus": 4, "SensorReport": 2}.get(tp.__name__, 1)
     assert encoding == f"application/json;gcs.{tp.__name__}/{version}"
     assert len(payload) <= MAX_PAYLOAD_BYTES
     back = decode(payload, encoding, expected=tp)

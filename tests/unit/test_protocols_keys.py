@@ -201,7 +201,7 @@ def test_kind_to_message_type() -> None:
     with pytest.raises(TypeError):
         MESSAGE_TYPE_BY_KIND["alive"] = SensorReport  # type: ignore[index]
     for tp in MESSAGE_TYPE_BY_KIND.values():
-        assert encoding_for(tp).endswith(f"gcs.{tp.__name__}/{ {DaemonStatus: 3, SensorReport: 2}.get(tp, 1)}")
+        assert encoding_for(tp).endswith(f"gcs.{tp.__name__}/{ {DaemonStatus: 4, SensorReport: 2}.get(tp, 1)}")
 
 
 def test_truth_keys_round_trip() -> None:

@@ -180,8 +180,8 @@ def test_track_estimate_models() -> None:
 def test_struct_config(tp: type[msgspec.Struct]) -> None:
     config = tp.__struct_config__
     assert config.frozen and config.forbid_unknown_fields
-    # DaemonStatus 2: heartbeat, liveliness and control; 3: command age. SensorReport 2: detections.
-    version = {DaemonStatus: 3, SensorReport: 2}.get(tp, 1)
+    # DaemonStatus 2: heartbeat, liveliness and control; 3: command age; 4: tracks. SensorReport 2: detections.
+    version = {DaemonStatus: 4, SensorReport: 2}.get(tp, 1)
     assert tp.VERSION == version  # type: ignore[attr-defined]
     assert "VERSION" not in tp.__struct_fields__
     with pytest.raises(TypeError, match="positional"):
@@ -198,7 +198,7 @@ def test_messages_are_immutable_and_version_is_not_on_the_wire() -> None:
 
 def test_daemon_status_defaults_and_literals() -> None:
     status = DaemonStatus(stamp_ns=1, uptime_s=0.0, scenario="city", vehicles=())
-    assert status.counters == {} and status.last_track_stamp_ns is None
+    assert status.counters == {} and status.last_track_stamp_ns is None and status.tracks == ()
     vs = VehicleStatus(vehicle_id="uav1", link="lost", reports=3)
     assert vs.sysid is None and vs.autopilot is None
     assert PlanCommand.__struct_fields__[-1] == "planner"
