@@ -49,12 +49,13 @@ from gcs.daemon.planning import Planner
 from gcs.daemon.planner_start import start_planner
 from gcs.daemon.records import PlanRecord, StepRecord
 from gcs.daemon.registry import LOST_AFTER_S
+from gcs.daemon.track_summary import summarise_track
 from gcs.engine.engine import ALIVE_REFRESH_S, Engine, EngineOptions
 from gcs.engine.events import (Action, Arrived, Heartbeat, LetGo, Observed, PlanDone, PlannerFree, PublishPlan,
                                PublishTrack, RetireTrack, SubmitPlan, Tick)
 from gcs.engine.memory import MIN_PLAN_INTERVAL_S, PLAN_INTERVAL_PER_VEHICLE_S, STEER_RATE_HZ, plan_interval_s
 from protocols.keys import alive_key
-from protocols.messages import DaemonStatus, VehicleStatus
+from protocols.status import MAX_STATUS_TRACKS, DaemonStatus, VehicleStatus
 
 __all__ = ["DaemonOptions", "Daemon", "StepRecord", "PlanRecord", "STEER_RATE_HZ", "ALIVE_REFRESH_S",
            "MIN_PLAN_INTERVAL_S", "PLAN_INTERVAL_PER_VEHICLE_S", "plan_interval_s"]
@@ -367,7 +368,7 @@ class Daemon:
     # ----------------------------------------------------------------- status
 
     def status(self, now: float) -> DaemonStatus:
-        """The daemon's health: vehicles, link state, counters, last track."""
+        """The daemon's health: vehicles, link state, counters, the newest step's tracks (the first 256)."""
         vehicles = []
         for vehicle_id, entry in self.registry.entries.items():
             autopilot = heartbeat = control = None
@@ -393,5 +394,6 @@ class Daemon:
                             scenario=self.scenario.name, vehicles=tuple(vehicles),
                             counters={k: int(v) for k, v in counters.items() if v >= 0},
                             last_track_stamp_ns=self.loop.last_track_stamp_ns,
+                            tracks=tuple(summarise_track(t) for t in self.engine.tracks_now.values())[:MAX_STATUS_TRACKS],
                             command_age_ms_median=self.engine.command_ages.median_ms(),
                             command_age_ms_p99=self.engine.command_ages.p99_ms())

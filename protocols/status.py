@@ -14,8 +14,11 @@ from protocols.base import Message
 from protocols.fields import (CommandAgeMs, Count, CounterName, Ident, PositionM, SpeedMps, StampNs, StdOrZeroM,
                               Text, UptimeS)
 
-__all__ = ["DaemonStatus", "TrackSummary", "VehicleStatus"]
+__all__ = ["MAX_STATUS_TRACKS", "DaemonStatus", "TrackSummary", "VehicleStatus"]
 
+
+MAX_STATUS_TRACKS = 256
+"""Tracks a :class:`DaemonStatus` lists at most."""
 
 class VehicleStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """The daemon's view of one vehicle, part of :class:`DaemonStatus`.
@@ -120,4 +123,4 @@ class DaemonStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=Tru
     last_track_stamp_ns: StampNs | None = None
     command_age_ms_median: CommandAgeMs | None = None
     command_age_ms_p99: CommandAgeMs | None = None
-    tracks: Annotated[tuple[TrackSummary, ...], Meta(max_length=256)] = ()
+    tracks: Annotated[tuple[TrackSummary, ...], Meta(max_length=MAX_STATUS_TRACKS)] = ()

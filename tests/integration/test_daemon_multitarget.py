@@ -24,6 +24,7 @@ from protocols.codec import decode, encode
 from protocols.keys import track_key
 from protocols.messages import TargetTruth, TrackEstimate
 from tests.integration.daemon_flight import daemon_through_a_flight
+from tests.integration.sim_harness import wait_until
 
 SCENARIO = load_scenario("multitarget_urban")
 WORLD = build_world(SCENARIO)
@@ -46,15 +47,25 @@ def _by_stamp(recording, kind: type, key_part: str) -> dict[int, dict[str, tuple
     return out
 
 
+def _answers(daemon, session):
+    """The daemon's current tracks, the tracks a query of every track key answers (id: key) and the status;
+    None when a step was fused in between (the last steps go on their timeouts)."""
+    current = dict(daemon.engine.tracks_now)
+    answered = {decode(s.payload.to_bytes(), str(s.encoding), TrackEstimate).target_id: str(s.key_expr)
+                for s in query(session, track_key("any").replace("any", "*"), 5.0)}
+    status = daemon.status(0.0)
+    return (current, answered, status) if daemon.engine.tracks_now == current else None
+
+
 def test_the_daemon_tracks_every_car_publishes_each_track_and_replay_reproduces_them(tmp_path) -> None:
     recording = tmp_path / "run.mcap"
     with daemon_through_a_flight(SCENARIO, WORLD, recording, seed=5, duration_s=DURATION_S, rate=RATE,
                                  epoch_ns=EPOCH_NS) as (daemon, endpoint):
-        current = dict(daemon.engine.tracks_now)
         with open_session(ZenohSettings(connect=(endpoint,))) as session:
-            answered = {decode(s.payload.to_bytes(), str(s.encoding), TrackEstimate).target_id: str(s.key_expr)
-                        for s in query(session, track_key("car1").replace("car1", "*"), 5.0)}
-        status = daemon.status(0.0)
+            seen: list = []
+            wait_until(lambda: seen.append(_answers(daemon, session)) or seen[-1] is not None, 10,
+                       "a query and a status between two fused steps")
+        current, answered, status = seen[-1]
     counters = status.counters
     assert counters.get("errors.decision", 0) == 0 and counters.get("errors.planning", 0) == 0, counters
     assert counters.get("decisions", 0) >= 10, counters  # the vehicles were planned for, many times
@@ -77,6 +88,8 @@ def test_the_daemon_tracks_every_car_publishes_each_track_and_replay_reproduces_
 
     # Each current track answers on its own key; a deleted one does not.
     assert set(answered) == set(current) and all(key == track_key(name) for name, key in answered.items())
+    assert [(t.target_id, t.stamp_ns, t.x_m) for t in status.tracks] == [
+        (t.target_id, t.stamp_ns, round(t.state[0], 2)) for t in current.values()]  # gcs status lists them
     assert {name for step in tracks.values() for name in step} - set(current), "no track was deleted in the run"
 
     # The recording gives back every track bit for bit.
