@@ -21,6 +21,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -61,8 +62,10 @@ def add_demo(sub: argparse._SubParsersAction) -> None:
     set_command(parser, _cmd_demo, check_demo)
 
 
-def summarise(records: list[StepRecord], plans: list[PlanRecord], vehicles: list[str]) -> dict:
-    """The demo's summary of the daemon's decision steps and of its plans (``decision_ms``: the planner's solve)."""
+def summarise(records: list[StepRecord], plans: list[PlanRecord], vehicles: list[str],
+              targets: Sequence[str] = ()) -> dict:
+    """The demo's summary of the daemon's decision steps and of its plans (``decision_ms``: the planner's solve);
+    with many targets, the steps each of ``targets`` had a track on it."""
     errors = np.array([r.error_m for r in records if r.error_m is not None])
     decisions = np.array([p.solve_s for p in plans]) * 1e3
     nav_std = np.array([s for r in records for s in r.nav_std_m.values()])
@@ -77,7 +80,22 @@ def summarise(records: list[StepRecord], plans: list[PlanRecord], vehicles: list
         "nav_std_m_median": float(np.median(nav_std)) if nav_std.size else None,
         "nav_std_m_max": float(nav_std.max()) if nav_std.size else None,
         "nav_vehicle_steps_without_fix": sum(not fix for r in records for fix in r.gps_fix.values()),
+        **_many_targets(records, targets),
     }
+
+
+def _many_targets(records: list[StepRecord], targets: Sequence[str]) -> dict:
+    """With ``[multitarget]``: mean GOSPA of the scored steps and, per target, the steps a track was on it."""
+    scored = [r for r in records if r.gospa_m is not None]
+    if not any(r.tracks_xy is not None for r in records):
+        return {}
+    per_target = {name: 0 for name in targets}
+    for record in scored:
+        for name in record.tracked:
+            per_target[name] = per_target.get(name, 0) + 1
+    return {"gospa_m_mean": float(np.mean([r.gospa_m for r in scored])) if scored else None,
+            "gospa_steps": len(scored), "tracks_last_step": len(records[-1].tracks_xy or ()) if records else 0,
+            "tracked_steps_per_target": dict(sorted(per_target.items()))}
 
 
 class _Progress:
@@ -96,12 +114,14 @@ class _Progress:
     def __call__(self, record: StepRecord) -> None:
         self.steps += 1
         self.seen += any(record.seen.values())
-        if record.error_m is not None:
-            self.squares += record.error_m**2
+        error = record.error_m if record.tracks_xy is None else record.gospa_m
+        if error is not None:
+            self.squares += error**2
             self.scored += 1
+        name = "RMSE" if record.tracks_xy is None else "GOSPA RMS"  # many targets: GOSPA against every truth
         rmse = f"{math.sqrt(self.squares / self.scored):6.1f} m" if self.scored else "     - "
         decision = f"{self.solve_s * 1e3:5.0f} ms" if self.solve_s is not None else "    - "
-        line = (f"step {self.steps:4d}/{self.duration_s:.0f}  seen by any {self.seen:4d}  RMSE {rmse}  "
+        line = (f"step {self.steps:4d}/{self.duration_s:.0f}  seen by any {self.seen:4d}  {name} {rmse}  "
                 f"decision {decision}  UAVs {len(record.vehicles)}")
         if self.tty:
             self.stream.write("\r" + line)
@@ -150,7 +170,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
                                                                 else ""), flush=True)
     stopped = run_together(daemon, command, log_file)
     progress.end()
-    summary = summarise(daemon.records, daemon.plans, daemon.roster)
+    summary = summarise(daemon.records, daemon.plans, daemon.roster, [t.id for t in daemon.scenario.all_targets])
     counters = daemon.status(time.monotonic()).counters
     summary.update({"scenario": daemon.scenario.name, "planner": daemon.planner_name, "rate": args.rate,
                     "duration_s": duration, "navigation": "reported" if daemon.navigator is None else "skf",
@@ -216,7 +236,8 @@ def _print_summary(summary: dict) -> None:
     rmse = f"{summary['rmse_m']:.1f} m over {summary['scored_steps']} steps" if summary["rmse_m"] is not None else "-"
     median, p99 = (_ms(summary[key]) for key in ("decision_ms_median", "decision_ms_p99"))
     print(f"steps {summary['steps']}; seen by at least one UAV {summary['seen_any']}; per UAV {per_uav}")
-    print(f"fused position RMSE {rmse}; decision time median {median}, p99 {p99}")
+    fused = "" if "gospa_m_mean" in summary else f"fused position RMSE {rmse}; "  # many targets: GOSPA below
+    print(f"{fused}decision time median {median}, p99 {p99}")
     if summary.get("command_age_ms_median") is not None:
         print(f"command age (vehicle time flown less the decision step's stamp) median "
               f"{_ms(summary['command_age_ms_median'])}, p99 {_ms(summary['command_age_ms_p99'])}")
@@ -224,6 +245,11 @@ def _print_summary(summary: dict) -> None:
         print(f"navigation {summary['navigation']}: vehicle position 1-sigma median {summary['nav_std_m_median']:.1f} m, "
               f"max {summary['nav_std_m_max']:.1f} m; {summary['nav_vehicle_steps_without_fix']} vehicle-steps "
               "without GPS")
+    if "gospa_m_mean" in summary:
+        per_target = ", ".join(f"{t} {n}" for t, n in summary["tracked_steps_per_target"].items()) or "none"
+        gospa = "-" if summary["gospa_m_mean"] is None else f"{summary['gospa_m_mean']:.1f} m"
+        print(f"tracks: GOSPA mean {gospa} over {summary['gospa_steps']} steps; {summary['tracks_last_step']} "
+              f"confirmed at the end; steps with a track on each target: {per_target}")
     if summary["rejected"]:
         print("rejected: " + ", ".join(f"{k} {v}" for k, v in sorted(summary["rejected"].items())))
     print("compare: gcs bench urban (the same loop in one process, without the network and the airframe lag)")

@@ -16,7 +16,12 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
-__all__ = ["StepRecord", "PlanRecord", "StepScorer", "keep_newest", "MAX_RECORDS", "TRUTH_WAIT_S", "MAX_TRUTHS"]
+import numpy as np
+
+from gcs.core.metrics import gospa
+
+__all__ = ["StepRecord", "PlanRecord", "StepScorer", "keep_newest", "MAX_RECORDS", "TRUTH_WAIT_S", "MAX_TRUTHS",
+           "GOSPA_CUTOFF_M"]
 
 MAX_RECORDS = 100_000
 """Step (and plan) records kept in memory (about a day of 1 s steps)."""
@@ -24,6 +29,8 @@ TRUTH_WAIT_S = 0.5
 """Wall time a step record waits for the simulator's truth at its stamp before it is emitted unscored."""
 MAX_TRUTHS = 4096
 """Truth samples kept (the oldest are dropped)."""
+GOSPA_CUTOFF_M = 100.0
+"""GOSPA's cut-off ``c`` for the many-target steps, as ``gcs bench multitarget``'s."""
 
 
 @dataclass(frozen=True)
@@ -46,6 +53,12 @@ class StepRecord:
     fused_ns: int
     nav_std_m: dict[str, float] = field(default_factory=dict)
     gps_fix: dict[str, bool] = field(default_factory=dict)
+    tracks_xy: tuple[tuple[float, float], ...] | None = None
+    """With ``[multitarget]``: the step's confirmed tracks' positions (None: one target, ``estimate_xy``)."""
+    gospa_m: float | None = None
+    """GOSPA of ``tracks_xy`` against every target's truth (:data:`GOSPA_CUTOFF_M`, p = 2, alpha = 2)."""
+    tracked: tuple[str, ...] = ()
+    """The targets whose truth GOSPA's assignment paired with a track (closer than the cut-off)."""
 
 
 @dataclass(frozen=True)
@@ -88,13 +101,20 @@ class StepScorer:
         self.step_ns, self.clock, self.on_step = step_ns, clock, on_step
         self.records: list[StepRecord] = []
         self.truth: dict[int, tuple[float, float]] = {}
+        self.truths: dict[int, dict[str, tuple[float, float]]] = {}
+        """Every target's truth by stamp (many targets)."""
         self._unscored: deque[tuple[StepRecord, float]] = deque()
 
-    def add_truth(self, stamp_ns: int, position_xy: tuple[float, float]) -> None:
-        """The simulator's target position at a stamp."""
-        self.truth[stamp_ns] = position_xy
-        if len(self.truth) > MAX_TRUTHS:
-            del self.truth[min(self.truth)]
+    def add_truth(self, stamp_ns: int, position_xy: tuple[float, float], target_id: str | None = None) -> None:
+        """The simulator's target position at a stamp: the one target's, or with ``target_id`` one of many."""
+        if target_id is None:
+            self.truth[stamp_ns] = position_xy
+            if len(self.truth) > MAX_TRUTHS:
+                del self.truth[min(self.truth)]
+            return
+        self.truths.setdefault(stamp_ns, {})[target_id] = position_xy
+        if len(self.truths) > MAX_TRUTHS:
+            del self.truths[min(self.truths)]
 
     def add(self, record: StepRecord) -> None:
         """A fused step's record, to be scored and emitted in order."""
@@ -104,17 +124,23 @@ class StepScorer:
     def score(self, flush: bool) -> None:
         """Emit the records whose truth is in or no longer expected (all of them with ``flush``)."""
         latest = max(self.truth, default=None)
+        latest_many = max(self.truths, default=None)
         while self._unscored:
             record, deadline = self._unscored[0]
+            many = record.tracks_xy is not None
             truth = None if record.estimate_xy is None else self.truth_near(record.stamp_ns)
-            waiting = (record.estimate_xy is not None and truth is None and latest is not None
-                       and latest < record.stamp_ns + self.step_ns and self.clock() < deadline)
+            truths = self._near(self.truths, record.stamp_ns) if many else None
+            newest = latest_many if many else latest
+            waiting = ((record.estimate_xy is not None and truth is None) or (many and truths is None)) and (
+                newest is not None and newest < record.stamp_ns + self.step_ns and self.clock() < deadline)
             if waiting and not flush:
                 return
             self._unscored.popleft()
             if truth is not None:
                 error = math.hypot(record.estimate_xy[0] - truth[0], record.estimate_xy[1] - truth[1])
                 record = replace(record, error_m=error)
+            if truths:
+                record = _with_gospa(record, truths)
             self.records.append(record)
             keep_newest(self.records)
             if self.on_step is not None:
@@ -122,9 +148,22 @@ class StepScorer:
 
     def truth_near(self, stamp_ns: int) -> tuple[float, float] | None:
         """The truth at a stamp (within a tenth of a step), if it was published."""
-        truth = self.truth.get(stamp_ns)
-        if truth is None and self.truth:
-            nearest = min(self.truth, key=lambda s: abs(s - stamp_ns))
+        return self._near(self.truth, stamp_ns)
+
+    def _near(self, by_stamp: dict, stamp_ns: int):
+        """``by_stamp``'s entry at a stamp, or within a tenth of a step of it; None without one."""
+        found = by_stamp.get(stamp_ns)
+        if found is None and by_stamp:
+            nearest = min(by_stamp, key=lambda s: abs(s - stamp_ns))
             if abs(nearest - stamp_ns) <= self.step_ns // 10:
-                truth = self.truth[nearest]
-        return truth
+                found = by_stamp[nearest]
+        return found
+
+
+def _with_gospa(record: StepRecord, truths: dict[str, tuple[float, float]]) -> StepRecord:
+    """The record scored against every target's truth: GOSPA and the targets it paired with a track."""
+    names = sorted(truths)
+    result = gospa(np.array(record.tracks_xy, dtype=np.float64).reshape(-1, 2),
+                   np.array([truths[n] for n in names], dtype=np.float64), GOSPA_CUTOFF_M)
+    return replace(record, gospa_m=result.distance,
+                   tracked=tuple(n for n, row in zip(names, result.assignment.tolist()) if row >= 0))

@@ -165,6 +165,8 @@ class Engine:
                 if self.navigator is not None:
                     self.navigator.add(message)
                     self.steps.add_nav(message.vehicle_id, message.stamp_ns)
+        elif isinstance(message, TargetTruth) and self.keeper is not None:  # the tracks against every target
+            self.scorer.add_truth(message.stamp_ns, message.position_enu_m, message.target_id)
         elif isinstance(message, TargetTruth) and message.target_id == self.scenario.target.id:
             self.scorer.add_truth(message.stamp_ns, message.position_enu_m)  # the track is scored against [target]
         return [] if message is None else [Observed(message)]
@@ -259,7 +261,8 @@ class Engine:
             actions.extend(PublishTrack(track) for track in tracks)
         active = self.registry.plannable(now)
         scale = self.loop.clock_scale(now, ready.stamp_ns, self.options.plan_fraction)
-        self._record(ready, active, estimate, tick.wall_ns, actions, seen)
+        self._record(ready, active, estimate, tick.wall_ns, actions, seen,
+                     None if self.keeper is None else tuple((t.state[0], t.state[1]) for t in tracks))
         if not active:
             self.counters["steps_without_vehicles"] += 1
             return None
@@ -270,7 +273,7 @@ class Engine:
                         tick.monotonic_s, targets)
 
     def _record(self, ready: ReadyStep, active: list[str], estimate, wall_ns: int, actions: list[Action],
-                detected: dict[str, bool] | None = None) -> None:
+                detected: dict[str, bool] | None = None, tracks_xy: tuple | None = None) -> None:
         """Note what the step did; it is scored against the simulator's truth once that is in (:class:`StepScorer`).
 
         A vehicle saw the target when one of its reports has a detection, or, given ``detected`` (many
@@ -289,7 +292,7 @@ class Engine:
                 if std is not None:
                     nav_std[vehicle_id], fix[vehicle_id] = std, bool(self.navigator.has_fix(vehicle_id))
         self.scorer.add(StepRecord(ready.index, ready.stamp_ns, seen, estimate_xy, None, tuple(active), wall_ns,
-                                   nav_std, fix))
+                                   nav_std, fix, tracks_xy))
         actions.extend(self.watch_target(ready, any(seen.values())))
 
     def watch_target(self, ready: ReadyStep, seen: bool) -> list[Action]:

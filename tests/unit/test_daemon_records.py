@@ -63,3 +63,28 @@ def test_memory_is_bounded() -> None:
     records = list(range(11))
     keep_newest(records, limit=10)
     assert records == list(range(5, 11))
+
+
+def test_many_targets_are_scored_by_gospa_against_every_truth_and_name_the_targets_tracked() -> None:
+    """Two tracks, three cars: one track 3-4-5 off car ``a``, one 6-8-10 off ``b``, ``c`` untracked. GOSPA
+    (c = 100 m, p = 2, alpha = 2) is sqrt(5^2 + 10^2 + 100^2 / 2) = sqrt(5125)."""
+    from gcs.daemon.demo import summarise
+    from gcs.daemon.records import GOSPA_CUTOFF_M
+
+    clock, emitted = _Clock(), []
+    scorer = StepScorer(S, clock, emitted.append)
+    scorer.add_truth(0, (0.0, 0.0), "a")  # a truth source exists, older than the step
+    record = StepRecord(1, S, {"uav1": True}, None, None, ("uav1",), 0, tracks_xy=((3.0, 4.0), (506.0, 8.0)))
+    scorer.add(record)
+    assert emitted == []  # the truths at 1 s are not in yet
+    for name, xy in (("a", (0.0, 0.0)), ("b", (500.0, 0.0)), ("c", (0.0, 900.0))):
+        scorer.add_truth(S, xy, name)
+    scorer.add_truth(2 * S, (0.0, 0.0), "a")  # a later stamp: every truth at 1 s is in
+    scorer.score(flush=False)
+    assert GOSPA_CUTOFF_M == 100.0
+    assert [r.index for r in emitted] == [1] and math.isclose(emitted[0].gospa_m, math.sqrt(5125.0))
+    assert emitted[0].tracked == ("a", "b") and emitted[0].error_m is None
+    summary = summarise(emitted, [], ["uav1"], ["a", "b", "c"])
+    assert summary["tracked_steps_per_target"] == {"a": 1, "b": 1, "c": 0}
+    assert math.isclose(summary["gospa_m_mean"], math.sqrt(5125.0)) and summary["tracks_last_step"] == 2
+    assert "gospa_m_mean" not in summarise([_record(1)], [], ["uav1"])  # one target: no many-target figures
