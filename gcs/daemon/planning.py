@@ -49,8 +49,8 @@ from gcs.core.multitarget.planning import TargetsToPlan, plan_targets
 from gcs.core.planners.problem import PlanResult
 from gcs.core.tracker import TrackerConfig, TrackerState, plan
 
-__all__ = ["PLANNER_MODES", "PLANNER_NICENESS", "START_TIMEOUT_S", "PlanJob", "PlanOutcome", "Planner", "InlinePlanner",
-           "ThreadPlanner"]
+__all__ = ["PLANNER_MODES", "PLANNER_NICENESS", "START_TIMEOUT_S", "PlanJob", "PlanOutcome", "plan_job", "run_job",
+           "Planner", "InlinePlanner", "ThreadPlanner"]
 
 log = logging.getLogger(__name__)
 
@@ -150,6 +150,16 @@ class PlanOutcome:
         return None if self.result is None else self.result.elapsed_s / self.job.clock_scale
 
 
+def plan_job(job: PlanJob, config: TrackerConfig, rng: np.random.Generator,
+             now: Callable[[], float] | None = None) -> tuple[TrackerState, np.ndarray, PlanResult | None]:
+    """The job's plan: the new state, first turn rates and the planner's result (``now`` None: no deadline).
+    One target: :func:`gcs.core.tracker.plan`; many: :func:`gcs.core.multitarget.planning.plan_targets`."""
+    if job.targets is not None:
+        return plan_targets(config, job.state, job.vehicles, job.targets, rng, now)
+    state, turn_rates, diagnostics = plan(config, job.state, job.vehicles, rng, now=now, predicted=job.predicted)
+    return state, turn_rates, diagnostics.plan
+
+
 def run_job(job: PlanJob, config: TrackerConfig, rng: np.random.Generator) -> PlanOutcome:
     """Plan one job with the tracker for its vehicles; an exception becomes the outcome's ``error``."""
     started, scale = time.monotonic(), job.clock_scale
@@ -158,12 +168,7 @@ def run_job(job: PlanJob, config: TrackerConfig, rng: np.random.Generator) -> Pl
         return time.monotonic() * scale
 
     try:
-        if job.targets is not None:
-            state, turn_rates, result = plan_targets(config, job.state, job.vehicles, job.targets, rng, clock)
-        else:
-            state, turn_rates, diagnostics = plan(config, job.state, job.vehicles, rng, now=clock,
-                                                  predicted=job.predicted)
-            result = diagnostics.plan
+        state, turn_rates, result = plan_job(job, config, rng, clock)
     except Exception as error:  # a bug in one plan must not stop planning
         log.exception("planning step %d failed; continuing", job.index)
         return PlanOutcome(job, None, None, None, started, time.monotonic(), time.time_ns(),

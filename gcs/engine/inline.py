@@ -11,8 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from gcs.core.tracker import plan
-from gcs.daemon.planning import PlanJob, PlanOutcome
+from gcs.daemon.planning import PlanJob, PlanOutcome, plan_job
 from gcs.engine.engine import Engine
 from gcs.engine.events import Action, PlanDone
 
@@ -21,6 +20,5 @@ __all__ = ["plan_at_once"]
 
 def plan_at_once(engine: Engine, job: PlanJob, rng: np.random.Generator) -> list[Action]:
     """Plan ``job`` with the engine's tracker for its vehicles, no deadline; the actions of the finished plan."""
-    state, turn_rates, diagnostics = plan(engine.subset(job.indices), job.state, job.vehicles, rng,
-                                          predicted=job.predicted)
-    return engine.feed(PlanDone(PlanOutcome(job, state, turn_rates, diagnostics.plan, 0.0, 0.0, 0)))
+    state, turn_rates, result = plan_job(job, engine.subset(job.indices), rng)
+    return engine.feed(PlanDone(PlanOutcome(job, state, turn_rates, result, 0.0, 0.0, 0)))

@@ -37,7 +37,9 @@ from gcs.adapters.recording import HEARTBEAT_ENCODING, LIVELINESS_ENCODING, Reco
 from gcs.adapters.zenoh_session import open_session
 from gcs.config import Scenario
 from gcs.config.world import build_world
+from gcs.core.metrics import gospa
 from gcs.core.world import World
+from gcs.daemon.records import GOSPA_CUTOFF_M
 from gcs.daemon.steps import HOLD_WAITS
 from gcs.engine.engine import Engine, EngineOptions
 from gcs.engine.events import Arrived, Heartbeat, PlannerFree, PublishPlan, PublishTrack, SubmitPlan, Tick
@@ -181,28 +183,60 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
     return tracks, plans, engine.counters_now()
 
 
-def truth_error(path: Path, tracks: list[TrackEstimate], step_ns: int) -> tuple[float | None, int]:
-    """RMSE (m) of the tracks' positions against the simulator's truth recorded beside them, and how many
-    tracks were scored (a track is scored against the truth nearest its stamp, within a tenth of a step,
-    as the daemon scores its steps); (None, 0) for a recording without truth."""
-    truth: dict[int, tuple[float, float]] = {}
+def _recorded_truths(path: Path) -> dict[int, dict[str, tuple[float, float]]]:
+    """The simulator's truths recorded beside the inputs: position by stamp and target id."""
+    truths: dict[int, dict[str, tuple[float, float]]] = {}
     for record in read_recording(path):
         if key_kind(record.key)[0] == "truth":
             try:
                 message = decode(record.payload, record.encoding, TargetTruth)
             except ProtocolError:
                 continue  # counted by --process's ingest
-            truth[message.stamp_ns] = message.position_enu_m
+            truths.setdefault(message.stamp_ns, {})[message.target_id] = message.position_enu_m[:2]
+    return truths
+
+
+def _nearest_stamp(stamps: np.ndarray, stamp_ns: int, step_ns: int) -> int | None:
+    """The recorded stamp nearest ``stamp_ns``, within a tenth of a step (as the daemon scores its steps)."""
+    nearest = int(stamps[np.argmin(np.abs(stamps - stamp_ns))])
+    return nearest if abs(nearest - stamp_ns) <= step_ns // 10 else None
+
+
+def truth_error(path: Path, tracks: list[TrackEstimate], step_ns: int, target_id: str) -> tuple[float | None, int]:
+    """RMSE (m) of the tracks' positions against the truth of ``target_id`` recorded beside them, and how many
+    tracks were scored (each against the truth nearest its stamp); (None, 0) for a recording without it."""
+    truth = {stamp: by_id[target_id] for stamp, by_id in _recorded_truths(path).items() if target_id in by_id}
     if not truth:
         return None, 0
     stamps = np.array(sorted(truth))
     squared = []
     for track in tracks:
-        nearest = int(stamps[np.argmin(np.abs(stamps - track.stamp_ns))])
-        if abs(nearest - track.stamp_ns) <= step_ns // 10:
+        nearest = _nearest_stamp(stamps, track.stamp_ns, step_ns)
+        if nearest is not None:
             x, y = truth[nearest]
             squared.append((track.state[0] - x) ** 2 + (track.state[1] - y) ** 2)
     return (math.sqrt(sum(squared) / len(squared)) if squared else None), len(squared)
+
+
+def truth_gospa(path: Path, tracks: list[TrackEstimate], step_ns: int) -> tuple[float | None, int]:
+    """Mean GOSPA (m; c = :data:`~gcs.daemon.records.GOSPA_CUTOFF_M`, p = 2, alpha = 2) of each step's tracks
+    against every target's truth recorded beside them, over the steps that published tracks, and how many
+    were scored; (None, 0) for a recording without truth."""
+    truths = _recorded_truths(path)
+    if not truths:
+        return None, 0
+    by_step: dict[int, list[tuple[float, float]]] = {}
+    for track in tracks:
+        by_step.setdefault(track.stamp_ns, []).append((track.state[0], track.state[1]))
+    stamps = np.array(sorted(truths))
+    distances = []
+    for stamp, positions in sorted(by_step.items()):
+        nearest = _nearest_stamp(stamps, stamp, step_ns)
+        if nearest is not None:
+            truth = truths[nearest]
+            distances.append(gospa(np.array(positions), np.array([truth[n] for n in sorted(truth)]),
+                                   GOSPA_CUTOFF_M).distance)
+    return (float(np.mean(distances)) if distances else None), len(distances)
 
 
 def write_outputs(tracks: list[TrackEstimate], plans: list[PlanCommand], out: Path,

@@ -17,7 +17,7 @@ from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, ZenohSettings, add_zeno
 from gcs.cli_errors import UsageError, existing_file, one_line, positive, set_command, stop_on_signals, writable_file
 from gcs.config.world import build_world
 from gcs.daemon.cli import add_acceptance_arguments, add_navigation_argument
-from gcs.recordings.replay import NS_PER_S, process, republish, summarise, truth_error, write_outputs
+from gcs.recordings.replay import NS_PER_S, process, republish, summarise, truth_error, truth_gospa, write_outputs
 from gcs.recordings.replay_view import cmd_view
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
 from protocols.errors import ProtocolError
@@ -136,6 +136,12 @@ def _process(args: argparse.Namespace) -> None:
     print(f"{len(tracks)} track estimates" + (f" and {len(plans)} plan commands" if args.plan else "")
           + f" from {args.file}" + (f" -> {args.out}" if args.out else "") + "; "
           + ", ".join(f"{k} {v}" for k, v in sorted(counters.items())))
-    rmse, scored = truth_error(args.file, tracks, round(scenario.time.step_s * NS_PER_S))
+    step_ns = round(scenario.time.step_s * NS_PER_S)
+    if scenario.multitarget is not None:
+        mean, scored = truth_gospa(args.file, tracks, step_ns)
+        if mean is not None:
+            print(f"GOSPA against every recorded truth {mean:.2f} m mean over {scored} steps with tracks")
+        return
+    rmse, scored = truth_error(args.file, tracks, step_ns, scenario.target.id)
     if rmse is not None:
         print(f"RMSE against the recorded truth {rmse:.2f} m over {scored} tracks (--navigation {args.navigation})")

@@ -280,9 +280,10 @@ def test_replay_processing_with_delayed_nav_gives_the_tracks_of_the_undelayed_fi
                                                    for r in read_recording(inputs) if "/truth/" in r.key)}
     off = [msgspec.structs.replace(t, state=(truth[t.stamp_ns][0] + 3.0, truth[t.stamp_ns][1] + 4.0, *t.state[2:]))
            for t in tracks]
-    rmse, scored = truth_error(inputs, off, S)
+    rmse, scored = truth_error(inputs, off, S, SCENARIO.target.id)
     assert scored == len(tracks) and rmse == pytest.approx(5.0, abs=1e-9)
-    assert truth_error(inputs, tracks, S)[0] > 0.0
+    assert truth_error(inputs, tracks, S, SCENARIO.target.id)[0] > 0.0
+    assert truth_error(inputs, off, S, "another") == (None, 0)  # no truth of that target recorded
 
 
 def test_against_the_simulators_truth_the_covariance_is_about_right_with_a_fix_and_not_far_off_without() -> None:
