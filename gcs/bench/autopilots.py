@@ -44,6 +44,7 @@ from gcs.config.simulation import AirframeConfig
 from gcs.core.geometry import LocalFrame, wrap_angle
 from gcs.core.steering import SAMPLES_PER_STEP, CourseLoop, PlannedPath, course_loop
 from gcs.core.world import World
+from gcs.daemon.records import step_error_m
 from gcs.daemon.steps import HOLD_WAITS
 from gcs.engine.engine import Engine, EngineOptions
 from gcs.engine.events import Arrived, PlannerFree, SubmitPlan, Tick
@@ -77,7 +78,8 @@ def with_autopilot(scenario: Scenario, personality: str) -> Scenario:
 
 @dataclass
 class FlightRecord:
-    """One flight: who saw the target at each decision step (steps, V), the fused position error (steps,), and
+    """One flight: who saw the target at each decision step (steps, V), the fused position error (steps,; with
+    ``[multitarget]`` the step's GOSPA against every target, :func:`gcs.daemon.records.step_error_m`), and
     each vehicle's course errors against its planned path at each steering instant after :data:`SETTLE_S`."""
 
     personality: str
@@ -229,7 +231,8 @@ def fly(scenario: Scenario, world: World, personality: str, seed: int, duration_
     errors = np.full(steps, np.nan)
     for record in engine.records:
         seen[record.index] = [record.seen[v] for v in roster]
-        errors[record.index] = np.nan if record.error_m is None else record.error_m
+        error = step_error_m(record)
+        errors[record.index] = np.nan if error is None else error
     return FlightRecord(personality, steering, seed, seen, errors, [v.course_errors for v in vehicles.values()])
 
 

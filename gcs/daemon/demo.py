@@ -28,7 +28,7 @@ import numpy as np
 
 from gcs.app import Daemon
 from gcs.cli_errors import one_line, positive, set_command
-from gcs.daemon.records import PlanRecord, StepRecord
+from gcs.daemon.records import PlanRecord, StepRecord, step_error_m
 from gcs.daemon.cli import add_daemon_arguments, build_daemon
 
 DEFAULT_RATE = 10.0
@@ -114,7 +114,7 @@ class _Progress:
     def __call__(self, record: StepRecord) -> None:
         self.steps += 1
         self.seen += any(record.seen.values())
-        error = record.error_m if record.tracks_xy is None else record.gospa_m
+        error = step_error_m(record)
         if error is not None:
             self.squares += error**2
             self.scored += 1

@@ -21,7 +21,7 @@ import numpy as np
 from gcs.core.metrics import gospa
 
 __all__ = ["StepRecord", "PlanRecord", "StepScorer", "keep_newest", "MAX_RECORDS", "TRUTH_WAIT_S", "MAX_TRUTHS",
-           "GOSPA_CUTOFF_M"]
+           "GOSPA_CUTOFF_M", "step_error_m"]
 
 MAX_RECORDS = 100_000
 """Step (and plan) records kept in memory (about a day of 1 s steps)."""
@@ -79,6 +79,11 @@ class PlanRecord:
     planning_s: float
     solve_s: float
     finished_ns: int
+
+
+def step_error_m(record: StepRecord) -> float | None:
+    """The step's error against the truth: the track's position error, or with many targets the step's GOSPA."""
+    return record.error_m if record.tracks_xy is None else record.gospa_m
 
 
 def keep_newest(records: list, limit: int = MAX_RECORDS) -> None:
