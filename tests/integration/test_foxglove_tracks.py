@@ -1,4 +1,4 @@
-"""Every track on Foxglove's map: a two-track recording converted to MCAP, read back from ``/map/tracks``.
+"""Every track on Foxglove's map: a recording of three tracks converted to MCAP, read back from ``/map/tracks``.
 
 Each track must be a Point at its estimate carrying its id, seq and 2-sigma semi-axes,
 with its 2-sigma ellipse as a closed Polygon and its predicted path as a LineString;
@@ -22,7 +22,7 @@ from gcs.scenarios import load_scenario
 from tests.integration.test_foxglove_out import _geojson
 from protocols.codec import decode
 from protocols.messages import TrackEstimate
-from tests.integration.two_tracks import SCENARIO_NAME, STEPS, two_track_recording
+from tests.integration.tracks_recording import SCENARIO_NAME, STEPS, tracks_recording
 
 SCENARIO = load_scenario(SCENARIO_NAME)
 FRAME = LocalFrame(SCENARIO.origin.lat_deg, SCENARIO.origin.lon_deg, SCENARIO.origin.height_m)
@@ -34,8 +34,8 @@ def _enu(lonlat: list[list[float]]) -> np.ndarray:
 
 
 def test_every_track_is_a_point_with_its_id_ellipse_and_predicted_path(tmp_path: Path) -> None:
-    recording, out = tmp_path / "two_tracks.mcap", tmp_path / "map.mcap"
-    last = two_track_recording(recording)
+    recording, out = tmp_path / "tracks.mcap", tmp_path / "map.mcap"
+    last = tracks_recording(recording)
     recorded = {(t.target_id, t.seq): t for t in (decode(r.payload, r.encoding) for r in read_recording(recording)
                                                   if r.key.startswith("gcs/track/")) if isinstance(t, TrackEstimate)}
     to_foxglove(recording, SCENARIO, build_world(SCENARIO), out)
@@ -49,7 +49,7 @@ def test_every_track_is_a_point_with_its_id_ellipse_and_predicted_path(tmp_path:
     assert sorted(by_kind) == ["ellipse", "prediction", "track"]
     assert len(features) == 3 * len(last)
     for kind, features_of_kind in by_kind.items():
-        assert sorted(features_of_kind) == sorted(last) == ["t1", "t2"], kind
+        assert sorted(features_of_kind) == sorted(last) == ["t1", "t2", "t3"], kind
 
     for target_id in last:
         point = by_kind["track"][target_id]

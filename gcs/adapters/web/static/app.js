@@ -135,21 +135,36 @@ function render() {
   layers.trails.innerHTML = trails.join("");
   layers.vehicles.innerHTML = vehicles.join("");
 
-  const track = [];
-  for (const t of tracks.tracks) {
-    track.push(`<polyline class="track-trail" points="${pts(t.trail)}"/>`);
-    if (t.prediction.length) {
-      track.push(`<polyline id="prediction-${esc(t.target_id)}" class="prediction" data-points="${t.prediction.length}" points="${pts([[t.x, t.y], ...t.prediction.map((p) => [p.x, p.y])])}"/>`);
-      for (const p of t.prediction) track.push(ellipse("prediction-ellipse", p.x, p.y, p.ellipse));
-    }
+  const paths = [], marks = [];  // every trail and prediction under every track's ellipse, dot and label
+  const labels = labelPlaces(tracks.tracks, unit);
+  tracks.tracks.forEach((t, i) => {
     const id = esc(t.target_id);
-    track.push(`<g id="track-${id}" class="track" data-target="${id}" data-x="${t.x}" data-y="${t.y}" data-seq="${t.seq}" ` +
+    paths.push(`<polyline class="track-trail" points="${pts(t.trail)}"/>`);
+    if (t.prediction.length) {
+      paths.push(`<polyline id="prediction-${id}" class="prediction" data-points="${t.prediction.length}" points="${pts([[t.x, t.y], ...t.prediction.map((p) => [p.x, p.y])])}"/>`);
+      for (const p of t.prediction) paths.push(ellipse("prediction-ellipse", p.x, p.y, p.ellipse));
+    }
+    marks.push(`<g id="track-${id}" class="track" data-target="${id}" data-x="${t.x}" data-y="${t.y}" data-seq="${t.seq}" ` +
       `data-stamp="${t.stamp_ns}" data-rx="${t.ellipse.rx}" data-ry="${t.ellipse.ry}">` + ellipse("track-ellipse", t.x, t.y, t.ellipse) +
       `<circle class="track-dot" cx="${t.x}" cy="${-t.y}" r="${4 * unit}"/>` +
-      `<text class="track-label" x="${t.x + 7 * unit}" y="${-t.y + 4 * unit}" font-size="${12 * unit}">${id}</text></g>`);
-  }
-  layers.track.innerHTML = track.join("");
+      `<text class="track-label" x="${labels[i][0]}" y="${labels[i][1]}" font-size="${12 * unit}">${id}</text></g>`);
+  });
+  layers.track.innerHTML = paths.join("") + marks.join("");
   drawScaleBar(unit);
+}
+
+// Where each track's label goes (SVG coordinates): right of its dot, moved down a line while it
+// would overlap a label placed before it (two cars side by side are a few metres apart, a pixel
+// or two on the map).
+function labelPlaces(tracks, unit) {
+  const line = 13 * unit, placed = [];
+  return tracks.map((t) => {
+    const x = t.x + 7 * unit, w = (7 * String(t.target_id).length + 3) * unit;
+    let y = -t.y + 4 * unit;
+    while (placed.some((p) => x < p.x + p.w && p.x < x + w && Math.abs(p.y - y) < line)) y += line;
+    placed.push({ x, y, w });
+    return [x, y];
+  });
 }
 
 // The tracks a detecting vehicle's sight lines go to: those its reports went into (their

@@ -1,14 +1,15 @@
-"""A recording of two tracks (``t1``, ``t2``) of ``multitarget_urban``, written message by message, for the map's tests.
+"""A recording of three tracks (``t1``, ``t2``, ``t3``) of ``multitarget_urban``, written message by message, for the map's tests.
 
 Eight decision steps, one a second: the three UAVs' sensor reports (received 0-20 ms
-after their stamp) and the two tracks the daemon would publish on ``gcs/track/t1``
-and ``gcs/track/t2`` (100 ms after their step), each with a covariance, a
-three-point prediction and its contributing vehicles.
+after their stamp) and the tracks the daemon would publish on ``gcs/track/t<n>``
+(100 ms after their step), each with a covariance, a three-point prediction and its
+contributing vehicles.
 
 - ``t1`` drives east from (900, 1500) at 10 m/s; uav1 and uav2 contribute.
+- ``t3`` drives beside it, 8 m to the north (two cars in the two lanes of a street,
+  a pixel or two apart on the map); nobody contributes (predicted only).
 - ``t2`` drives north from (2100, 800) at 8 m/s; uav1 contributes.
-- uav3 detects something every scan but contributes to neither (the nearest
-  track is ``t2``).
+- uav3 detects something every scan but contributes to none (the nearest track is ``t2``).
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from protocols.keys import alive_key, report_key, track_key
 from protocols.messages import PredictedPoint, TrackEstimate
 from protocols.sensor_report import Measurement, SensorReport
 
-__all__ = ["SCENARIO_NAME", "STEPS", "UAVS", "two_track_recording"]
+__all__ = ["SCENARIO_NAME", "STEPS", "UAVS", "tracks_recording"]
 
 SCENARIO_NAME = "multitarget_urban"
 NS = 1_000_000_000
@@ -33,6 +34,7 @@ UAVS = {"uav1": (1200.0, 1200.0, 200.0), "uav2": (1800.0, 1200.0, 210.0), "uav3"
 TARGETS = {  # id: start (m), velocity (m/s), position covariance (m^2), contributing vehicles
     "t1": ((900.0, 1500.0), (10.0, 0.0), ((100.0, 30.0), (30.0, 49.0)), ("uav1", "uav2")),
     "t2": ((2100.0, 800.0), (0.0, 8.0), ((36.0, 0.0), (0.0, 144.0)), ("uav1",)),
+    "t3": ((900.0, 1508.0), (10.0, 0.0), ((64.0, 0.0), (0.0, 64.0)), ()),
 }
 
 
@@ -55,7 +57,7 @@ def _report(vehicle_id: str, k: int) -> SensorReport:
                         vehicle_position_enu_m=(x + 20.0 * k, y, z), detections=(seen,))
 
 
-def two_track_recording(path: Path) -> dict[str, TrackEstimate]:
+def tracks_recording(path: Path) -> dict[str, TrackEstimate]:
     """Write the recording to ``path``; the last track of each target, by id."""
     last: dict[str, TrackEstimate] = {}
     with Recorder(path) as recorder:
