@@ -189,7 +189,7 @@ function drawScaleBar(unit) {
 
 // ------------------------------------------------------------------------------ panel
 
-function renderStatus(status) {
+function renderStatus(status, truths) {
   document.body.dataset.mode = status.mode;
   document.getElementById("scenario").textContent = `${status.scenario} (${status.mode})`;
   const t = status.stamp_ns === null ? null : (status.stamp_ns - status.first_stamp_ns) / 1e9;
@@ -201,7 +201,7 @@ function renderStatus(status) {
   const errors = Object.values(status.errors);
   rmse.textContent = errors.length
     ? errors.map((e) => `${fmt(e.rmse_m, 1)} m over ${e.scored} steps (last ${fmt(e.last_error_m, 1)} m)`).join("; ")
-    : "- (no truth)";
+    : truths ? "- (no track scored against a truth)" : "- (no truth)";
   rmse.dataset.rmse = status.rmse_m === null ? "" : String(status.rmse_m);
   document.querySelector("#counters tbody").innerHTML = Object.keys(status.counters).sort().map((k) =>
     `<tr><td>${esc(k)}</td><td>${status.counters[k]}</td></tr>`).join("");
@@ -233,7 +233,7 @@ function onSnapshot(snapshot) {
   if (!snapshot.tracks || !snapshot.status) return;
   state.tracks = snapshot.tracks;
   state.snapshots += 1;
-  renderStatus(snapshot.status);
+  renderStatus(snapshot.status, snapshot.tracks.truth.length);
   renderTrackSummary(snapshot.tracks);
   render();
   document.body.dataset.snapshots = String(state.snapshots);
