@@ -9,9 +9,11 @@ global state), on these channels:
 topic                           schema                 content
 ==============================  =====================  ==========================================
 ``/map/vehicles/<id>``          foxglove.LocationFix   position, heading (from north, clockwise)
-``/map/target/estimate``        foxglove.LocationFix   fused estimate, its position covariance
-``/map/target/truth``           foxglove.LocationFix   the simulator's truth (simulated runs)
-``/map/target/prediction``      foxglove.GeoJSON       the k+1..k+n prediction, a LineString
+``/map/tracks``                 foxglove.GeoJSON       every track: a Point (id, seq, ellipse axes), its
+                                                       2-sigma ellipse (Polygon), its prediction (LineString)
+``/map/target/estimate``        foxglove.LocationFix   the first track, its position covariance
+``/map/target/truth``           foxglove.LocationFix   the first truth (simulated runs)
+``/map/target/prediction``      foxglove.GeoJSON       the first track's k+1..k+n prediction, a LineString
 ``/map/plans``                  foxglove.GeoJSON       each vehicle's planned path
 ``/map/world``                  foxglove.GeoJSON       buildings and no-fly zones (every 5 s)
 ``/gcs/status``                 JSON                   the ``/api/status`` document
@@ -20,7 +22,9 @@ topic                           schema                 content
 ENU metres become WGS84 with the scenario's :class:`~gcs.core.geometry.LocalFrame`
 (altitude: height above the ellipsoid); a covariance stays in ENU, which is
 LocationFix's convention. Message times are the data's stamps; ``log_time`` is
-the caller's (receive time live, recording time in a conversion).
+the caller's (receive time live, recording time in a conversion). The
+``/map/target/*`` channels carry one target (a single-target scenario's);
+``/map/tracks`` carries them all.
 """
 
 from __future__ import annotations
@@ -45,6 +49,10 @@ NS_PER_S = 1_000_000_000
 WORLD_EVERY_NS = 5 * NS_PER_S
 """The static world is logged again this often, so that a viewer that connects late gets it."""
 COLOURS = [(0.12, 0.53, 0.90), (0.26, 0.63, 0.28), (0.56, 0.14, 0.67), (0.96, 0.32, 0.12), (0.0, 0.67, 0.76)]
+ELLIPSE_POINTS = 36
+"""Vertices of a track's 2-sigma ellipse polygon on ``/map/tracks``."""
+TRACK_STYLE = {"color": "#d81b60", "opacity": 0.35}
+PREDICTION_STYLE = {"color": "#fb8c00", "opacity": 0.9}
 
 
 class FoxgloveMissing(RuntimeError):
@@ -157,6 +165,35 @@ class FoxgloveOut:
         ring = self._lonlat(polygon)
         return ring + ring[:1]  # GeoJSON rings are closed
 
+    def _ellipse_ring(self, x: float, y: float, e: dict) -> list[list[float]]:
+        """The closed lon/lat ring of an ellipse (``rx`` along ``angle_rad`` from east, ``ry`` across it, m)."""
+        phi = np.linspace(0.0, 2.0 * math.pi, ELLIPSE_POINTS, endpoint=False)
+        c, s = math.cos(e["angle_rad"]), math.sin(e["angle_rad"])
+        u, v = e["rx"] * np.cos(phi), e["ry"] * np.sin(phi)
+        return self._ring(np.column_stack([x + c * u - s * v, y + s * u + c * v]))
+
+    def track_features(self, tracks: list[dict]) -> list[dict]:
+        """The ``/map/tracks`` features of the ``/api/tracks`` document's tracks: for each, a Point at the
+        estimate (``target_id``, ``seq``, ``stamp_ns``, the 2-sigma semi-axes ``rx_m``, ``ry_m`` and
+        ``angle_rad``, ``contributing``), the ellipse as a Polygon, and the estimate's path through its
+        k+1..k+n prediction as a LineString (when it has one)."""
+        features = []
+        for t in tracks:
+            e = t["ellipse"]
+            ident = {"target_id": t["target_id"], "seq": t["seq"]}
+            features.append({"type": "Feature", "properties": {
+                "kind": "track", **ident, "name": t["target_id"], "stamp_ns": t["stamp_ns"], "rx_m": e["rx"],
+                "ry_m": e["ry"], "angle_rad": e["angle_rad"], "contributing": list(t["contributing"]),
+                "style": TRACK_STYLE}, "geometry": {"type": "Point", "coordinates": self._lonlat([[t["x"], t["y"]]])[0]}})
+            features.append({"type": "Feature", "properties": {"kind": "ellipse", **ident, "style": TRACK_STYLE},
+                             "geometry": {"type": "Polygon", "coordinates": [self._ellipse_ring(t["x"], t["y"], e)]}})
+            if t["prediction"]:
+                points = [[t["x"], t["y"]]] + [[p["x"], p["y"]] for p in t["prediction"]]
+                features.append({"type": "Feature", "properties": {"kind": "prediction", **ident,
+                                                                   "style": PREDICTION_STYLE},
+                                 "geometry": {"type": "LineString", "coordinates": self._lonlat(points)}})
+        return features
+
     def _timestamp(self, stamp_ns: int):
         return self._m.Timestamp(sec=stamp_ns // NS_PER_S, nsec=stamp_ns % NS_PER_S)
 
@@ -212,6 +249,7 @@ class FoxgloveOut:
                 plans.append({"type": "Feature", "properties": {"vehicle": v["id"], "planner": v["planner"]},
                               "geometry": {"type": "LineString", "coordinates": self._lonlat(v["plan"])}})
         self._map("/map/plans", plans, log_time_ns)
+        self._map("/map/tracks", self.track_features(tracks["tracks"]), log_time_ns)
         for track in tracks["tracks"][:1]:
             self._fix("/map/target/estimate", self.location_fix(track["stamp_ns"], track["x"], track["y"],
                                                                 cov_xy=track["cov_xy"], colour=(0.85, 0.11, 0.38)),

@@ -90,7 +90,8 @@ def _snapshot(x: float, y: float) -> tuple[dict, dict]:
     tracks = {"vehicles": [{"id": "uav1", "x": x, "y": y, "z": 200.0, "heading_rad": 0.0, "stamp_ns": 5 * NS,
                             "plan": [[x, y], [x + 50.0, y]], "planner": "ga_k5"}],
               "tracks": [{"target_id": "target", "seq": 1, "stamp_ns": 5 * NS, "x": 10.0, "y": 20.0,
-                          "cov_xy": [[100.0, 0.0], [0.0, 25.0]], "prediction": [{"x": 15.0, "y": 20.0}]}],
+                          "cov_xy": [[100.0, 0.0], [0.0, 25.0]], "ellipse": {"rx": 20.0, "ry": 10.0, "angle_rad": 0.0},
+                          "prediction": [{"x": 15.0, "y": 20.0}], "contributing": ["uav1"]}],
               "truth": [{"target_id": "target", "stamp_ns": 5 * NS, "x": 12.0, "y": 21.0}]}
     return tracks, {"mode": "live", "rmse_m": 2.0}
 
@@ -155,6 +156,7 @@ def test_the_live_server_advertises_the_map_channels_and_streams_location_fixes(
         assert channels["/map/vehicles/uav1"]["schemaName"] == "foxglove.LocationFix"
         assert channels["/map/target/estimate"]["schemaName"] == "foxglove.LocationFix"
         assert channels["/map/world"]["schemaName"] == channels["/map/plans"]["schemaName"] == "foxglove.GeoJSON"
+        assert channels["/map/tracks"]["schemaName"] == "foxglove.GeoJSON"
         client.send_text(json.dumps({"op": "subscribe", "subscriptions": [
             {"id": 7, "channelId": channels["/map/vehicles/uav1"]["id"]}]}))
         client.sock.settimeout(0.2)
@@ -196,7 +198,7 @@ def test_a_recording_converts_to_an_mcap_that_opens_on_a_map(tmp_path: Path) -> 
     for topic in ("/map/vehicles/uav1", "/map/vehicles/uav2", "/map/vehicles/uav3", "/map/target/estimate",
                   "/map/target/truth"):
         assert {schema for schema, _, _ in by_topic[topic]} == {"foxglove.LocationFix"}, topic
-    for topic in ("/map/world", "/map/target/prediction", "/map/plans"):
+    for topic in ("/map/world", "/map/target/prediction", "/map/plans", "/map/tracks"):
         assert {schema for schema, _, _ in by_topic[topic]} == {"foxglove.GeoJSON"}, topic
     assert {encoding for _, encoding, _ in by_topic["/gcs/status"]} == {"json"}
     times = [m.log_time for _, _, m in by_topic["/map/target/truth"]]

@@ -1,7 +1,8 @@
 // gcs live map: draws /api/world once, then every snapshot of /events (Server-Sent Events).
 // Coordinates are ENU metres; SVG's y grows downwards, so every point is drawn at (x, -y).
 // Testable state is in the DOM: <body data-snapshots data-connected data-mode>, and every
-// vehicle / track / truth element carries data-x and data-y in ENU metres.
+// vehicle / track / truth element carries data-x and data-y in ENU metres (a track also
+// data-target, its id, which its label shows; a sight line data-track, the track it goes to).
 "use strict";
 
 const COLOURS = ["#1e88e5", "#43a047", "#8e24aa", "#f4511e", "#00acc1", "#6d4c41", "#3949ab", "#c0ca33"];
@@ -105,7 +106,6 @@ function render() {
   const unit = metresPerPixel();
   const order = new Map((state.world ? state.world.vehicles : []).map((v, i) => [v.id, i]));
   const colourOf = (id, i) => colour(order.has(id) ? order.get(id) : i);
-  const estimate = tracks.tracks.length ? tracks.tracks[0] : null;
 
   const truth = [];
   for (const t of tracks.truth) {
@@ -124,8 +124,8 @@ function render() {
     if (v.x === null) return;
     const deg = v.heading_rad === null ? 0 : (-v.heading_rad * 180) / Math.PI;
     const s = 9 * unit;
-    let sight = "";
-    if (v.detected && estimate) sight = `<line class="sight" x1="${v.x}" y1="${-v.y}" x2="${estimate.x}" y2="${-estimate.y}"/>`;
+    const sight = v.detected ? sightTargets(v, tracks.tracks).map((t) =>
+      `<line class="sight" data-track="${esc(t.target_id)}" x1="${v.x}" y1="${-v.y}" x2="${t.x}" y2="${-t.y}"/>`).join("") : "";
     vehicles.push(`<g id="vehicle-${esc(v.id)}" class="vehicle link-${esc(v.link)}" data-x="${v.x}" data-y="${v.y}" ` +
       `data-heading="${v.heading_rad}" data-link="${esc(v.link)}" data-detected="${v.detected}" data-stamp="${v.stamp_ns}">${sight}` +
       `<path class="vehicle-body" fill="${c}" transform="translate(${v.x} ${-v.y}) rotate(${deg})" d="M${1.4 * s},0L${-s},${0.8 * s}L${-0.5 * s},0L${-s},${-0.8 * s}Z"/>` +
@@ -135,19 +135,45 @@ function render() {
   layers.trails.innerHTML = trails.join("");
   layers.vehicles.innerHTML = vehicles.join("");
 
-  const track = [];
-  for (const t of tracks.tracks) {
-    track.push(`<polyline class="track-trail" points="${pts(t.trail)}"/>`);
+  const paths = [], marks = [];  // every trail and prediction under every track's ellipse, dot and label
+  const labels = labelPlaces(tracks.tracks, unit);
+  tracks.tracks.forEach((t, i) => {
+    const id = esc(t.target_id);
+    paths.push(`<polyline class="track-trail" points="${pts(t.trail)}"/>`);
     if (t.prediction.length) {
-      track.push(`<polyline id="prediction-${esc(t.target_id)}" class="prediction" data-points="${t.prediction.length}" points="${pts([[t.x, t.y], ...t.prediction.map((p) => [p.x, p.y])])}"/>`);
-      for (const p of t.prediction) track.push(ellipse("prediction-ellipse", p.x, p.y, p.ellipse));
+      paths.push(`<polyline id="prediction-${id}" class="prediction" data-points="${t.prediction.length}" points="${pts([[t.x, t.y], ...t.prediction.map((p) => [p.x, p.y])])}"/>`);
+      for (const p of t.prediction) paths.push(ellipse("prediction-ellipse", p.x, p.y, p.ellipse));
     }
-    track.push(`<g id="track-${esc(t.target_id)}" class="track" data-x="${t.x}" data-y="${t.y}" data-seq="${t.seq}" data-stamp="${t.stamp_ns}" ` +
-      `data-rx="${t.ellipse.rx}" data-ry="${t.ellipse.ry}">` + ellipse("track-ellipse", t.x, t.y, t.ellipse) +
-      `<circle class="track-dot" cx="${t.x}" cy="${-t.y}" r="${4 * unit}"/></g>`);
-  }
-  layers.track.innerHTML = track.join("");
+    marks.push(`<g id="track-${id}" class="track" data-target="${id}" data-x="${t.x}" data-y="${t.y}" data-seq="${t.seq}" ` +
+      `data-stamp="${t.stamp_ns}" data-rx="${t.ellipse.rx}" data-ry="${t.ellipse.ry}">` + ellipse("track-ellipse", t.x, t.y, t.ellipse) +
+      `<circle class="track-dot" cx="${t.x}" cy="${-t.y}" r="${4 * unit}"/>` +
+      `<text class="track-label" x="${labels[i][0]}" y="${labels[i][1]}" font-size="${12 * unit}">${id}</text></g>`);
+  });
+  layers.track.innerHTML = paths.join("") + marks.join("");
   drawScaleBar(unit);
+}
+
+// Where each track's label goes (SVG coordinates): right of its dot, moved down a line while it
+// would overlap a label placed before it (two cars side by side are a few metres apart, a pixel
+// or two on the map).
+function labelPlaces(tracks, unit) {
+  const line = 13 * unit, placed = [];
+  return tracks.map((t) => {
+    const x = t.x + 7 * unit, w = (7 * String(t.target_id).length + 3) * unit;
+    let y = -t.y + 4 * unit;
+    while (placed.some((p) => x < p.x + p.w && p.x < x + w && Math.abs(p.y - y) < line)) y += line;
+    placed.push({ x, y, w });
+    return [x, y];
+  });
+}
+
+// The tracks a detecting vehicle's sight lines go to: those its reports went into (their
+// `contributing`), else the nearest one.
+function sightTargets(vehicle, tracks) {
+  const fed = tracks.filter((t) => t.contributing.includes(vehicle.id));
+  if (fed.length || !tracks.length) return fed;
+  const distance = (t) => Math.hypot(t.x - vehicle.x, t.y - vehicle.y);
+  return [tracks.reduce((best, t) => (distance(t) < distance(best) ? t : best))];
 }
 
 function drawScaleBar(unit) {
@@ -163,7 +189,7 @@ function drawScaleBar(unit) {
 
 // ------------------------------------------------------------------------------ panel
 
-function renderStatus(status) {
+function renderStatus(status, truths) {
   document.body.dataset.mode = status.mode;
   document.getElementById("scenario").textContent = `${status.scenario} (${status.mode})`;
   const t = status.stamp_ns === null ? null : (status.stamp_ns - status.first_stamp_ns) / 1e9;
@@ -175,7 +201,7 @@ function renderStatus(status) {
   const errors = Object.values(status.errors);
   rmse.textContent = errors.length
     ? errors.map((e) => `${fmt(e.rmse_m, 1)} m over ${e.scored} steps (last ${fmt(e.last_error_m, 1)} m)`).join("; ")
-    : "- (no truth)";
+    : truths ? "- (no track scored against a truth)" : "- (no truth)";
   rmse.dataset.rmse = status.rmse_m === null ? "" : String(status.rmse_m);
   document.querySelector("#counters tbody").innerHTML = Object.keys(status.counters).sort().map((k) =>
     `<tr><td>${esc(k)}</td><td>${status.counters[k]}</td></tr>`).join("");
@@ -191,12 +217,14 @@ function renderStatus(status) {
   }
 }
 
+// One row a track: id, position, speed, 2-sigma semi-axes, the vehicles whose reports went into it.
 function renderTrackSummary(tracks) {
-  const t = tracks.tracks.length ? tracks.tracks[0] : null;
-  document.getElementById("track-summary").textContent = t
-    ? `(${fmt(t.x, 0)}, ${fmt(t.y, 0)}) m, ${fmt(Math.hypot(t.vx || 0, t.vy || 0), 1)} m/s, #${t.seq}` : "none yet";
-  document.getElementById("track-ellipse-summary").textContent = t ? `${fmt(t.ellipse.rx, 1)} x ${fmt(t.ellipse.ry, 1)} m` : "-";
-  document.getElementById("track-contributing").textContent = t ? (t.contributing.join(", ") || "nobody (predicted)") : "-";
+  const rows = tracks.tracks.map((t) =>
+    `<tr data-target="${esc(t.target_id)}" data-seq="${t.seq}"><td>${esc(t.target_id)}</td>` +
+    `<td>(${fmt(t.x, 0)}, ${fmt(t.y, 0)})</td><td>${fmt(Math.hypot(t.vx || 0, t.vy || 0), 1)}</td>` +
+    `<td>${fmt(t.ellipse.rx, 1)} x ${fmt(t.ellipse.ry, 1)}</td><td>${esc(t.contributing.join(", ") || "predicted")}</td></tr>`);
+  document.querySelector("#track-list tbody").innerHTML = rows.length ? rows.join("") : `<tr class="none"><td colspan="5">none yet</td></tr>`;
+  document.getElementById("track-count").textContent = String(tracks.tracks.length);
 }
 
 // ------------------------------------------------------------------------- data flow
@@ -205,7 +233,7 @@ function onSnapshot(snapshot) {
   if (!snapshot.tracks || !snapshot.status) return;
   state.tracks = snapshot.tracks;
   state.snapshots += 1;
-  renderStatus(snapshot.status);
+  renderStatus(snapshot.status, snapshot.tracks.truth.length);
   renderTrackSummary(snapshot.tracks);
   render();
   document.body.dataset.snapshots = String(state.snapshots);
