@@ -27,7 +27,7 @@ from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
 from gcs.adapters.foxglove_out import FoxgloveOptions, FoxgloveOut, foxglove_options
-from gcs.adapters.recording import LIVELINESS_ENCODING, read_recording
+from gcs.adapters.recording import HEARTBEAT_ENCODING, LIVELINESS_ENCODING, read_recording
 from gcs.cli_errors import stop_on_signals
 from gcs.config import Scenario
 from gcs.config.world import build_world
@@ -195,6 +195,8 @@ def _feed(picture: Picture, record, counts: Counter) -> None:
         if kind == "alive":
             picture.on_liveliness(ident, record.payload == b"alive")
         return
+    if record.encoding == HEARTBEAT_ENCODING:  # the daemon's MAVLink heartbeats: not wire messages to draw
+        return
     picture.observe_wire(record.payload, record.encoding)
 
 
@@ -203,20 +205,23 @@ def to_foxglove(path: Path, scenario: Scenario, world: World, out: Path, every_s
 
     The picture is fed every message in file order, as fast as possible, and a
     snapshot is logged for every ``every_s`` of stamp time, with that stamp as
-    its log time, so the map's timeline is the data's.
+    its log time, so the map's timeline is the data's; a last one holds what came
+    in after it (the tracks of the last step come after its reports, at its stamp).
     """
     picture = Picture(scenario, world, mode="replay")
     sink = FoxgloveOut(picture.frame, picture.world, FoxgloveOptions(mcap=out))
     counts: Counter = Counter()
     step_ns, logged_ns = round(every_s * NS_PER_S), None
     try:
+        fed_since_log = False
         for record in read_recording(path):
             _feed(picture, record, counts)
+            fed_since_log = True
             newest = picture.newest_ns
             if newest is not None and (logged_ns is None or newest - logged_ns >= step_ns):
                 sink.log(*picture.snapshot(), log_time_ns=newest)
-                logged_ns = newest
-        if picture.newest_ns is not None and picture.newest_ns != logged_ns:
+                logged_ns, fed_since_log = newest, False
+        if picture.newest_ns is not None and fed_since_log:  # what came in at the last stamp (a step's tracks)
             sink.log(*picture.snapshot(), log_time_ns=picture.newest_ns)
         counts["foxglove_messages"] = sink.messages
     finally:

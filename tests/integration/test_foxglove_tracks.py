@@ -8,16 +8,18 @@ the expected values are the recording's own tracks of the seq the feature names.
 from __future__ import annotations
 
 import math
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from gcs.adapters.recording import read_recording
+from gcs.adapters.recording import HEARTBEAT_ENCODING, read_recording
 from gcs.config.world import build_world
 from gcs.core.geometry import LocalFrame
-from gcs.recordings.replay_view import to_foxglove
+from gcs.daemon.picture import Picture
+from gcs.recordings.replay_view import _feed, to_foxglove
 from gcs.scenarios import load_scenario
 from tests.integration.test_foxglove_out import _geojson
 from protocols.codec import decode
@@ -55,7 +57,7 @@ def test_every_track_is_a_point_with_its_id_ellipse_and_predicted_path(tmp_path:
         point = by_kind["track"][target_id]
         assert point["geometry"]["type"] == "Point" and point["properties"]["name"] == target_id
         estimate = recorded[target_id, point["properties"]["seq"]]
-        assert estimate.seq >= STEPS - 1  # a snapshot of the last step or the one before
+        assert estimate == last[target_id]  # the last snapshot holds the last step's tracks
         assert point["properties"]["contributing"] == list(estimate.contributing_vehicles)
         assert _enu([point["geometry"]["coordinates"]])[0] == pytest.approx(estimate.state[:2], abs=0.06)
         cov = np.asarray(estimate.covariance).reshape(4, 4)[:2, :2]
@@ -75,3 +77,14 @@ def test_every_track_is_a_point_with_its_id_ellipse_and_predicted_path(tmp_path:
         assert path["type"] == "LineString" and len(path["coordinates"]) == len(estimate.prediction) + 1
         expected = [estimate.state[:2]] + [p.position_enu_m for p in estimate.prediction]
         assert _enu(path["coordinates"]) == pytest.approx(np.array(expected), abs=0.06)
+
+
+def test_the_recorded_heartbeats_are_replayed_but_not_taken_for_wire_messages(tmp_path: Path) -> None:
+    recording = tmp_path / "tracks.mcap"
+    tracks_recording(recording)
+    heartbeats = sum(r.encoding == HEARTBEAT_ENCODING for r in read_recording(recording))
+    picture, counts = Picture(SCENARIO, build_world(SCENARIO), mode="replay"), Counter()
+    for record in read_recording(recording):
+        _feed(picture, record, counts)
+    assert heartbeats == 3 * STEPS and counts["alive"] >= heartbeats
+    assert picture.counters.get("picture.rejected", 0) == 0, picture.counters

@@ -66,6 +66,7 @@ def tracks_recording(path: Path) -> dict[str, TrackEstimate]:
         for k in range(STEPS):
             stamp = EPOCH_NS + k * NS
             for slot, vehicle_id in enumerate(UAVS):
+                recorder.write_heartbeat(alive_key(vehicle_id), stamp - NS // 2)  # as the daemon records them
                 recorder.write(report_key(vehicle_id), *encode(_report(vehicle_id, k)), stamp + slot * 10_000_000)
             for target_id in TARGETS:
                 last[target_id] = _track(target_id, k)
