@@ -18,7 +18,10 @@ import msgspec
 
 from gcs.config.base import Config, NonNegative, Positive
 
-__all__ = ["MultiTargetConfig", "check_multitarget"]
+__all__ = ["MULTITARGET_PLANNERS", "MultiTargetConfig", "check_multitarget"]
+
+MULTITARGET_PLANNERS = ("sight", "sight_k0")
+"""The planners that share the UAVs between targets (the sequential sight search's ``solve_assigned``)."""
 
 Window = Annotated[int, msgspec.Meta(ge=1, le=62)]
 
@@ -63,7 +66,7 @@ def check_multitarget(config: MultiTargetConfig | None, sensors: list, planner_k
                         f"a detection's range), got {', '.join(kinds)}")
     if any(sensor.detection_probability <= 0.0 for sensor in sensors):
         problems.append("$.multitarget: needs every sensor's detection_probability above 0")
-    if planner_kind not in ("sight", "sight_k0"):
+    if planner_kind not in MULTITARGET_PLANNERS:
         problems.append(f"$.planner.kind: {planner_kind!r} cannot share the UAVs between targets; "
-                        "[multitarget] needs 'sight' or 'sight_k0'")
+                        f"[multitarget] needs one of {', '.join(MULTITARGET_PLANNERS)}")
     return problems

@@ -14,6 +14,7 @@ from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, required_settings
 from gcs.adapters.mavlink_commands import DEFAULT_STREAM_RATE_HZ, HANDBACK_MODES, Takeover
 from gcs.cli_errors import UsageError, one_line, positive, set_command, stop_on_signals, writable_file
+from gcs.config.multitarget import MULTITARGET_PLANNERS
 from gcs.config.world import build_world
 from gcs.daemon.navigation import NAVIGATION_MODES
 from gcs.daemon.status_cli import add_status, format_status, query_status
@@ -128,6 +129,9 @@ def build_daemon(args: argparse.Namespace, **kwargs):
     from gcs.app import Daemon, DaemonOptions
 
     scenario = load_scenario(args.scenario)
+    if scenario.multitarget is not None and args.planner is not None and args.planner not in MULTITARGET_PLANNERS:
+        raise UsageError(f"--planner: {args.planner} cannot share the UAVs between the targets of {scenario.name} "
+                         f"([multitarget]); use one of {', '.join(MULTITARGET_PLANNERS)}")
     try:
         validate_prefix(args.prefix)
     except ProtocolError as error:

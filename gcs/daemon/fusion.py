@@ -275,7 +275,7 @@ class PlanMemory:
     rows: dict[str, np.ndarray] = field(default_factory=dict)
     turn_rate: dict[str, float] = field(default_factory=dict)
 
-    def state_for(self, active: Sequence[str], estimate: GaussianEstimate) -> TrackerState:
+    def state_for(self, active: Sequence[str], estimate: GaussianEstimate | None) -> TrackerState:
         """The tracker state for the vehicles planned now (a warm start only if every one has a row)."""
         rows = [self.rows.get(v) for v in active]
         warm = np.stack(rows) if all(r is not None for r in rows) else None

@@ -5,7 +5,7 @@ reports, the simulator's truth) and every message it publishes (tracks, plans,
 status), or, in ``gcs replay --view``, every message of a recording, and keeps
 just what the page draws: each vehicle's latest position, heading, detection
 and a trail; the newest track per target with its prediction, while it is
-published (:data:`TRACK_STALE_S`); each vehicle's planned path; the truth and
+published (:data:`TRACK_STALE_STEPS`); each vehicle's planned path; the truth and
 its trail; and the track error against the truth.
 :meth:`Picture.snapshot` turns that into two plain dicts (JSON-ready), the
 ``/api/tracks`` and ``/api/status`` documents of :mod:`gcs.adapters.web`; the
@@ -41,7 +41,7 @@ from protocols.errors import ProtocolError
 from protocols.messages import (DaemonStatus, Message, NavReport, PlanCommand, SensorReport, TargetTruth,
                                 TrackEstimate, VehicleStatus)
 
-__all__ = ["Picture", "TRACK_STALE_S", "TRAIL_POINTS", "TRAIL_STEP_S"]
+__all__ = ["Picture", "TRACK_STALE_STEPS", "TRAIL_POINTS", "TRAIL_STEP_S"]
 
 NS_PER_S = 1_000_000_000
 TRAIL_POINTS = 600
@@ -52,11 +52,11 @@ MAX_VEHICLES = 1000
 """Vehicles tracked for the page; ids beyond these are counted, not drawn (bounded memory)."""
 LOST_AFTER_S = 5.0
 """Without a status (replay), a vehicle is ``ok`` while its data is at most this old in stamp time."""
-TRACK_STALE_S = 2.5
-"""A target's track leaves the map (with its ellipse, prediction and trail) once its stamp is this much older
-than the newest track of any target: a track is published every decision step (1 s) while the tracker keeps it,
-so one that misses two steps and a half has been deleted."""
-TRACK_STALE_NS = round(TRACK_STALE_S * NS_PER_S)
+TRACK_STALE_STEPS = 2.5
+"""A target's track leaves the map (with its ellipse, prediction and trail) once its stamp is this many decision
+steps (the scenario's ``time.step_s``) older than the newest stamp the picture has seen: a track is published
+every step while the tracker keeps it, so one that misses two steps and a half has been deleted (and when every
+track has been, the reports' stamps go on)."""
 
 
 class _Trail:
@@ -128,6 +128,7 @@ class Picture:
         self.world = world_geometry(scenario, world)
         self.frame = LocalFrame(scenario.origin.lat_deg, scenario.origin.lon_deg, scenario.origin.height_m)
         self.tolerance_ns = round(scenario.time.step_s * NS_PER_S / 10)
+        self.track_stale_ns = round(TRACK_STALE_STEPS * scenario.time.step_s * NS_PER_S)
         self.vehicles: dict[str, _Vehicle] = {v.id: _Vehicle() for v in scenario.vehicles}
         self.targets: dict[str, _Target] = {}
         self.status: DaemonStatus | None = None
@@ -238,7 +239,7 @@ class Picture:
         target = self._target(track.target_id)
         if target.track is not None and track.stamp_ns < target.track.stamp_ns:
             return
-        if target.track is not None and track.stamp_ns - target.track.stamp_ns > TRACK_STALE_NS:
+        if target.track is not None and track.stamp_ns - target.track.stamp_ns > self.track_stale_ns:
             target.track_trail = _Trail()  # a new track under the id of one that left the map: a trail of its own
         target.track = track
         target.track_trail.add(track.stamp_ns, track.state[0], track.state[1])
@@ -348,11 +349,10 @@ class Picture:
         return document, summary
 
     def _forget_stale_tracks(self) -> int:
-        """The oldest stamp of a track still on the map (:data:`TRACK_STALE_S` before the newest track of
-        any target); the targets known by an older track alone (no truth) are dropped, since the tracker
+        """The oldest stamp of a track still on the map (:data:`TRACK_STALE_STEPS` before the newest stamp
+        seen); the targets known by an older track alone (no truth) are dropped, since the tracker
         deleted them and their trails would otherwise be kept for ever (the caller holds the lock)."""
-        newest_ns = max((t.track.stamp_ns for t in self.targets.values() if t.track is not None), default=0)
-        fresh_ns = newest_ns - TRACK_STALE_NS
+        fresh_ns = (self.newest_ns or 0) - self.track_stale_ns
         for target_id in [target_id for target_id, t in self.targets.items()
                           if t.truth is None and t.track is not None and t.track.stamp_ns < fresh_ns]:
             del self.targets[target_id]

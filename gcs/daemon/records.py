@@ -136,7 +136,9 @@ class StepScorer:
             truth = None if record.estimate_xy is None else self.truth_near(record.stamp_ns)
             truths = self._near(self.truths, record.stamp_ns) if many else None
             newest = latest_many if many else latest
-            waiting = ((record.estimate_xy is not None and truth is None) or (many and truths is None)) and (
+            # One target: until its truth is in. Many: until a later step's truth is, so that every target's
+            # truth at this stamp is in (the simulator publishes them in stamp order).
+            waiting = (many or (record.estimate_xy is not None and truth is None)) and (
                 newest is not None and newest < record.stamp_ns + self.step_ns and self.clock() < deadline)
             if waiting and not flush:
                 return

@@ -23,8 +23,9 @@ decides lives here, so that live and replayed runs cannot drift apart:
   for the vehicles alive when it was fused, at most every :func:`~gcs.engine.memory.plan_interval_s`;
 * **finished plans** (a :class:`~gcs.engine.events.PlanDone`): the warm start kept, the
   ``PlanCommand`` s published, each vehicle's path to steer along (:meth:`Engine.steer`);
-* **the hand-back**: after ``handback_after_lost_s`` of stamps with no vehicle seeing the target
-  every vehicle is let go (:class:`~gcs.engine.events.LetGo`), and steered again once it is seen.
+* **the hand-back**: after ``handback_after_lost_s`` of stamps with no vehicle seeing the target (many
+  targets: with no track and no lost target to search for) every vehicle is let go
+  (:class:`~gcs.engine.events.LetGo`), and steered again once it is seen (there is one again).
 
 No sockets, threads, clocks or global random state: time comes with each input, and the
 planner (with its seeded generator) is the shell's, which hands back its outcomes.
@@ -39,6 +40,7 @@ from collections.abc import Callable
 import numpy as np
 
 from gcs.config import Scenario
+from gcs.config.multitarget import MULTITARGET_PLANNERS
 from gcs.core.kinematics import VehicleState
 from gcs.core.multitarget.planning import plans_targets
 from gcs.core.steering import PlannedPath
@@ -56,7 +58,7 @@ from gcs.engine.events import (Action, Arrived, Heartbeat, Input, LetGo, Observe
 from gcs.engine.memory import CommandAges, LoopMemory, Planning, plan_interval_s
 from gcs.engine.multitarget import TrackKeeper
 from gcs.engine.options import EngineOptions
-from gcs.engine.tracking import SIGHT_PLANNERS, observer_sensor_model, scenario_planner, subset_config, tracker_config
+from gcs.engine.tracking import observer_sensor_model, scenario_planner, subset_config, tracker_config
 from protocols.keys import parse_key
 from protocols.messages import NavReport, SensorReport, TargetTruth, TrackEstimate
 
@@ -110,9 +112,8 @@ class Engine:
         self.keeper = TrackKeeper(scenario, world, self.tracker) if scenario.multitarget is not None else None
         if self.keeper is not None and not plans_targets(self.tracker):
             raise ValueError(f"planner {self.planner_name!r} cannot share the vehicles between targets; "
-                             f"scenario {scenario.name!r} has [multitarget] ({', '.join(SIGHT_PLANNERS)} can)")
-        self.tracks_now: dict[str, TrackEstimate] = {}
-        """The newest step's tracks by target id (one without [multitarget])."""
+                             f"scenario {scenario.name!r} has [multitarget] ({', '.join(MULTITARGET_PLANNERS)} can)")
+        self.tracks_now: dict[str, TrackEstimate] = {}  # the newest step's tracks by target id
 
     # ------------------------------------------------------------------ input
 
@@ -261,8 +262,10 @@ class Engine:
             actions.extend(PublishTrack(track) for track in tracks)
         active = self.registry.plannable(now)
         scale = self.loop.clock_scale(now, ready.stamp_ns, self.options.plan_fraction)
-        self._record(ready, active, estimate, tick.wall_ns, actions, seen,
-                     None if self.keeper is None else tuple((t.state[0], t.state[1]) for t in tracks))
+        seen_any = self._record(ready, active, estimate, tick.wall_ns, seen,
+                                None if self.keeper is None else tuple((t.state[0], t.state[1]) for t in tracks))
+        # Many targets: the vehicles are given back once there has been nothing to track or search for.
+        actions.extend(self.watch_target(ready, seen_any if self.keeper is None else targets is not None))
         if not active:
             self.counters["steps_without_vehicles"] += 1
             return None
@@ -272,19 +275,17 @@ class Engine:
         return Planning(ready, tuple(active), self.registry.snapshot(active), estimate, predicted, scale,
                         tick.monotonic_s, targets)
 
-    def _record(self, ready: ReadyStep, active: list[str], estimate, wall_ns: int, actions: list[Action],
-                detected: dict[str, bool] | None = None, tracks_xy: tuple | None = None) -> None:
+    def _record(self, ready: ReadyStep, active: list[str], estimate, wall_ns: int,
+                detected: dict[str, bool] | None = None, tracks_xy: tuple | None = None) -> bool:
         """Note what the step did; it is scored against the simulator's truth once that is in (:class:`StepScorer`).
 
         A vehicle saw the target when one of its reports has a detection, or, given ``detected`` (many
-        targets), when its detections were associated with a confirmed track."""
+        targets), when its detections were associated with a confirmed track. True when one did."""
         estimate_xy = None if estimate is None else (float(estimate.mean[0]), float(estimate.mean[1]))
-        seen = {v: False for v in self.roster}
-        for report in ready.reports:
+        seen = {v: detected.get(v, False) if detected is not None else False for v in self.roster}
+        for report in ready.reports if detected is None else ():
             if report.vehicle_id in seen:
                 seen[report.vehicle_id] = seen[report.vehicle_id] or report.detected
-        if detected is not None:
-            seen = {v: detected.get(v, False) for v in self.roster}
         nav_std, fix = {}, {}
         if self.navigator is not None:
             for vehicle_id in self.roster:
@@ -293,7 +294,7 @@ class Engine:
                     nav_std[vehicle_id], fix[vehicle_id] = std, bool(self.navigator.has_fix(vehicle_id))
         self.scorer.add(StepRecord(ready.index, ready.stamp_ns, seen, estimate_xy, None, tuple(active), wall_ns,
                                    nav_std, fix, tracks_xy))
-        actions.extend(self.watch_target(ready, any(seen.values())))
+        return any(seen.values())
 
     def watch_target(self, ready: ReadyStep, seen: bool) -> list[Action]:
         """Give the vehicles back after ``handback_after_lost_s`` without the target; steer again once seen."""
@@ -308,7 +309,8 @@ class Engine:
         if lost_s is not None and lost_s >= self.options.handback_after_lost_s and not self.loop.target_lost:
             self.loop.target_lost = True
             self.counters["target_lost"] += 1
-            log.warning("no vehicle has seen the target for %.0f s: handing the vehicles back", lost_s)
+            what = "the target" if self.keeper is None else "a target (nor had one to search for)"
+            log.warning("no vehicle has seen %s for %.0f s: handing the vehicles back", what, lost_s)
             return [self.let_go_all(f"target lost for {lost_s:.0f} s")]
         return []
 

@@ -4,9 +4,9 @@
 released step's detections, every vehicle's and none with an identity
 (:func:`gcs.daemon.fusion.scan_detections`), are one scan of
 :class:`gcs.core.multitarget.MultiTargetTracker`, with the coverage of the vehicles that
-reported in it (in range and in sight past the buildings,
-:func:`gcs.core.multitarget.coverage.coverage`; with no world, every track counts as
-covered). Every confirmed track is published as a ``TrackEstimate`` named ``t<id>``
+reported in it (in range, the smallest of the vehicles' sensor ranges, and in sight
+past the buildings, :func:`gcs.core.multitarget.coverage.coverage`; with no world, every
+track counts as covered). Every confirmed track is published as a ``TrackEstimate`` named ``t<id>``
 (its id never reused) with its k+1..k+n prediction; a confirmed track that the tracker
 deletes becomes a lost target, searched for ``forget_s`` (:class:`gcs.core.multitarget.lost.LostTargets`).
 The planner is given the confirmed tracks and the lost targets
@@ -50,6 +50,11 @@ FOUND_PROBABILITY = 0.999
 MODEL = "cv2d"
 
 
+def _covers_nothing(points_xy: np.ndarray) -> np.ndarray:
+    """The coverage of a step in which no vehicle reported."""
+    return np.zeros(len(points_xy), dtype=bool)
+
+
 def track_name(track_id: int) -> str:
     """The wire id of a multi-target track: ``t<id>``."""
     return f"t{int(track_id)}"
@@ -85,14 +90,16 @@ class TrackKeeper:
         self._confirmed_ids: set[int] = set()
         self._detected_ns: dict[int, int] = {}
         """Stamp of each live track's newest detection (its birth counts)."""
+        self._targets: TargetsToPlan | None = None
 
     def scan(self, ready: ReadyStep, roster: Sequence[str], config: TrackerConfig, seq: int,
              navigator: FleetNavigator | None = None) -> Scanned:
         """Take one released step (every roster vehicle's first report in it); the tracks to publish, seq ``seq``."""
         detections, positions = scan_detections(ready, roster, config.sensors, navigator)
-        in_view = None
-        if self.world is not None and len(positions):
-            in_view = coverage(self.world, positions, config.sensors[0].target_height_m, config.max_range_m)
+        in_view = None  # without a world: every track counts as covered
+        if self.world is not None:
+            in_view = (coverage(self.world, positions, config.sensors[0].target_height_m, config.max_range_m)
+                       if len(positions) else _covers_nothing)
         before = self.state.stamp_ns
         self.state, diagnostics = self.tracker.scan(self.state, ready.stamp_ns, detections, config.sensors, in_view)
         confirmed = self.state.tracks.confirmed()
@@ -114,7 +121,7 @@ class TrackKeeper:
                 if track_id in contributing:
                     contributing[track_id].append(roster[index])
                     detected[roster[index]] = True
-        plan = self._to_plan(confirmed.ids, confirmed.mean, confirmed.cov, np.zeros(confirmed.size))
+        self._targets = plan = self._to_plan(confirmed)  # the confirmed tracks' rows first
         messages = []
         for row, track_id in enumerate(confirmed.ids.tolist()):
             estimate = GaussianEstimate(confirmed.mean[row], confirmed.cov[row], ready.stamp_ns)
@@ -123,27 +130,25 @@ class TrackKeeper:
         return Scanned(tuple(messages), detected, diagnostics)
 
     def targets(self) -> TargetsToPlan | None:
-        """The confirmed tracks and the lost targets to plan for, weighted by the time each has gone unseen
-        (:func:`gcs.core.planners.shared.target_weights`); None when there are none."""
-        confirmed = self.state.tracks.confirmed()
+        """The newest scan's confirmed tracks and lost targets to plan for, weighted by the time each has gone
+        unseen (:func:`gcs.core.planners.shared.target_weights`); None when there are none."""
+        return self._targets
+
+    def _to_plan(self, confirmed) -> TargetsToPlan | None:
+        """The confirmed tracks (a TrackSet) and the lost targets, predicted over the horizon and weighted."""
         lost = self.lost
         if confirmed.size + lost.size == 0:
             return None
         ids = np.concatenate([confirmed.ids, lost.ids])
         unseen = np.concatenate([self._unseen_s(confirmed.ids, self.state.stamp_ns), lost.unseen_s])
-        return self._to_plan(ids, np.concatenate([confirmed.mean, lost.mean]),
-                             np.concatenate([confirmed.cov, lost.cov]), unseen)
+        config = self.tracker_config
+        return targets_to_plan(tuple(track_name(i) for i in ids), np.concatenate([confirmed.mean, lost.mean]),
+                               np.concatenate([confirmed.cov, lost.cov]), unseen, self.motion, config.step_s,
+                               config.horizon_steps, self.config.starvation_s, config.predict_ahead)
 
     def _unseen_s(self, ids: np.ndarray, stamp_ns: int) -> np.ndarray:
         """Seconds since each track (ids) last had a detection, at ``stamp_ns``, whether or not a sensor covered it."""
         return np.array([(stamp_ns - self._detected_ns.get(int(i), stamp_ns)) / NS_PER_S for i in ids], dtype=float)
-
-    def _to_plan(self, ids, means, covs, unseen_s) -> TargetsToPlan | None:
-        if len(ids) == 0:
-            return None
-        config = self.tracker_config
-        return targets_to_plan(tuple(track_name(i) for i in ids), means, covs, np.asarray(unseen_s, dtype=float),
-                               self.motion, config.step_s, config.horizon_steps, self.config.starvation_s)
 
     def _prediction(self, plan: TargetsToPlan, row: int, stamp_ns: int) -> HorizonPrediction:
         """Track ``row``'s k+1..k+n prediction as the single-target track carries it."""

@@ -219,24 +219,22 @@ def truth_error(path: Path, tracks: list[TrackEstimate], step_ns: int, target_id
 
 
 def truth_gospa(path: Path, tracks: list[TrackEstimate], step_ns: int) -> tuple[float | None, int]:
-    """Mean GOSPA (m; c = :data:`~gcs.daemon.records.GOSPA_CUTOFF_M`, p = 2, alpha = 2) of each step's tracks
-    against every target's truth recorded beside them, over the steps that published tracks, and how many
-    were scored; (None, 0) for a recording without truth."""
+    """Mean GOSPA (m; c = :data:`~gcs.daemon.records.GOSPA_CUTOFF_M`, p = 2, alpha = 2) against every target's truth
+    recorded beside the tracks, over every stamp the simulator published truths at (the tracks within a tenth
+    of a step of it; none: every target missed), and how many stamps were scored; (None, 0) without truth."""
     truths = _recorded_truths(path)
     if not truths:
         return None, 0
     by_step: dict[int, list[tuple[float, float]]] = {}
     for track in tracks:
         by_step.setdefault(track.stamp_ns, []).append((track.state[0], track.state[1]))
-    stamps = np.array(sorted(truths))
+    track_stamps = np.array(sorted(by_step), dtype=np.int64)
     distances = []
-    for stamp, positions in sorted(by_step.items()):
-        nearest = _nearest_stamp(stamps, stamp, step_ns)
-        if nearest is not None:
-            truth = truths[nearest]
-            distances.append(gospa(np.array(positions), np.array([truth[n] for n in sorted(truth)]),
-                                   GOSPA_CUTOFF_M).distance)
-    return (float(np.mean(distances)) if distances else None), len(distances)
+    for stamp, truth in sorted(truths.items()):
+        nearest = _nearest_stamp(track_stamps, stamp, step_ns) if len(track_stamps) else None
+        positions = np.array(by_step[nearest] if nearest is not None else [], dtype=np.float64).reshape(-1, 2)
+        distances.append(gospa(positions, np.array([truth[n] for n in sorted(truth)]), GOSPA_CUTOFF_M).distance)
+    return float(np.mean(distances)), len(distances)
 
 
 def write_outputs(tracks: list[TrackEstimate], plans: list[PlanCommand], out: Path,

@@ -18,6 +18,7 @@ import numpy as np
 from gcs.adapters.recording import read_recording
 from gcs.adapters.zenoh_session import ZenohSettings, open_session, query
 from gcs.config.world import build_world
+from gcs.daemon.status_cli import query_status
 from gcs.recordings.replay import process
 from gcs.scenarios import load_scenario
 from protocols.codec import decode, encode
@@ -47,14 +48,14 @@ def _by_stamp(recording, kind: type, key_part: str) -> dict[int, dict[str, tuple
     return out
 
 
-def _answers(daemon, session):
-    """The daemon's current tracks, the tracks a query of every track key answers (id: key) and the status;
-    None when a step was fused in between (the last steps go on their timeouts)."""
-    current = dict(daemon.engine.tracks_now)
+def _answers(daemon, session, endpoint: str):
+    """The daemon's current tracks, the tracks a query of every track key answers (id: key) and the status
+    ``gcs status`` reads; None when a step was fused in between (the last steps go on their timeouts)."""
+    current = daemon.engine.tracks_now  # replaced whole each step, never changed in place
     answered = {decode(s.payload.to_bytes(), str(s.encoding), TrackEstimate).target_id: str(s.key_expr)
                 for s in query(session, track_key("any").replace("any", "*"), 5.0)}
-    status = daemon.status(0.0)
-    return (current, answered, status) if daemon.engine.tracks_now == current else None
+    status = query_status(ZenohSettings(connect=(endpoint,)), "gcs", 5.0)
+    return (current, answered, status) if daemon.engine.tracks_now is current else None
 
 
 def test_the_daemon_tracks_every_car_publishes_each_track_and_replay_reproduces_them(tmp_path) -> None:
@@ -63,7 +64,7 @@ def test_the_daemon_tracks_every_car_publishes_each_track_and_replay_reproduces_
                                  epoch_ns=EPOCH_NS) as (daemon, endpoint):
         with open_session(ZenohSettings(connect=(endpoint,))) as session:
             seen: list = []
-            wait_until(lambda: seen.append(_answers(daemon, session)) or seen[-1] is not None, 10,
+            wait_until(lambda: seen.append(_answers(daemon, session, endpoint)) or seen[-1] is not None, 10,
                        "a query and a status between two fused steps")
         current, answered, status = seen[-1]
     counters = status.counters

@@ -9,7 +9,7 @@ contributing vehicles.
 - ``t3`` drives beside it, 8 m to the north (two cars in the two lanes of a street,
   a pixel or two apart on the map); nobody contributes (predicted only).
 - ``t2`` drives north from (2100, 800) at 8 m/s; uav1 contributes.
-- uav3 detects something every scan but contributes to none (the nearest track is ``t2``).
+- uav3 detects something every scan but contributes to none (clutter: it has no sight line).
 """
 
 from __future__ import annotations

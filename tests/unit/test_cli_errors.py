@@ -74,6 +74,9 @@ TABLE = [
     ("gcs", ["run", "--prefix", "a b"], "gcs run", "--prefix: invalid key prefix 'a b'"),
     ("gcs", ["run", "--signing-key-file", f"{WORK}/key"], "gcs run", f"--signing-key-file {WORK}/key"),
     ("gcs", ["run", "--planner", "nosuch"], "gcs run", "argument --planner: invalid choice: 'nosuch'"),
+    ("gcs", ["run", "--scenario", "multitarget_urban", "--planner", "orbit"], "gcs run",
+     "--planner: orbit cannot share the UAVs between the targets of multitarget_urban ([multitarget]); use one of "
+     "sight, sight_k0"),
     ("gcs", ["run", "--stream-rate", "90"], "gcs run", "--stream-rate must be between 0 and 50 Hz, got 90"),
     ("gcs", ["run", "--stream-rate", "x"], "gcs run", "argument --stream-rate: invalid float value: 'x'"),
     ("gcs", ["run", "--takeover-altitude", "nan"], "gcs run", "--takeover-altitude must be a height in metres"),

@@ -79,6 +79,8 @@ def test_many_targets_are_scored_by_gospa_against_every_truth_and_name_the_targe
     assert emitted == []  # the truths at 1 s are not in yet
     for name, xy in (("a", (0.0, 0.0)), ("b", (500.0, 0.0)), ("c", (0.0, 900.0))):
         scorer.add_truth(S, xy, name)
+        scorer.score(flush=False)
+        assert emitted == []  # more truths at 1 s may follow: it waits for a later stamp's
     scorer.add_truth(2 * S, (0.0, 0.0), "a")  # a later stamp: every truth at 1 s is in
     scorer.score(flush=False)
     assert GOSPA_CUTOFF_M == 100.0

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 
+import msgspec
 import numpy as np
 import pytest
 
@@ -111,8 +112,8 @@ def test_a_planner_that_cannot_share_the_vehicles_is_refused() -> None:
 def test_replay_tracks_and_plans_every_car_of_a_recording_and_scores_the_tracks_by_gospa(tmp_path) -> None:
     """Six steps recorded with the vehicles' heartbeats, nav, reports and the cars' truths: replay confirms a
     track on each car from the third step, plans every decision for all three vehicles. The truths are recorded
-    3-4-5 m off the cars the reports measure exactly, so each step's GOSPA is sqrt(5^2 + 5^2) m (no car missed,
-    no false track)."""
+    3-4-5 m off the cars the reports measure exactly, so each step with tracks has GOSPA sqrt(5^2 + 5^2) m (no
+    car missed, no false track)."""
     from gcs.adapters.recording import Recorder
     from gcs.recordings.replay import process, truth_gospa
     from protocols.keys import truth_key
@@ -141,4 +142,26 @@ def test_replay_tracks_and_plans_every_car_of_a_recording_and_scores_the_tracks_
     assert len(plans) == 3 * counters["decisions"] and counters["decisions"] >= 4
     errors = [min(math.hypot(t.state[0] - x, t.state[1] - y) for x, y in CARS.values()) for t in tracks]
     mean, scored = truth_gospa(path, tracks, S)
-    assert scored == 4 and max(errors) < 1e-6 and mean == pytest.approx(math.sqrt(50.0), abs=1e-6)
+    # steps 0-1 have no track: both cars missed, sqrt(2 c^2 / 2) = c = 100 m
+    assert scored == 6 and max(errors) < 1e-6 and mean == pytest.approx((2 * 100.0 + 4 * math.sqrt(50.0)) / 6,
+                                                                         abs=1e-6)
+
+
+def test_the_vehicles_are_given_back_once_there_is_nothing_to_track_or_search_for() -> None:
+    """Cars seen on scans 0-2, then never: the tracks coast unseen (nobody sees a car, but there is still a
+    track to plan for), are deleted on scan 7 and, unseen 5 s > ``forget_s`` 3 s, not searched for; with a
+    2 s hand-back the vehicles are let go on scan 8, 2 s after scan 6, the last with something to plan for."""
+    from gcs.engine.events import LetGo
+
+    scenario = msgspec.structs.replace(SCENARIO, multitarget=msgspec.structs.replace(SCENARIO.multitarget,
+                                                                                      forget_s=3.0))
+    engine = Engine(scenario, None, EngineOptions(handback_after_lost_s=2.0))
+    for vehicle in ROSTER:
+        engine.feed(Arrived("alive", alive_key(vehicle), b"", "", 0, 0.0))
+    let_go = []
+    for k in range(11):
+        actions = _scan(engine, k, ("a", "b") if k < 3 else (), 10.0 * (k + 1))
+        let_go += [k for a in actions if isinstance(a, LetGo)]
+        if k == 6:
+            assert len(engine.tracks_now) == 2 and not any(engine.records[-1].seen.values())
+    assert let_go == [8] and engine.tracks_now == {}

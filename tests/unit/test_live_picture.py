@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from gcs.core.geometry import LocalFrame
 from gcs.core.world import Buildings, RestrictedAirspace, World
-from gcs.daemon.picture import TRACK_STALE_S, TRAIL_STEP_S, Picture
+from gcs.daemon.picture import TRAIL_STEP_S, Picture
 from gcs.daemon.picture_geometry import SIGMAS, ellipse, encode_json, world_geometry
 from gcs.scenarios import load_scenario
 from protocols.codec import encode
@@ -182,7 +182,6 @@ def test_gps_fixes_place_the_vehicle_and_its_trail_in_enu() -> None:
 
 
 def test_a_track_no_longer_published_leaves_the_map_and_one_still_published_stays() -> None:
-    assert TRACK_STALE_S == 2.5
     picture = Picture(SCENARIO, World.empty())
     for k in range(3):
         picture.observe(_track(T0 + k * NS, (float(k), 0.0), seq=k + 1, target_id="t1"))
@@ -204,7 +203,7 @@ def test_the_staleness_bound_is_inclusive_and_a_track_back_under_its_id_starts_a
     picture = Picture(SCENARIO, World.empty())
     picture.observe(_truth(T0, (0.0, 0.0), target_id="t2"))
     picture.observe(_track(T0, (0.0, 0.0), target_id="t2"))
-    picture.observe(_track(T0 + 5 * NS // 2, (9.0, 9.0), target_id="t1"))  # exactly TRACK_STALE_S newer
+    picture.observe(_track(T0 + 5 * NS // 2, (9.0, 9.0), target_id="t1"))  # exactly 2.5 steps of 1 s newer
     assert [t["target_id"] for t in _snapshot(picture)[0]["tracks"]] == ["t2", "t1"]
     picture.observe(_track(T0 + 5 * NS // 2 + 1, (9.0, 9.0), target_id="t1"))  # one nanosecond more
     tracks, _ = _snapshot(picture)
@@ -213,3 +212,15 @@ def test_the_staleness_bound_is_inclusive_and_a_track_back_under_its_id_starts_a
     picture.observe(_track(T0 + 3 * NS, (50.0, 60.0), target_id="t2"))  # a new track under the old id
     t2 = next(t for t in _snapshot(picture)[0]["tracks"] if t["target_id"] == "t2")
     assert t2["trail"] == [[50.0, 60.0]]
+
+
+def test_when_every_track_stops_the_reports_stamps_take_the_last_tracks_off_the_map() -> None:
+    """No track is newer than the last ones once the tracker has deleted them all: the reports go on."""
+    assert SCENARIO.time.step_s == 1.0
+    picture = Picture(SCENARIO, World.empty())
+    picture.observe(_track(T0, (0.0, 0.0), target_id="t1"))
+    picture.observe(_track(T0, (5.0, 0.0), target_id="t2"))
+    picture.observe(_report("uav1", T0 + 5 * NS // 2, (0.0, 0.0, 200.0)))  # 2.5 steps on: the bound, inclusive
+    assert [t["target_id"] for t in _snapshot(picture)[0]["tracks"]] == ["t1", "t2"]
+    picture.observe(_report("uav1", T0 + 3 * NS, (0.0, 0.0, 200.0)))
+    assert _snapshot(picture)[0]["tracks"] == [] and not picture.targets

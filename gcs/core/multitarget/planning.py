@@ -54,11 +54,16 @@ class TargetsToPlan:
 
 def targets_to_plan(ids: tuple[str, ...], means: NDArray[np.float64], covs: NDArray[np.float64],
                     unseen_s: NDArray[np.float64], motion: LinearMotionModel, step_s: float, horizon_steps: int,
-                    starvation_s: float) -> TargetsToPlan:
-    """The targets' horizon predictions (module docstring) from their estimates (K, 4), (K, 4, 4), and their weights."""
+                    starvation_s: float, predict_ahead: bool = True) -> TargetsToPlan:
+    """The targets' horizon predictions (module docstring) from their estimates (K, 4), (K, 4, 4), and their weights;
+    ``predict_ahead`` False holds each estimate over the horizon (wang2012's k+0 comparison)."""
+    if not predict_ahead:
+        return TargetsToPlan(tuple(ids), np.repeat(means[:, None], horizon_steps, axis=1),
+                             np.repeat(covs[:, None], horizon_steps, axis=1),
+                             target_weights(np.ones(len(ids)), unseen_s, starvation_s))
     f_j, q_j = motion.horizon_matrices(step_s, horizon_steps)
-    predicted_means = np.einsum("tab,kb->kta", f_j, means)
-    predicted_covs = np.einsum("tab,kbc,tdc->ktad", f_j, covs, f_j) + q_j[None]
+    predicted_means = np.einsum("tab,kb->kta", f_j, means)  # wang2012 eq. (16)-(17): x_{k+j} = F^j x_k
+    predicted_covs = np.einsum("tab,kbc,tdc->ktad", f_j, covs, f_j) + q_j[None]  # P_{k+j} = F^j P_k F^jT + Q_j
     return TargetsToPlan(tuple(ids), predicted_means, predicted_covs,
                          target_weights(np.ones(len(ids)), unseen_s, starvation_s))
 

@@ -43,3 +43,14 @@ def test_a_planner_without_assignment_cannot_plan_several_targets() -> None:
     targets = TargetsToPlan(("t1",), np.zeros((1, 5, 4)), np.zeros((1, 5, 4, 4)), np.array([1.0]))
     with pytest.raises(TypeError, match="cannot plan for several targets"):
         plan_targets(Config(), TrackerState(None, None, np.zeros(1)), None, targets, np.random.default_rng(0))
+
+
+def test_without_predicting_ahead_each_estimate_is_held_over_the_horizon() -> None:
+    means = np.array([[1.0, 2.0, 3.0, 4.0], [5.0, 6.0, 7.0, 8.0]])
+    covs = np.stack([np.eye(4), 2.0 * np.eye(4)])
+    held = targets_to_plan(("t1", "t2"), means, covs, np.zeros(2), constant_velocity(2.0), 1.0, 4, 20.0,
+                           predict_ahead=False)
+    assert held.means.shape == (2, 4, 4) and held.covs.shape == (2, 4, 4, 4)
+    for j in range(4):
+        np.testing.assert_array_equal(held.means[:, j], means)
+        np.testing.assert_array_equal(held.covs[:, j], covs)

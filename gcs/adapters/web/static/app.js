@@ -170,10 +170,8 @@ function labelPlaces(tracks, unit) {
 // The tracks a detecting vehicle's sight lines go to: those its reports went into (their
 // `contributing`), else the nearest one.
 function sightTargets(vehicle, tracks) {
-  const fed = tracks.filter((t) => t.contributing.includes(vehicle.id));
-  if (fed.length || !tracks.length) return fed;
-  const distance = (t) => Math.hypot(t.x - vehicle.x, t.y - vehicle.y);
-  return [tracks.reduce((best, t) => (distance(t) < distance(best) ? t : best))];
+  // The tracks the vehicle's detections went into; none when they went into none (clutter, or a report late).
+  return tracks.filter((t) => t.contributing.includes(vehicle.id));
 }
 
 function drawScaleBar(unit) {
