@@ -61,8 +61,8 @@ def test_commands_stop_while_the_link_is_silent_and_resume_when_it_returns() -> 
         _wait(lambda: commands() >= 5 and daemon.counters["decisions"] >= 3, 60, "commands before the silence")
         relay.muted = True
         muted_at = time.monotonic()
-        at_mute = commands()
         _wait(lambda: daemon.commander.counters()["link_lost"] >= len(ROSTER), 15, "the daemon to see the links lost")
+        at_mute = commands()  # seconds after the mute: a datagram the relay was forwarding as it muted has landed
         decisions = daemon.counters["decisions"]
         sent_after_loss = to_vehicles(daemon.commander.counters())
         time.sleep(max(0.0, muted_at + SILENCE_S - time.monotonic()))  # the rest of the 10 s of silence
