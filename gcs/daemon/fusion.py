@@ -55,6 +55,14 @@ def _measurements(report: SensorReport, components: tuple[str, ...]) -> list[np.
     return out
 
 
+def _first_reports(ready: ReadyStep) -> dict[str, SensorReport]:
+    """Each vehicle's first report of the step (the one fused), by vehicle id."""
+    first: dict[str, SensorReport] = {}
+    for report in ready.reports:
+        first.setdefault(report.vehicle_id, report)
+    return first
+
+
 def _reported_cov(report: SensorReport) -> float | None:
     """The per-axis variance ``std^2`` of the report's ``vehicle_position_std_m``; None without one (or 0)."""
     std = report.vehicle_position_std_m
@@ -116,9 +124,7 @@ def step_detections(ready: ReadyStep, roster: Sequence[str], config: TrackerConf
     the track the step starts from its first detection (the first vehicle's first), or the
     first detection when that start needs a range the sensor does not measure.
     """
-    first: dict[str, SensorReport] = {}
-    for report in ready.reports:
-        first.setdefault(report.vehicle_id, report)
+    first = _first_reports(ready)
     usable = []
     for index, vehicle_id in enumerate(roster):
         report = first.get(vehicle_id)
@@ -217,9 +223,7 @@ def scan_detections(ready: ReadyStep, roster: Sequence[str], sensors: Sequence[S
 
     Positions as in :func:`step_detections`; a detection without every component of its
     vehicle's sensor model is left out."""
-    first: dict[str, SensorReport] = {}
-    for report in ready.reports:
-        first.setdefault(report.vehicle_id, report)
+    first = _first_reports(ready)
     detections: dict[int, list[Detection]] = {}
     positions = []
     for index, vehicle_id in enumerate(roster):
