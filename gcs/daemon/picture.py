@@ -45,7 +45,7 @@ __all__ = ["Picture", "TRACK_STALE_STEPS", "TRAIL_POINTS", "TRAIL_STEP_S"]
 
 NS_PER_S = 1_000_000_000
 TRAIL_POINTS = 600
-"""Points kept per trail (ten minutes at one a second)."""
+"""Points kept per trail (ten minutes at one a second; the page fades and drops the older ones, ``docs/live_map.md``)."""
 TRAIL_STEP_S = 1.0
 """A trail takes a point at most once per this many seconds of stamp time."""
 MAX_VEHICLES = 1000
@@ -60,7 +60,8 @@ track has been, the reports' stamps go on)."""
 
 
 class _Trail:
-    """The last :data:`TRAIL_POINTS` positions, at most one per :data:`TRAIL_STEP_S` of stamp time.
+    """The last :data:`TRAIL_POINTS` positions, at most one per :data:`TRAIL_STEP_S` of stamp time, each
+    ``[x, y, t]`` with ``t`` its stamp in seconds (to the decisecond), from which the page fades it with age.
 
     A trail changes once a second at most but is sent five times a second: each
     point is kept as its JSON text, and the trail's JSON array (:meth:`encoded`)
@@ -79,12 +80,12 @@ class _Trail:
 
     def add(self, stamp_ns: int, x: float, y: float) -> None:
         if self.due(stamp_ns):
-            self.points.append(msgspec.json.encode((_r(x), _r(y))))
+            self.points.append(msgspec.json.encode((_r(x), _r(y), round(stamp_ns / NS_PER_S, 1))))
             self.last_ns = stamp_ns
             self._encoded = None
 
     def encoded(self) -> msgspec.Raw:
-        """The points as a JSON array of ``[x, y]`` (embedded as is by :func:`~gcs.daemon.picture_geometry.encode_json`)."""
+        """The points as a JSON array of ``[x, y, t]`` (embedded as is by :func:`~gcs.daemon.picture_geometry.encode_json`)."""
         if self._encoded is None:
             self._encoded = msgspec.Raw(b"[" + b",".join(self.points) + b"]")
         return self._encoded
