@@ -4,7 +4,8 @@
 descriptor 3 and write replies and events to descriptor 4, each a JSON object
 ended by a NUL byte; no WebSocket client or extra package is needed. One page
 is opened and kept, so the test sees the page update itself from its event
-stream (``--dump-dom`` would dump the page once, at its load event).
+stream (``--dump-dom`` would dump the page once, at its load event), and
+:meth:`Browser.pixels` gives its screenshots as arrays for the tests to look at.
 
 :func:`chromium_binary` finds Debian's ``chromium-headless-shell`` (or
 ``chromium``) and installs it with apt-get when missing and running as root;
@@ -16,6 +17,7 @@ from __future__ import annotations
 import base64
 import json
 import os
+import re
 import select
 import shutil
 import subprocess
@@ -23,9 +25,12 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
+from PIL import Image  # Pillow, a dependency of matplotlib (the project's own dependency)
 
-__all__ = ["chromium_binary", "Browser", "ARTIFACTS"]
+__all__ = ["chromium_binary", "Browser", "ARTIFACTS", "PAGE_GEOMETRY", "page_geometry", "settled", "rgb", "matching", "inside",
+           "followed", "assert_colours_as_the_legend"]
 
 BINARIES = ("chromium-headless-shell", "chromium", "chromium-browser")
 PACKAGE = "chromium-headless-shell"
@@ -147,6 +152,13 @@ class Browser:
         path.write_bytes(base64.b64decode(data))
         return path
 
+    def pixels(self, path: Path) -> np.ndarray:
+        """A screenshot saved as a PNG at ``path`` and read back: (height, width, 3) 8-bit RGB, one pixel per CSS
+        pixel (the page's coordinates, as ``getBoundingClientRect`` gives them)."""
+        assert self.evaluate("window.devicePixelRatio") == 1, "one screenshot pixel per CSS pixel"
+        with Image.open(self.screenshot(path)) as image:
+            return np.asarray(image.convert("RGB"))
+
     def close(self) -> None:
         """Close the browser and wait for it (killed if it does not exit)."""
         try:
@@ -168,3 +180,105 @@ class Browser:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+# The page as drawn, from the browser's own geometry: the ENU rectangle on screen (the map's corners through
+# the inverse of the SVG's screen transform), every mark's and label's box on screen, the legend's colours.
+PAGE_GEOMETRY = """JSON.stringify((() => {
+  const svg = document.getElementById('map'), r = svg.getBoundingClientRect(), inv = svg.getScreenCTM().inverse();
+  const enu = (x, y) => { const p = new DOMPoint(x, y).matrixTransform(inv); return [p.x, -p.y]; };
+  const [west, north] = enu(r.left, r.top), [east, south] = enu(r.right, r.bottom);
+  const box = (e) => { const q = e.getBoundingClientRect(); return {x: q.x, y: q.y, w: q.width, h: q.height}; };
+  const at = (e) => { const p = new DOMPoint(Number(e.dataset.x), -Number(e.dataset.y)).matrixTransform(svg.getScreenCTM());
+                      return [p.x, p.y]; };  // where on screen a mark's ENU position is
+  const colour = (selector, property) => getComputedStyle(document.querySelector(selector))[property];
+  const clock = document.getElementById('clock'), speed = document.getElementById('speed');
+  return {
+    map: box(svg), shown: {west, east, south, north}, look: document.body.dataset.view, moving: svg.dataset.moving,
+    snapshots: Number(document.body.dataset.snapshots),
+    follow_pressed: document.getElementById('follow').getAttribute('aria-pressed'),
+    city_pressed: document.getElementById('city').getAttribute('aria-pressed'),
+    vehicles: [...document.querySelectorAll('#layer-vehicles .vehicle')].map((e) => ({id: e.id.replace('vehicle-', ''),
+      x: Number(e.dataset.x), y: Number(e.dataset.y), stamp: Number(e.dataset.stamp), at: at(e), link: e.dataset.link,
+      body: box(e.querySelector('.vehicle-body'))})),
+    tracks: [...document.querySelectorAll('#layer-track .track')].map((e) => ({id: e.dataset.target,
+      x: Number(e.dataset.x), y: Number(e.dataset.y), stamp: Number(e.dataset.stamp), at: at(e),
+      dot: box(e.querySelector('.track-dot'))})),
+    truths: [...document.querySelectorAll('#layer-truth .truth')].map((e) => ({x: Number(e.dataset.x), y: Number(e.dataset.y),
+      mark: box(e)})),
+    labels: [...document.querySelectorAll('#layer-labels .label')].map((e) => ({for: e.dataset.for, text: e.textContent,
+      box: box(e)})),
+    legend: Object.fromEntries([...document.querySelectorAll('#legend-vehicles .legend-vehicle')].map((e) =>
+      [e.dataset.id, getComputedStyle(e.querySelector('.swatch')).backgroundColor])),
+    swatches: {sight: colour('.swatch.sight', 'backgroundColor'), track: colour('.swatch.estimate', 'borderTopColor'),
+               prediction: colour('.swatch.prediction', 'backgroundColor'), truth: colour('.swatch.truth', 'backgroundColor'),
+               nofly: colour('.swatch.nofly', 'borderTopColor')},
+    track_dot: document.querySelector('.track-dot') && getComputedStyle(document.querySelector('.track-dot')).fill,
+    header: (() => { const h = document.querySelector('header').cloneNode(true);  // what it shows, less the lists' options
+      h.querySelectorAll('select, [hidden]').forEach((e) => e.remove()); return h.textContent; })(), clock: clock.textContent, clock_s: Number(clock.dataset.seconds),
+    speed: speed.value, speed_text: speed.selectedOptions[0]?.textContent ?? null,
+    ended: !document.getElementById('replay-end').hidden,
+  };
+})())"""
+
+
+def page_geometry(browser: Browser) -> dict:
+    """The page as drawn (:data:`PAGE_GEOMETRY`)."""
+    return json.loads(browser.evaluate(PAGE_GEOMETRY))
+
+
+def settled(browser: Browser, condition=lambda g: True, what: str = "the view settled", timeout_s: float = 60.0) -> dict:
+    """The geometry once the view has stopped gliding and ``condition`` holds (polled, as Browser.wait_for)."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        geometry = page_geometry(browser)
+        if geometry["snapshots"] > 0 and geometry.get("moving") != "true" and condition(geometry):
+            return geometry
+        time.sleep(0.2)
+    pytest.fail(f"the page never showed {what} within {timeout_s} s; last: {page_geometry(browser)}")
+
+
+def rgb(css: str) -> np.ndarray:
+    """A CSS colour as the browser computes it (``rgb(r, g, b)``, ``rgba(...)``) or ``#rrggbb``, as floats."""
+    if css.startswith("#"):
+        return np.array([int(css[i:i + 2], 16) for i in (1, 3, 5)], dtype=float)
+    found = re.fullmatch(r"rgba?\((\d+), (\d+), (\d+)(?:, [\d.]+)?\)", css)
+    assert found, css
+    return np.array([int(v) for v in found.groups()], dtype=float)
+
+
+def matching(pixels: np.ndarray, centre: tuple[float, float], radius: int, colour: np.ndarray, tolerance: float) -> int:
+    """Pixels within ``radius`` of ``centre`` (screen px) whose colour is within ``tolerance`` of ``colour``."""
+    cx, cy = round(centre[0]), round(centre[1])
+    window = pixels[max(cy - radius, 0):cy + radius + 1, max(cx - radius, 0):cx + radius + 1].astype(float)
+    return int((np.linalg.norm(window - colour, axis=2) < tolerance).sum())
+
+
+def inside(shown: dict, x: float, y: float, margin: float) -> bool:
+    """Whether (x, y) is on screen, at least ``margin`` (a fraction of the width and height) from its edges."""
+    mx, my = margin * (shown["east"] - shown["west"]), margin * (shown["north"] - shown["south"])
+    return shown["west"] + mx <= x <= shown["east"] - mx and shown["south"] + my <= y <= shown["north"] - my
+
+
+def followed(geometry: dict) -> list[tuple[float, float]]:
+    """ENU positions of what the view follows: the vehicles, tracks and truths."""
+    return [(v["x"], v["y"]) for v in geometry["vehicles"]] + [(t["x"], t["y"]) for t in geometry["tracks"] + geometry["truths"]]
+
+
+def assert_colours_as_the_legend(geometry: dict, pixels: np.ndarray) -> None:
+    """Each vehicle's pixels have the colour the legend gives it, and no other vehicle's; the vehicles' colours differ
+    from each other and from every other colour of the legend (sight line, track, prediction, truth, no-fly); the
+    track's dot is the legend's track colour."""
+    colours = {k: rgb(c) for k, c in geometry["legend"].items()}
+    others = {k: rgb(c) for k, c in geometry["swatches"].items()}
+    for a, ca in colours.items():
+        assert all(np.linalg.norm(ca - cb) > 80 for b, cb in colours.items() if b != a), colours
+        assert all(np.linalg.norm(ca - cb) > 80 for cb in others.values()), (a, ca, others)
+    for v in geometry["vehicles"]:
+        assert matching(pixels, v["at"], 12, colours[v["id"]], 30) >= 20, v
+        for other, c in colours.items():
+            if other != v["id"]:
+                assert matching(pixels, v["at"], 12, c, 30) == 0, (v["id"], other)
+    for t in geometry["tracks"]:
+        assert np.linalg.norm(rgb(geometry["track_dot"]) - others["track"]) < 1
+        assert matching(pixels, t["at"], 6, others["track"], 30) >= 10, t

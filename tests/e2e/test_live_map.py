@@ -23,7 +23,8 @@ import pytest
 from gcs.config.world import build_world
 from gcs.engine.tracking import horizon_steps
 from gcs.scenarios import load_scenario
-from tests.e2e.browser import ARTIFACTS, Browser, chromium_binary
+from tests.e2e.browser import (ARTIFACTS, Browser, assert_colours_as_the_legend, chromium_binary, followed, inside,
+                               settled)
 from tests.e2e.processes import script
 from tests.recordings import run_recording
 
@@ -52,13 +53,13 @@ PAGE_STATE = """JSON.stringify((() => {
                      rx: Number(track.dataset.rx), drawn: shown(track.querySelector('.track-ellipse'))},
     prediction_points: prediction ? Number(prediction.dataset.points) : 0,
     plans: [...document.querySelectorAll('#layer-plans .plan')].map((e) => e.id),
-    trails: document.querySelectorAll('#layer-trails .trail').length,
+    trails: document.querySelectorAll('#layer-trails .trail-of').length,
     truth: document.querySelectorAll('#layer-truth .truth').length,
     rmse: document.getElementById('rmse').dataset.rmse || null,
     panel_links: [...document.querySelectorAll('#status-vehicles tbody tr')].map((e) => e.dataset.link),
     replay_controls: !document.getElementById('replay-controls').hidden,
     play_button: document.getElementById('play').textContent,
-    replay_position: document.getElementById('replay-position').textContent,
+    ended: !document.getElementById('replay-end').hidden,
   };
 })())"""
 
@@ -153,6 +154,8 @@ def test_demo_page_draws_the_city_vehicles_plans_and_track_and_they_move(tmp_pat
             first = _wait_state(browser, lambda s: s["track"] is not None and len(s["plans"]) == 3 and s["truth"]
                                 and all(v["drawn"] for v in s["vehicles"]) and len(s["vehicles"]) == 3,
                                 "three vehicles, their plans, a track and the truth")
+            framed = settled(browser, lambda g: all(v["link"] == "ok" for v in g["vehicles"]), "the first view settled")
+            pixels = browser.pixels(ARTIFACTS / "live_map_demo_first.png")
             later = _wait_state(browser, lambda s: s["track"]["seq"] >= first["track"]["seq"] + 2
                                 and min(_moved(first, s).values()) > 20.0, "the vehicles and the track moving")
             _screenshot(browser, "live_map_demo.png")
@@ -169,6 +172,11 @@ def test_demo_page_draws_the_city_vehicles_plans_and_track_and_they_move(tmp_pat
     assert first["rmse"] is not None and float(first["rmse"]) > 0  # the simulator's truth is known
     assert later["snapshots"] > first["snapshots"]
     assert (later["track"]["x"], later["track"]["y"]) != (first["track"]["x"], first["track"]["y"])
+    # the page opens on the vehicles and the target, not on the 3 km city, each vehicle in its legend colour
+    assert framed["look"] == "follow" and framed["shown"]["east"] - framed["shown"]["west"] < 3000.0 / 2.5
+    assert all(inside(framed["shown"], x, y, 0.03) for x, y in followed(framed)), framed
+    assert sorted(framed["legend"]) == ["uav1", "uav2", "uav3"]
+    assert_colours_as_the_legend(framed, pixels)
     assert "steps 40;" in stdout
 
 
@@ -192,7 +200,7 @@ def test_replay_view_plays_a_recording_on_the_page_with_pause_and_speed(tmp_path
             assert max(_moved(paused, still).values()) == 0.0 and still["track"]["seq"] == paused["track"]["seq"]
             browser.evaluate("const s = document.getElementById('speed'); s.value = '50'; "
                              "s.dispatchEvent(new Event('change')); document.getElementById('play').click()")
-            ended = _wait_state(browser, lambda s: "(end)" in s["replay_position"], "the end of the recording")
+            ended = _wait_state(browser, lambda s: s["ended"], "the end of the recording")
             _screenshot(browser, "live_map_replay.png")
     finally:
         code, stdout, stderr = viewer.finish()  # it runs until Ctrl-C

@@ -33,13 +33,16 @@ from tests.integration.tracks_recording import SCENARIO_NAME, STEPS, UAVS, track
 TRACKS_STATE = """JSON.stringify((() => {
   const box = (e) => { const r = e.getBoundingClientRect(); return {x: r.x + r.width / 2, y: r.y + r.height / 2,
                                                                    w: r.width, h: r.height}; };
+  const label = (id) => document.querySelector(`#layer-labels .label[data-for="${id}"]`);
   return {
-    position: document.getElementById('replay-position').textContent,
     tracks: [...document.querySelectorAll('#layer-track .track')].map((g) => ({
       id: g.id, target: g.dataset.target, x: Number(g.dataset.x), y: Number(g.dataset.y), seq: Number(g.dataset.seq),
       rx: Number(g.dataset.rx), ry: Number(g.dataset.ry), ellipse: box(g.querySelector('.track-ellipse')),
-      dot: box(g.querySelector('.track-dot')), label: g.querySelector('.track-label')?.textContent ?? null,
-      label_box: g.querySelector('.track-label') && box(g.querySelector('.track-label'))})),
+      dot: box(g.querySelector('.track-dot')), label: label(g.id)?.textContent ?? null,
+      label_box: label(g.id) && box(label(g.id))})),
+    labels: [...document.querySelectorAll('#layer-labels .label')].map((e) => ({for: e.dataset.for, box: box(e)})),
+    marks: [...document.querySelectorAll('#layer-vehicles .vehicle-body, #layer-track .track-dot, #layer-truth .truth')]
+      .map(box),
     sights: [...document.querySelectorAll('#layer-vehicles .vehicle')].map((v) => ({
       id: v.id, x: Number(v.dataset.x), y: Number(v.dataset.y), detected: v.dataset.detected,
       lines: [...v.querySelectorAll('.sight')].map((l) => ({track: l.dataset.track,
@@ -66,8 +69,8 @@ def _viewed_at_end(recording: Path, scenario: str, folder: Path, screenshot: str
         url = viewer.live_map_url()
         with Browser(binary) as browser:
             browser.open(url)
-            browser.wait_for("document.getElementById('replay-position').textContent.includes('(end)')", 90.0,
-                             "the end of the recording")
+            browser.wait_for("!document.getElementById('replay-end').hidden && "
+                             "document.getElementById('map').dataset.moving !== 'true'", 90.0, "the end of the recording")
             state = _tracks_state(browser)
             _screenshot(browser, screenshot)
             empty = json.loads(browser.evaluate(
@@ -101,8 +104,11 @@ def _assert_drawn_and_listed(state: dict, expected: dict[str, TrackEstimate]) ->
         label = t["label_box"]
         assert label["w"] > 0 and label["h"] > 0
         assert math.dist((label["x"], label["y"]), (t["dot"]["x"], t["dot"]["y"])) < 60.0  # beside its dot (px)
-    labels = [t["label_box"] for t in state["tracks"]]
+    labels = [label["box"] for label in state["labels"]]  # the tracks' and the vehicles'
+    assert sorted(label["for"] for label in state["labels"]) == sorted(
+        [f"track-{k}" for k in expected] + [s["id"] for s in state["sights"]])
     assert not any(_overlap(a, b) for i, a in enumerate(labels) for b in labels[i + 1:]), labels  # each readable
+    assert not any(_overlap(label, mark) for label in labels for mark in state["marks"]), (labels, state["marks"])
 
     assert state["count"] == str(len(expected))
     rows = {r["target"]: r["cells"] for r in state["rows"]}

@@ -69,9 +69,10 @@ class _Stream:
 def test_the_page_and_its_scripts_are_served_from_the_package_without_any_cdn(server) -> None:
     status, kind, page = _get(server, "/")
     assert status == 200 and kind.startswith("text/html")
-    assert b'src="app.js"' in page and b'href="style.css"' in page
+    scripts = re.findall(rb'<script src="([^"]+)"', page)
+    assert scripts == [b"view.js", b"labels.js", b"draw.js", b"app.js"] and b'href="style.css"' in page
     assert re.search(rb'(src|href)="(https?:)?//', page) is None  # nothing loaded from elsewhere
-    for path, expected in (("app.js", "text/javascript"), ("style.css", "text/css")):
+    for path, expected in [(s.decode(), "text/javascript") for s in scripts] + [("style.css", "text/css")]:
         status, kind, body = _get(server, path)
         assert status == 200 and kind.startswith(expected) and len(body) > 1000
         assert re.search(rb"(https?:)?//[a-z0-9.-]+\.[a-z]{2,}/", body) is None  # no URL of another host
