@@ -61,7 +61,8 @@ track has been, the reports' stamps go on)."""
 
 class _Trail:
     """The last :data:`TRAIL_POINTS` positions, at most one per :data:`TRAIL_STEP_S` of stamp time, each
-    ``[x, y, t]`` with ``t`` its stamp in seconds (to the decisecond), from which the page fades it with age.
+    ``[x, y, t]`` with ``t`` its stamp in whole seconds from the picture's ``trail_epoch_ns``: the page fades a
+    trail by age in bands of 3 s or more, and a decimal more would make a snapshot a tenth larger.
 
     A trail changes once a second at most but is sent five times a second: each
     point is kept as its JSON text, and the trail's JSON array (:meth:`encoded`)
@@ -78,9 +79,9 @@ class _Trail:
         """Whether a position at ``stamp_ns`` would be taken."""
         return self.last_ns is None or stamp_ns - self.last_ns >= TRAIL_STEP_S * NS_PER_S or stamp_ns < self.last_ns
 
-    def add(self, stamp_ns: int, x: float, y: float) -> None:
+    def add(self, stamp_ns: int, x: float, y: float, epoch_ns: int) -> None:
         if self.due(stamp_ns):
-            self.points.append(msgspec.json.encode((_r(x), _r(y), round(stamp_ns / NS_PER_S, 1))))
+            self.points.append(msgspec.json.encode((_r(x), _r(y), round((stamp_ns - epoch_ns) / NS_PER_S))))
             self.last_ns = stamp_ns
             self._encoded = None
 
@@ -135,6 +136,8 @@ class Picture:
         self.status: DaemonStatus | None = None
         self.newest_ns: int | None = None
         self.first_ns: int | None = None
+        self.trail_epoch_ns: int | None = None
+        """The first stamp seen; trail points' times count from it (fixed, where an older message moves first_ns)."""
         self.counters: dict[str, int] = {}
         self._lock = threading.Lock()
 
@@ -161,6 +164,7 @@ class Picture:
             if isinstance(message, (SensorReport, NavReport, TargetTruth, TrackEstimate)):
                 self.newest_ns = stamp if self.newest_ns is None else max(self.newest_ns, stamp)
                 self.first_ns = stamp if self.first_ns is None else min(self.first_ns, stamp)
+                self.trail_epoch_ns = stamp if self.trail_epoch_ns is None else self.trail_epoch_ns
             if isinstance(message, SensorReport):
                 self._on_report(message)
             elif isinstance(message, NavReport):
@@ -195,7 +199,7 @@ class Picture:
     def _move(self, vehicle: _Vehicle, stamp_ns: int, position: tuple[float, float, float]) -> None:
         if vehicle.stamp_ns is None or stamp_ns >= vehicle.stamp_ns:
             vehicle.position, vehicle.fix, vehicle.stamp_ns = position, None, stamp_ns
-            vehicle.trail.add(stamp_ns, position[0], position[1])
+            vehicle.trail.add(stamp_ns, position[0], position[1], self.trail_epoch_ns)
 
     def _enu(self, fixes: list[tuple[float, float, float]]) -> np.ndarray:
         lat, lon, alt = np.array(fixes, dtype=np.float64).T
@@ -243,7 +247,7 @@ class Picture:
         if target.track is not None and track.stamp_ns - target.track.stamp_ns > self.track_stale_ns:
             target.track_trail = _Trail()  # a new track under the id of one that left the map: a trail of its own
         target.track = track
-        target.track_trail.add(track.stamp_ns, track.state[0], track.state[1])
+        target.track_trail.add(track.stamp_ns, track.state[0], track.state[1], self.trail_epoch_ns)
         if not self._score(target, track):
             target.unscored.append(track)
 
@@ -254,7 +258,7 @@ class Picture:
             del target.truth_at[min(target.truth_at)]
         if target.truth is None or truth.stamp_ns >= target.truth.stamp_ns:
             target.truth = truth
-            target.truth_trail.add(truth.stamp_ns, *truth.position_enu_m)
+            target.truth_trail.add(truth.stamp_ns, *truth.position_enu_m, self.trail_epoch_ns)
         for track in [t for t in target.unscored if abs(t.stamp_ns - truth.stamp_ns) <= self.tolerance_ns]:
             target.unscored.remove(track)
             self._score(target, track)
@@ -329,8 +333,8 @@ class Picture:
                 if t.scored:
                     errors[target_id] = {"rmse_m": round(math.sqrt(t.squares / t.scored), 2), "scored": t.scored,
                                          "last_error_m": round(t.last_error_m, 2)}
-            document = {"mode": self.mode, "stamp_ns": self.newest_ns, "vehicles": vehicles, "tracks": tracks,
-                        "truth": truths}
+            document = {"mode": self.mode, "stamp_ns": self.newest_ns, "trail_epoch_ns": self.trail_epoch_ns,
+                        "vehicles": vehicles, "tracks": tracks, "truth": truths}
             counters = dict(status.counters) if status is not None else {}
             counters.update(self.counters)
             summary = {

@@ -194,7 +194,7 @@ TRAILS = """JSON.stringify((() => {
   const onScreen = (e, x, y) => { const p = new DOMPoint(x, y).matrixTransform(e.getScreenCTM()); return [p.x, p.y]; };
   const layer = document.getElementById('layer-trails');
   return {
-    newest_s: state.tracks.stamp_ns / 1e9,
+    newest_s: (state.tracks.stamp_ns - state.tracks.trail_epoch_ns) / 1e9,
     bands: [...layer.querySelectorAll('polyline.trail')].map((e) => ({
       vehicle: e.parentNode.id.replace('trail-', ''), age_s: Number(e.dataset.ageS), colour: e.getAttribute('stroke'),
       points: e.getAttribute('points').split(' ').map((p) => onScreen(e, ...p.split(',').map(Number)))})),

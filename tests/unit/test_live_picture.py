@@ -110,7 +110,11 @@ def test_trails_take_one_point_per_trail_step_of_stamp_time() -> None:
     for k in range(20):  # five reports per trail step
         picture.observe(_report("uav2", T0 + k * step // 5, (float(k), 0.0, 200.0)))
     trail = _vehicle(_snapshot(picture)[0], "uav2")["trail"]
-    assert trail == [[float(k), 0.0, (T0 + k * step // 5) / NS] for k in range(0, 20, 5)]  # [x, y, stamp in s]
+    assert trail == [[float(k), 0.0, k // 5] for k in range(0, 20, 5)]  # [x, y, whole s from the first stamp]
+    picture.observe(_report("uav1", T0 - NS, (0.0, 0.0, 200.0)))  # older than the first: the trails' epoch stays
+    tracks, _ = _snapshot(picture)
+    assert tracks["trail_epoch_ns"] == T0 and _vehicle(tracks, "uav2")["trail"] == trail
+    assert _vehicle(tracks, "uav1")["trail"] == [[0.0, 0.0, -1.0]]
 
 
 def test_track_prediction_plan_and_truth_with_the_rmse_of_matched_stamps() -> None:
@@ -128,7 +132,7 @@ def test_track_prediction_plan_and_truth_with_the_rmse_of_matched_stamps() -> No
     assert (track["x"], track["y"], track["seq"]) == (110.0, 100.0, 2)
     assert (track["ellipse"]["rx"], track["ellipse"]["ry"]) == (20.0, 10.0)  # 2 sigma of 10 m and 5 m
     assert [p["x"] for p in track["prediction"]] == [111.0, 112.0, 113.0]
-    assert track["trail"] == [[103.0, 104.0, T0 / NS], [110.0, 100.0, T0 / NS + 1]]
+    assert track["trail"] == [[103.0, 104.0, 0.0], [110.0, 100.0, 1.0]]  # the truth came first, at T0
     assert tracks["truth"][0]["x"] == 98.0
     assert math.isclose(status["rmse_m"], math.sqrt((5.0**2 + 12.0**2) / 2), abs_tol=0.01)
     assert status["errors"]["target"]["scored"] == 2
@@ -178,7 +182,7 @@ def test_gps_fixes_place_the_vehicle_and_its_trail_in_enu() -> None:
         picture.observe(NavReport(vehicle_id="uav3", seq=k + 1, stamp_ns=T0 + k * NS // 2, gps=gps))
     uav3 = _vehicle(_snapshot(picture)[0], "uav3")
     assert (uav3["x"], uav3["y"], uav3["stamp_ns"]) == (130.0, 50.0, T0 + 3 * NS // 2)  # the newest fix
-    assert uav3["trail"] == [[100.0, 50.0, T0 / NS], [120.0, 50.0, T0 / NS + 1]]  # one point a second of stamp time
+    assert uav3["trail"] == [[100.0, 50.0, 0.0], [120.0, 50.0, 1.0]]  # one point a second of stamp time
 
 
 def test_a_track_no_longer_published_leaves_the_map_and_one_still_published_stays() -> None:
@@ -211,7 +215,7 @@ def test_the_staleness_bound_is_inclusive_and_a_track_back_under_its_id_starts_a
     assert [t["target_id"] for t in tracks["truth"]] == ["t2"]  # the truth is drawn as before
     picture.observe(_track(T0 + 3 * NS, (50.0, 60.0), target_id="t2"))  # a new track under the old id
     t2 = next(t for t in _snapshot(picture)[0]["tracks"] if t["target_id"] == "t2")
-    assert t2["trail"] == [[50.0, 60.0, T0 / NS + 3]]
+    assert t2["trail"] == [[50.0, 60.0, 3.0]]
 
 
 def test_when_every_track_stops_the_reports_stamps_take_the_last_tracks_off_the_map() -> None:

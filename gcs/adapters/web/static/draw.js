@@ -49,7 +49,7 @@ function drawWorld(world) {
   for (const v of world.vehicles) vehicleColour(v.id);
 }
 
-// A trail ([x, y, t] oldest first, t its stamp in s) as polylines of TRAIL_BANDS ages over the chosen trail time:
+// A trail ([x, y, t] oldest first, t its stamp in s from the trails' epoch) as polylines of TRAIL_BANDS ages over the chosen trail time:
 // the newest band opaque, each older one a tenth fainter; points older than the trail time are not drawn.
 function fadingTrail(cls, points, newestS, attrs) {
   const band = state.trailS / TRAIL_BANDS, out = [];
@@ -84,13 +84,14 @@ function ellipse(cls, x, y, e, extra) {
 function render() {
   const tracks = state.tracks;
   if (!tracks || !state.view) return;
-  const unit = metresPerPixel(), newestS = tracks.stamp_ns / 1e9;
+  const unit = metresPerPixel(), seconds = (ns) => (ns - tracks.trail_epoch_ns) / 1e9;  // trail time, as the points'
+  const newestS = seconds(tracks.stamp_ns);
   const labelItems = [], marks = [];
 
   const truth = [];
   for (const t of tracks.truth) {
     const s = 6 * unit;
-    truth.push(fadingTrail("truth-trail", [...t.trail, [t.x, t.y, t.stamp_ns / 1e9]], newestS, ""));
+    truth.push(fadingTrail("truth-trail", [...t.trail, [t.x, t.y, seconds(t.stamp_ns)]], newestS, ""));
     truth.push(`<g id="truth-${esc(t.target_id)}" class="truth" data-x="${t.x}" data-y="${t.y}" data-stamp="${t.stamp_ns}">` +
       `<path class="truth-mark" d="M${t.x - s},${-t.y - s}L${t.x + s},${-t.y + s}M${t.x - s},${-t.y + s}L${t.x + s},${-t.y - s}"/></g>`);
     marks.push({ x: t.x, y: -t.y, r: MARK_PX.truth });
@@ -101,7 +102,7 @@ function render() {
   for (const v of tracks.vehicles) {
     const c = vehicleColour(v.id), id = esc(v.id);
     if (v.plan.length) plans.push(`<polyline id="plan-${id}" class="plan" stroke="${c}" data-points="${v.plan.length}" points="${pts(v.plan)}"/>`);
-    const here = v.x === null ? [] : [[v.x, v.y, v.stamp_ns / 1e9]];
+    const here = v.x === null ? [] : [[v.x, v.y, seconds(v.stamp_ns)]];
     trails.push(`<g id="trail-${id}" class="trail-of" data-points="${v.trail.length}">` +
       fadingTrail("trail", [...v.trail, ...here], newestS, `stroke="${c}"`) + "</g>");
     if (v.x === null) continue;
@@ -122,7 +123,7 @@ function render() {
   const paths = [], dots = [];  // every trail and prediction under every track's ellipse and dot
   for (const t of tracks.tracks) {
     const id = esc(t.target_id);
-    paths.push(fadingTrail("track-trail", [...t.trail, [t.x, t.y, t.stamp_ns / 1e9]], newestS, `data-target="${id}"`));
+    paths.push(fadingTrail("track-trail", [...t.trail, [t.x, t.y, seconds(t.stamp_ns)]], newestS, `data-target="${id}"`));
     if (t.prediction.length) {
       paths.push(`<polyline id="prediction-${id}" class="prediction" data-points="${t.prediction.length}" points="${pts([[t.x, t.y], ...t.prediction.map((p) => [p.x, p.y])])}"/>`);
       for (const p of t.prediction) paths.push(ellipse("prediction-ellipse", p.x, p.y, p.ellipse));
