@@ -28,13 +28,12 @@ import threading
 from collections import deque
 from dataclasses import dataclass, field
 
-import msgspec
 import numpy as np
 
 from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
 from gcs.core.world import World
-from gcs.daemon.picture_geometry import ellipse, world_geometry
+from gcs.daemon.picture_geometry import TRAIL_POINTS, TRAIL_STEP_S, Trail, ellipse, world_geometry
 from gcs.daemon.picture_geometry import rounded as _r
 from protocols.codec import decode
 from protocols.errors import ProtocolError
@@ -44,10 +43,6 @@ from protocols.messages import (DaemonStatus, Message, NavReport, PlanCommand, S
 __all__ = ["Picture", "TRACK_STALE_STEPS", "TRAIL_POINTS", "TRAIL_STEP_S"]
 
 NS_PER_S = 1_000_000_000
-TRAIL_POINTS = 600
-"""Points kept per trail (ten minutes at one a second; the page fades and drops the older ones, ``docs/live_map.md``)."""
-TRAIL_STEP_S = 1.0
-"""A trail takes a point at most once per this many seconds of stamp time."""
 MAX_VEHICLES = 1000
 """Vehicles tracked for the page; ids beyond these are counted, not drawn (bounded memory)."""
 LOST_AFTER_S = 5.0
@@ -57,39 +52,6 @@ TRACK_STALE_STEPS = 2.5
 steps (the scenario's ``time.step_s``) older than the newest stamp the picture has seen: a track is published
 every step while the tracker keeps it, so one that misses two steps and a half has been deleted (and when every
 track has been, the reports' stamps go on)."""
-
-
-class _Trail:
-    """The last :data:`TRAIL_POINTS` positions, at most one per :data:`TRAIL_STEP_S` of stamp time, each
-    ``[x, y, t]`` with ``t`` its stamp in whole seconds from the picture's ``trail_epoch_ns``: the page fades a
-    trail by age in bands of 3 s or more, and a decimal more would make a snapshot a tenth larger.
-
-    A trail changes once a second at most but is sent five times a second: each
-    point is kept as its JSON text, and the trail's JSON array (:meth:`encoded`)
-    is joined from them when it has changed (600 points: tens of microseconds,
-    where encoding the floats again takes a fifth of a millisecond).
-    """
-
-    def __init__(self) -> None:
-        self.points: deque[bytes] = deque(maxlen=TRAIL_POINTS)
-        self.last_ns: int | None = None
-        self._encoded: msgspec.Raw | None = None
-
-    def due(self, stamp_ns: int) -> bool:
-        """Whether a position at ``stamp_ns`` would be taken."""
-        return self.last_ns is None or stamp_ns - self.last_ns >= TRAIL_STEP_S * NS_PER_S or stamp_ns < self.last_ns
-
-    def add(self, stamp_ns: int, x: float, y: float, epoch_ns: int) -> None:
-        if self.due(stamp_ns):
-            self.points.append(msgspec.json.encode((_r(x), _r(y), round((stamp_ns - epoch_ns) / NS_PER_S))))
-            self.last_ns = stamp_ns
-            self._encoded = None
-
-    def encoded(self) -> msgspec.Raw:
-        """The points as a JSON array of ``[x, y, t]`` (embedded as is by :func:`~gcs.daemon.picture_geometry.encode_json`)."""
-        if self._encoded is None:
-            self._encoded = msgspec.Raw(b"[" + b",".join(self.points) + b"]")
-        return self._encoded
 
 
 @dataclass
@@ -104,7 +66,7 @@ class _Vehicle:
     reports: int = 0
     token: bool | None = None
     plan: PlanCommand | None = None
-    trail: _Trail = field(default_factory=_Trail)
+    trail: Trail = field(default_factory=Trail)
 
 
 @dataclass
@@ -113,8 +75,8 @@ class _Target:
 
     track: TrackEstimate | None = None
     truth: TargetTruth | None = None
-    track_trail: _Trail = field(default_factory=_Trail)
-    truth_trail: _Trail = field(default_factory=_Trail)
+    track_trail: Trail = field(default_factory=Trail)
+    truth_trail: Trail = field(default_factory=Trail)
     truth_at: dict[int, tuple[float, float]] = field(default_factory=dict)
     unscored: deque = field(default_factory=lambda: deque(maxlen=16))
     squares: float = 0.0
@@ -245,7 +207,7 @@ class Picture:
         if target.track is not None and track.stamp_ns < target.track.stamp_ns:
             return
         if target.track is not None and track.stamp_ns - target.track.stamp_ns > self.track_stale_ns:
-            target.track_trail = _Trail()  # a new track under the id of one that left the map: a trail of its own
+            target.track_trail = Trail()  # a new track under the id of one that left the map: a trail of its own
         target.track = track
         target.track_trail.add(track.stamp_ns, track.state[0], track.state[1], self.trail_epoch_ns)
         if not self._score(target, track):

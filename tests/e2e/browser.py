@@ -30,7 +30,7 @@ import pytest
 from PIL import Image  # Pillow, a dependency of matplotlib (the project's own dependency)
 
 __all__ = ["chromium_binary", "Browser", "ARTIFACTS", "PAGE_GEOMETRY", "page_geometry", "settled", "rgb", "matching", "inside",
-           "followed", "assert_colours_as_the_legend"]
+           "followed", "assert_colours_as_the_legend", "assert_labels_apart"]
 
 BINARIES = ("chromium-headless-shell", "chromium", "chromium-browser")
 PACKAGE = "chromium-headless-shell"
@@ -282,3 +282,19 @@ def assert_colours_as_the_legend(geometry: dict, pixels: np.ndarray) -> None:
     for t in geometry["tracks"]:
         assert np.linalg.norm(rgb(geometry["track_dot"]) - others["track"]) < 1
         assert matching(pixels, t["at"], 6, others["track"], 30) >= 10, t
+
+
+def _overlap(a: dict, b: dict) -> bool:
+    return a["x"] < b["x"] + b["w"] and b["x"] < a["x"] + a["w"] and a["y"] < b["y"] + b["h"] and b["y"] < a["y"] + a["h"]
+
+
+def assert_labels_apart(geometry: dict) -> None:
+    """Every label's box on screen (each vehicle's and track's) meets no other label's and no mark's (a vehicle's
+    arrow, a track's dot, a truth's cross)."""
+    boxes = [label["box"] for label in geometry["labels"]]
+    assert len(boxes) == len(geometry["vehicles"]) + len(geometry["tracks"]), geometry["labels"]
+    assert all(b["w"] > 5 and b["h"] > 5 for b in boxes), boxes
+    assert not any(_overlap(a, b) for i, a in enumerate(boxes) for b in boxes[i + 1:]), boxes
+    marks = [v["body"] for v in geometry["vehicles"]] + [t["dot"] for t in geometry["tracks"]] + \
+        [t["mark"] for t in geometry["truths"]]
+    assert not any(_overlap(box, mark) for box in boxes for mark in marks), (boxes, marks)

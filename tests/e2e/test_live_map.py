@@ -23,8 +23,8 @@ import pytest
 from gcs.config.world import build_world
 from gcs.engine.tracking import horizon_steps
 from gcs.scenarios import load_scenario
-from tests.e2e.browser import (ARTIFACTS, Browser, assert_colours_as_the_legend, chromium_binary, followed, inside,
-                               settled)
+from tests.e2e.browser import (ARTIFACTS, Browser, assert_colours_as_the_legend, assert_labels_apart, chromium_binary,
+                               followed, inside, settled)
 from tests.e2e.processes import script
 from tests.recordings import run_recording
 
@@ -177,6 +177,7 @@ def test_demo_page_draws_the_city_vehicles_plans_and_track_and_they_move(tmp_pat
     assert all(inside(framed["shown"], x, y, 0.03) for x, y in followed(framed)), framed
     assert sorted(framed["legend"]) == ["uav1", "uav2", "uav3"]
     assert_colours_as_the_legend(framed, pixels)
+    assert_labels_apart(framed)
     assert "steps 40;" in stdout
 
 

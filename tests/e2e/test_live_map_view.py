@@ -27,8 +27,8 @@ from protocols.codec import encode
 from protocols.keys import alive_key, nav_key, plan_key, report_key, track_key, truth_key
 from protocols.messages import NavReport, PlanCommand, PredictedPoint, TargetTruth, TrackEstimate
 from protocols.sensor_report import Measurement, SensorReport
-from tests.e2e.browser import (ARTIFACTS, Browser, assert_colours_as_the_legend, chromium_binary, followed, inside,
-                               page_geometry, rgb, settled)
+from tests.e2e.browser import (ARTIFACTS, Browser, assert_colours_as_the_legend, assert_labels_apart, chromium_binary,
+                               followed, inside, page_geometry, rgb, settled)
 from tests.e2e.processes import script
 from tests.e2e.test_live_map import _Command
 
@@ -256,10 +256,6 @@ def test_trails_fade_with_age_and_are_gone_past_the_trail_time(at_the_end) -> No
         assert np.abs(drawn[cy - 1:cy + 2, cx - 1:cx + 2] - bare[cy - 1:cy + 2, cx - 1:cx + 2]).max() <= 3, (x, y)
 
 
-def _overlap(a: dict, b: dict) -> bool:
-    return a["x"] < b["x"] + b["w"] and b["x"] < a["x"] + a["w"] and a["y"] < b["y"] + b["h"] and b["y"] < a["y"] + a["h"]
-
-
 def test_labels_stay_apart_when_a_vehicle_is_right_above_the_target(at_the_end) -> None:
     end = page_geometry(at_the_end)
     at_the_end.pixels(ARTIFACTS / "live_map_view_labels.png")
@@ -269,11 +265,7 @@ def test_labels_stay_apart_when_a_vehicle_is_right_above_the_target(at_the_end) 
     labels = {label["for"]: label for label in end["labels"]}
     assert sorted(labels) == ["track-target", "vehicle-uav1", "vehicle-uav2", "vehicle-uav3"]
     assert all(labels[f"vehicle-{k}"]["text"] == k for k in vehicles) and labels["track-target"]["text"] == "target"
-    boxes = [label["box"] for label in end["labels"]]
-    assert all(b["w"] > 5 and b["h"] > 5 for b in boxes)
-    assert not any(_overlap(a, b) for i, a in enumerate(boxes) for b in boxes[i + 1:]), boxes  # labels apart
-    marks = [v["body"] for v in end["vehicles"]] + [track["dot"]] + [t["mark"] for t in end["truths"]]
-    assert not any(_overlap(box, mark) for box in boxes for mark in marks), (boxes, marks)  # and off every mark
+    assert_labels_apart(end)
     anchors = {f"vehicle-{k}": v["at"] for k, v in vehicles.items()} | {"track-target": track["at"]}
     for key, label in labels.items():  # each beside what it names
         box, (ax, ay) = label["box"], anchors[key]
