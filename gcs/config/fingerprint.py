@@ -25,7 +25,14 @@ FINGERPRINT_DIGITS = 16
 """Hex digits kept of the SHA-256 (64 bits: two different scenarios share one with odds of 1 in 2**64)."""
 
 
+def _plain(value: object) -> object:
+    """A NumPy scalar (a scenario built in code may hold one) as the Python number it equals."""
+    if hasattr(value, "item"):
+        return value.item()
+    raise TypeError(f"a scenario holds a {type(value).__name__}, which has no JSON form")
+
+
 def scenario_fingerprint(scenario: Scenario) -> str:
     """The fingerprint of ``scenario``'s settings; see the module docstring."""
-    canonical = msgspec.json.encode(scenario, order="sorted")
+    canonical = msgspec.json.encode(scenario, order="sorted", enc_hook=_plain)
     return hashlib.sha256(canonical).hexdigest()[:FINGERPRINT_DIGITS]

@@ -5,6 +5,8 @@ from __future__ import annotations
 import re
 from importlib import resources
 
+import msgspec
+import numpy as np
 import pytest
 
 from gcs.config.fingerprint import FINGERPRINT_DIGITS, scenario_fingerprint
@@ -47,3 +49,9 @@ def test_every_shipped_scenario_has_its_own_and_it_fits_the_wire() -> None:
     for name, fingerprint in prints.items():
         announcement = VehicleScenario(vehicle_id="uav1", stamp_ns=0, scenario=name, fingerprint=fingerprint)
         assert decode(*encode(announcement)) == announcement
+
+
+def test_a_scenario_built_in_code_with_numpy_numbers_has_the_fingerprint_of_its_values() -> None:
+    scenario = load_scenario("wang2012_urban")
+    vehicles = [msgspec.structs.replace(v, speed_mps=np.float64(v.speed_mps)) for v in scenario.vehicles]
+    assert scenario_fingerprint(msgspec.structs.replace(scenario, vehicles=vehicles)) == scenario_fingerprint(scenario)
