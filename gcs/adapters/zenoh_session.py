@@ -192,15 +192,17 @@ def publish(publisher: zenoh.Publisher, message: Message) -> int:
     return len(payload)
 
 
-def add_zenoh_arguments(parser, listen: Sequence[str], connect: Sequence[str], mode: str = "peer") -> None:
+def add_zenoh_arguments(parser, listen: Sequence[str], connect: Sequence[str], mode: str = "peer",
+                        mode_help: str | None = None) -> None:
     """``--zenoh-config``, ``--zenoh-mode``, ``--zenoh-listen``, ``--zenoh-connect`` and ``--prefix`` with
-    these defaults (used where neither an option nor the configuration file gives a value)."""
+    these defaults (used where neither an option nor the configuration file gives a value); ``mode_help``
+    says what the default mode is, when more than its name does."""
     parser.add_argument("--zenoh-config", metavar="FILE",
                         help="zenoh configuration file (JSON5, zenoh's format), e.g. for user/password "
                              "authentication or TLS; the options below override its mode and endpoints")
     parser.add_argument("--zenoh-mode", choices=["peer", "client", "none"], default=None,
                         help="zenoh session mode; 'none' opens no session (default: the configuration file's, "
-                             f"else {mode})")
+                             f"else {mode_help or mode})")
     parser.add_argument("--zenoh-listen", action="append", default=None, metavar="ENDPOINT",
                         help=f"endpoint to listen on, repeatable (default {', '.join(listen) or 'none'})")
     parser.add_argument("--zenoh-connect", action="append", default=None, metavar="ENDPOINT",

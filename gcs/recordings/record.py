@@ -70,7 +70,8 @@ def add_record(sub: argparse._SubParsersAction) -> None:
     parser.add_argument("--duration", type=float, default=None, metavar="S", help="stop after S wall seconds")
     parser.add_argument("--allow-empty", action="store_true",
                         help="exit 0 even when no vehicle report was recorded (default: a warning and exit status 1)")
-    add_zenoh_arguments(parser, listen=(), connect=(DEFAULT_ENDPOINT,), mode="client")
+    add_zenoh_arguments(parser, listen=(), connect=(DEFAULT_ENDPOINT,), mode="client",
+                        mode_help="client, or router where it listens")
     set_command(parser, _cmd_record, check_record)
 
 

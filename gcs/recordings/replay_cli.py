@@ -38,7 +38,7 @@ def add_replay(sub: argparse._SubParsersAction) -> None:
                                         "any vehicle report is an error (exit status 1).")
     parser.add_argument("file", type=Path, metavar="FILE.mcap")
     mode = parser.add_mutually_exclusive_group()
-    mode.add_argument("--info", action="store_true", help="print channels, counts, duration and vehicles")
+    mode.add_argument("--info", action="store_true", help="print channels, counts, duration, vehicles and scenario")
     mode.add_argument("--process", action="store_true",
                       help="run the estimator on the file, without Zenoh, and print how many tracks it gave and its "
                            "counters (and the error against the recorded truth); --out writes the tracks, without "
