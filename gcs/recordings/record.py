@@ -53,6 +53,8 @@ log = logging.getLogger(__name__)
 
 QUIET_NOTICE_S = 3.0
 """Wall seconds without any vehicle message before the recorder says where it waits for them."""
+MAX_CACHED_KEYS = 4096
+"""Keys whose kind the recorder remembers (a few per vehicle)."""
 
 
 def add_record(sub: argparse._SubParsersAction) -> None:
@@ -109,18 +111,23 @@ def check_record(args: argparse.Namespace) -> RecordSettings:
 def _open(where: RecordSettings) -> tuple[zenoh.Session, ZenohSettings]:
     """The session, and the settings it was opened with: with ``find``, a client of whoever listens on the
     endpoint, else a router listening there."""
+    endpoints = ", ".join(where.zenoh.connect)
     try:
         return open_session(where.zenoh), where.zenoh
     except RuntimeError as error:
+        joining = clean_error(error.__cause__ or error)
         if not where.find and where.zenoh.mode == "client":
             raise RuntimeError(
-                f"nobody answers on {', '.join(where.zenoh.connect)} ({clean_error(error.__cause__ or error)}): start "
-                f"gcs run or gcs router there first; without --zenoh-connect, gcs record listens on {DEFAULT_ENDPOINT} "
-                "itself when nobody is there") from error
+                f"nobody answers on {endpoints} ({joining}): start gcs run or gcs router there first; without "
+                f"--zenoh-connect, gcs record listens on {DEFAULT_ENDPOINT} itself when nobody is there") from error
         if not where.find:
             raise
     meeting = replace(where.zenoh, mode="router", listen=tuple(where.zenoh.connect), connect=())
-    return open_session(meeting), meeting
+    try:
+        return open_session(meeting), meeting
+    except RuntimeError as error:
+        raise RuntimeError(f"cannot join {endpoints} ({joining}) nor listen there "
+                           f"({clean_error(error.__cause__ or error)})") from error
 
 
 @dataclass
@@ -151,7 +158,8 @@ class _Tally:
                 kind = (parsed.kind, parsed.ident)
             except ProtocolError:
                 kind = (None, None)
-            self._kinds[key] = kind
+            if len(self._kinds) < MAX_CACHED_KEYS:  # a flood of made-up keys cannot grow it beyond this
+                self._kinds[key] = kind
         return kind
 
     def see(self, key: str, payload: bytes | bool, encoding: str | None) -> None:

@@ -3,7 +3,8 @@
 The command finds it on ``tcp/127.0.0.1:7447``; these tests give it a port the system
 chose instead (bound on port 0, read back, let go), so that they never meet anything
 else on this machine: nobody listening there (it listens, a router, and the vehicles
-and a daemon that joins it hear each other through it), or somebody (it joins).
+and a daemon that joins it hear each other through it), somebody (it joins), or a port
+another program holds (it says it could do neither).
 """
 
 from __future__ import annotations
@@ -15,13 +16,15 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 
+import pytest
+
 from gcs.adapters.recording import read_recording
 from gcs.adapters.zenoh_session import ZenohSettings, listening_endpoints, open_session
 from gcs.recordings.record import Recording, RecordSettings, record
 from protocols.keys import reports_selector
 from sim_vehicles.run_options import RunOptions
 from tests.integration.sim_harness import SCENARIO, running_vehicles, wait_until
-from tests.loopback import ANY_PORT_ENDPOINT, LOCALHOST
+from tests.loopback import ANY_PORT_ENDPOINT, LOCALHOST, silent_port
 
 VEHICLES = [v.id for v in SCENARIO.vehicles]
 
@@ -93,3 +96,11 @@ def test_with_somebody_there_it_joins_as_a_client_and_hears_what_reaches_them(tm
                 reports = sum(runner.summary.reports.values())
     (recording,) = held
     assert reports == 30 and recording.reports == reports and sorted(recording.vehicles) == VEHICLES
+
+
+def test_where_it_can_neither_join_nor_listen_it_says_both(tmp_path) -> None:
+    with silent_port() as port:  # bound by another program, never listened on: refused, and taken
+        endpoint = f"tcp/{LOCALHOST}:{port}"
+        where = RecordSettings(ZenohSettings(mode="client", connect=(endpoint,)), find=True)
+        with pytest.raises(RuntimeError, match=rf"cannot join {endpoint} \(.+\) nor listen there \(.+\)"):
+            record(where, "gcs", tmp_path / "none.mcap", threading.Event())
