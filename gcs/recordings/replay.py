@@ -3,9 +3,9 @@ processed, or fed back (the command line is :mod:`gcs.recordings.replay_cli`).
 
 * ``gcs replay FILE --info`` summarises channels, counts, duration, vehicles and scenario.
 * ``gcs replay FILE [--rate R | --fast]`` republishes the recorded inputs
-  (reports, nav, truth, the vehicles' scenario announcements; liveliness as tokens) so that a running
-  daemon consumes
-  them, keeping their recorded spacing divided by ``R``, or as fast as possible.
+  (reports, nav, truth, the vehicles' scenario announcements; liveliness as tokens) so that a
+  running daemon consumes them, keeping their recorded spacing divided by ``R``, or as fast as
+  possible.
 * ``gcs replay FILE --view [--rate R] [--http ADDRESS]`` shows it on the live map
   with play/pause and speed (:mod:`gcs.recordings.replay_view`); ``--foxglove-mcap OUT``
   converts it to an MCAP file of Foxglove's map schemas.
