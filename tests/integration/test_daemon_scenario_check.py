@@ -39,4 +39,5 @@ def test_vehicles_of_another_scenario_are_named_once_beside_the_daemons_own(capl
     assert vehicle in {v.id for v in SCENARIO.vehicles}
     assert warnings[0] == (f"vehicle {vehicle} flies scenario wang2012_urban (fingerprint "
                            f"{scenario_fingerprint(SCENARIO)}), but this daemon runs downtown_dense (fingerprint "
-                           f"{scenario_fingerprint(OTHER)}): start the daemon and the vehicles with the same --scenario")
+                           f"{scenario_fingerprint(OTHER)}): start the daemon and the vehicles with the same "
+                           "--scenario")

@@ -1,4 +1,5 @@
-"""Where ``gcs record`` goes: a client where it joins, a router where it listens, the traffic found without endpoints."""
+"""Where ``gcs record`` goes: a client where it joins, a router where it listens, the traffic found without
+endpoints."""
 
 from __future__ import annotations
 
