@@ -163,7 +163,7 @@ class Daemon:
                 self.counters["errors.live_map_open"] += 1
                 log.error("live map off: %s", error)
         if self.options.record is not None:
-            self.recorder = Recorder(self.options.record, library=f"gcs {__version__}")
+            self.recorder = Recorder(self.options.record, library=f"gcs {__version__}", scenario=self.scenario)
         self.zenoh.open()
         if self.options.mavlink is not None:
             self.commander = MavlinkCommander(

@@ -5,6 +5,7 @@ Imports only the standard library and msgspec; no numpy, no I/O, no Zenoh.
 - :mod:`protocols.messages`: frozen msgspec Structs (frames and units documented there);
   :mod:`protocols.sensor_report` holds the sensor's report of its detections and
   :mod:`protocols.legacy` the earlier versions still read;
+  :mod:`protocols.vehicle_scenario` the scenario a vehicle announces;
   :mod:`protocols.status` holds the daemon's health (its vehicles and tracks) and
   :mod:`protocols.base` their common base.
 - :mod:`protocols.keys`: the Zenoh key space, builders, selectors and :func:`parse_key`.
@@ -37,6 +38,8 @@ from protocols.keys import (
     plans_selector,
     report_key,
     reports_selector,
+    scenario_key,
+    scenarios_selector,
     status_key,
     track_key,
     tracks_selector,
@@ -61,6 +64,7 @@ from protocols.messages import (
     TargetTruth,
     TrackEstimate,
     TrackSummary,
+    VehicleScenario,
     VehicleStatus,
 )
 
@@ -87,6 +91,7 @@ __all__ = [
     "TargetTruth",
     "TrackEstimate",
     "TrackSummary",
+    "VehicleScenario",
     "VehicleStatus",
     "alive_key",
     "alive_selector",
@@ -102,6 +107,8 @@ __all__ = [
     "plans_selector",
     "report_key",
     "reports_selector",
+    "scenario_key",
+    "scenarios_selector",
     "status_key",
     "track_key",
     "tracks_selector",

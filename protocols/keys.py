@@ -5,6 +5,7 @@ Key space (``<prefix>`` defaults to ``gcs``)::
     <prefix>/vehicle/<vehicle_id>/report   SensorReport      vehicle -> daemon
     <prefix>/vehicle/<vehicle_id>/nav      NavReport         vehicle -> daemon
     <prefix>/vehicle/<vehicle_id>/alive    liveliness token  (no payload)
+    <prefix>/vehicle/<vehicle_id>/scenario VehicleScenario   vehicle -> daemon, recorder
     <prefix>/track/<target_id>             TrackEstimate     daemon, published and queryable
     <prefix>/plan/<vehicle_id>             PlanCommand       daemon
     <prefix>/daemon/status                 DaemonStatus      daemon, published and queryable
@@ -35,6 +36,7 @@ from protocols.messages import (
     SensorReport,
     TargetTruth,
     TrackEstimate,
+    VehicleScenario,
 )
 
 __all__ = [
@@ -52,6 +54,8 @@ __all__ = [
     "plans_selector",
     "report_key",
     "reports_selector",
+    "scenario_key",
+    "scenarios_selector",
     "status_key",
     "track_key",
     "tracks_selector",
@@ -63,14 +67,15 @@ __all__ = [
 
 DEFAULT_PREFIX = "gcs"
 
-KeyKind = Literal["report", "nav", "alive", "track", "plan", "status", "truth"]
-KEY_KINDS: tuple[str, ...] = ("report", "nav", "alive", "track", "plan", "status", "truth")
+KeyKind = Literal["report", "nav", "alive", "scenario", "track", "plan", "status", "truth"]
+KEY_KINDS: tuple[str, ...] = ("report", "nav", "alive", "scenario", "track", "plan", "status", "truth")
 
 #: Message type carried on each kind of key (``alive`` is a liveliness token: no payload).
 MESSAGE_TYPE_BY_KIND: Mapping[str, type[Message]] = MappingProxyType(
     {
         "report": SensorReport,
         "nav": NavReport,
+        "scenario": VehicleScenario,
         "track": TrackEstimate,
         "plan": PlanCommand,
         "status": DaemonStatus,
@@ -80,7 +85,7 @@ MESSAGE_TYPE_BY_KIND: Mapping[str, type[Message]] = MappingProxyType(
 
 _ID_RE = re.compile(ID_REGEX)
 _PREFIX_RE = re.compile(r"[A-Za-z0-9_-]+(?:/[A-Za-z0-9_-]+)*")
-_VEHICLE_KINDS = {"report", "nav", "alive"}
+_VEHICLE_KINDS = {"report", "nav", "alive", "scenario"}
 
 
 @dataclass(frozen=True)
@@ -90,9 +95,10 @@ class ParsedKey:
     Attributes
     ----------
     kind : str
-        One of ``"report"``, ``"nav"``, ``"alive"``, ``"track"``, ``"plan"``, ``"status"``, ``"truth"``.
+        One of ``"report"``, ``"nav"``, ``"alive"``, ``"scenario"``, ``"track"``, ``"plan"``, ``"status"``,
+        ``"truth"``.
     ident : str or None
-        The vehicle id (report, nav, alive, plan), the target id (track, truth), or None
+        The vehicle id (report, nav, alive, scenario, plan), the target id (track, truth), or None
         (status).
     """
 
@@ -159,6 +165,11 @@ def alive_key(vehicle_id: str, prefix: str = DEFAULT_PREFIX) -> str:
     return _vehicle_key(vehicle_id, "alive", prefix)
 
 
+def scenario_key(vehicle_id: str, prefix: str = DEFAULT_PREFIX) -> str:
+    """Key of the scenario one vehicle announces: ``<prefix>/vehicle/<id>/scenario``."""
+    return _vehicle_key(vehicle_id, "scenario", prefix)
+
+
 def track_key(target_id: str, prefix: str = DEFAULT_PREFIX) -> str:
     """Key of one target's track: ``<prefix>/track/<target_id>``."""
     return f"{validate_prefix(prefix)}/track/{validate_id(target_id, 'target_id')}"
@@ -197,6 +208,11 @@ def navs_selector(prefix: str = DEFAULT_PREFIX) -> str:
 def alive_selector(prefix: str = DEFAULT_PREFIX) -> str:
     """Selector for every vehicle's liveliness token: ``<prefix>/vehicle/*/alive``."""
     return f"{validate_prefix(prefix)}/vehicle/*/alive"
+
+
+def scenarios_selector(prefix: str = DEFAULT_PREFIX) -> str:
+    """Selector for every vehicle's scenario announcement: ``<prefix>/vehicle/*/scenario``."""
+    return f"{validate_prefix(prefix)}/vehicle/*/scenario"
 
 
 def tracks_selector(prefix: str = DEFAULT_PREFIX) -> str:
@@ -249,6 +265,6 @@ def parse_key(key: str, prefix: str = DEFAULT_PREFIX) -> ParsedKey:
         return ParsedKey(kind="truth", ident=validate_id(parts[2], "target_id"))
     raise ProtocolError(
         f"key {key!r} is not in the key space under prefix {prefix!r} (expected "
-        "vehicle/<id>/report|nav|alive, track/<id>, plan/<id>, daemon/status or sim/truth/<id>)",
+        "vehicle/<id>/report|nav|alive|scenario, track/<id>, plan/<id>, daemon/status or sim/truth/<id>)",
         reason="key",
     )

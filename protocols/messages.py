@@ -25,8 +25,9 @@ Versions
 --------
 Every message type has a class-level ``VERSION`` (a ``ClassVar``, ignored by msgspec);
 it travels in the Zenoh encoding ``application/json;gcs.<TypeName>/<VERSION>``.
-``SensorReport`` and its ``Measurement`` live in :mod:`protocols.sensor_report`; the
-earlier versions still read are in :mod:`protocols.legacy`.
+``SensorReport`` and its ``Measurement`` live in :mod:`protocols.sensor_report`, a vehicle's
+scenario announcement in :mod:`protocols.vehicle_scenario`; the earlier versions still read are
+in :mod:`protocols.legacy`.
 """
 
 from __future__ import annotations
@@ -62,6 +63,7 @@ from protocols.fields import (
 )
 from protocols.sensor_report import MAX_DETECTIONS, Measurement, SensorReport
 from protocols.status import DaemonStatus, TrackSummary, VehicleStatus
+from protocols.vehicle_scenario import VehicleScenario
 
 __all__ = [
     "COVARIANCE_SYMMETRY_RTOL",
@@ -81,6 +83,7 @@ __all__ = [
     "TargetTruth",
     "TrackEstimate",
     "TrackSummary",
+    "VehicleScenario",
     "VehicleStatus",
 ]
 
@@ -294,5 +297,5 @@ class TargetTruth(Message, frozen=True, forbid_unknown_fields=True, kw_only=True
 #: Every message type the codec knows, top-level and nested.
 MESSAGE_TYPES: tuple[type[Message], ...] = (
     SensorReport, Measurement, GpsFix, InsIncrement, NavReport, PredictedPoint,
-    TrackEstimate, PlanCommand, VehicleStatus, TrackSummary, DaemonStatus, TargetTruth,
+    TrackEstimate, PlanCommand, VehicleStatus, TrackSummary, DaemonStatus, TargetTruth, VehicleScenario,
 )

@@ -41,7 +41,7 @@ from protocols.errors import ProtocolError
 from protocols.keys import alive_key, validate_prefix
 from sim_vehicles.payload import Liveliness, PayloadBridge, Publication, summary_line
 from sim_vehicles.run_command import add_scenario_argument
-from sim_vehicles.zenoh_out import close_zenoh, declare_vehicle_publishers
+from sim_vehicles.zenoh_out import ScenarioAnnouncer, close_zenoh, declare_vehicle_publishers
 
 __all__ = ["add_payload", "check_payload", "PayloadRunner", "BRIDGE_COMPONENT", "TELEMETRY"]
 
@@ -95,6 +95,7 @@ class PayloadRunner:
         """Set once the links and the Zenoh session are open (tests wait on it)."""
         self._requested: set[str] = set()
         self._start = 0.0
+        self.announcer = ScenarioAnnouncer(bridge.scenario)
 
     def stop(self) -> None:
         """Ask the loop to finish (thread-safe; signal handlers call it)."""
@@ -205,7 +206,10 @@ class PayloadRunner:
                     token.undeclare()
                 self._requested.discard(action.vehicle_id)  # ask again when it comes back
             return
+        announcement = self.announcer.due(action.ident, action.message.stamp_ns) if action.kind == "report" else None
         try:
+            if announcement is not None:
+                publish(self.publishers[(action.ident, "scenario")], announcement)
             publish(self.publishers[(action.ident, action.kind)], action.message)
         except ProtocolError as error:  # a value out of the wire's range must not stop the bridge
             self.counters[f"unpublishable_{action.kind}"] += 1

@@ -9,7 +9,9 @@ Each physics step of simulation time ``dt`` the runner
    SYS_STATUS at 1 Hz, the position/attitude messages each autopilot's stream
    schedule has due (:mod:`sim_vehicles.streams`), ``SensorReport`` (and the
    target's ``TargetTruth``) at ``report_rate_hz`` and ``NavReport`` at
-   ``nav_rate_hz`` (scenario ``[simulation]``);
+   ``nav_rate_hz`` (scenario ``[simulation]``); before a vehicle's report, about
+   once a second, the scenario it flies (``VehicleScenario``,
+   :class:`~sim_vehicles.zenoh_out.ScenarioAnnouncer`);
 3. lets each autopilot run its own loop (:meth:`SimAutopilot.update`), then
    advances the scene under each autopilot's guidance;
 4. sleeps until wall time catches up with ``elapsed / rate``.
@@ -52,7 +54,7 @@ from sim_vehicles.plan_clock import PlanClock
 from sim_vehicles.run_options import RunOptions, RunSummary
 from sim_vehicles.mavlink_endpoint import MavlinkEndpoints
 from sim_vehicles.scene import Scene
-from sim_vehicles.zenoh_out import close_zenoh, declare_vehicle_publishers
+from sim_vehicles.zenoh_out import ScenarioAnnouncer, close_zenoh, declare_vehicle_publishers
 
 __all__ = ["Runner", "DEFAULT_MAVLINK"]
 
@@ -101,6 +103,7 @@ class Runner:
         self.tokens: list = []
         self.peers: PeerClock | None = None
         self.plans: PlanClock | None = None
+        self.announcer = ScenarioAnnouncer(scenario)
         self._report_period_ns = round(NS_PER_S / scenario.simulation.report_rate_hz)
 
     # ------------------------------------------------------------- lifecycle
@@ -142,7 +145,8 @@ class Runner:
                 self.tokens.append(self.session.liveliness().declare_token(alive_key(vehicle.id, self.options.prefix)))
 
     def _wait_for_subscriber(self) -> None:
-        publishers = list(self.publishers.values())
+        # the scenario announcement is not waited for: a ground station that does not know it never subscribes
+        publishers = [p for (_, kind), p in self.publishers.items() if kind != "scenario"]
         if not publishers or self.options.wait_for_subscriber_s <= 0:
             return
         deadline = self.clock() + self.options.wait_for_subscriber_s
@@ -217,6 +221,9 @@ class Runner:
             if reports.due(now):
                 for vehicle_id in scene.vehicles:
                     report = scene.sensor_report(vehicle_id)
+                    announcement = self.announcer.due(vehicle_id, report.stamp_ns)
+                    if announcement is not None:
+                        self._publish(vehicle_id, "scenario", announcement)
                     self.summary.reports[vehicle_id] += 1
                     self.summary.detections[vehicle_id] += report.detected
                     self._publish(vehicle_id, "report", report)

@@ -23,7 +23,7 @@ def run_recording(folder: Path, scenario: Scenario, world: World, duration_s: fl
     assert tracks, "the simulated run should give tracks"
     rows = [(r.log_time_ns, r.key, r.payload, r.encoding) for r in read_recording(inputs)]
     rows += [(t.stamp_ns + 1_000_000, track_key(t.target_id), *encode(t)) for t in tracks]
-    with Recorder(path) as recorder:
+    with Recorder(path, scenario=scenario) as recorder:  # as gcs run --record: the run's scenario named
         for log_time, key, payload, encoding in sorted(rows, key=lambda row: row[0]):
             recorder.write(key, payload, encoding, log_time)
     return path

@@ -9,13 +9,16 @@ Liveliness changes are recorded too, on the token's key with the encoding
 :data:`LIVELINESS_ENCODING` and payload ``alive`` or ``gone``; so are the MAVLink
 heartbeats the daemon hears (a vehicle is alive by its token or its heartbeat, and
 ``gcs replay --process`` must see what the daemon saw), on the vehicle's liveliness
-key with the encoding :data:`HEARTBEAT_ENCODING` and payload ``heartbeat``. Chunks are small
-(:data:`CHUNK_BYTES`) and flushed as they fill, so a writer that is killed
-loses at most the last chunk; :meth:`Recorder.finish` writes the summary.
+key with the encoding :data:`HEARTBEAT_ENCODING` and payload ``heartbeat``. The run's
+scenario, when the writer knows it, is an MCAP metadata record :data:`SCENARIO_METADATA`
+(``name`` and ``fingerprint``, :func:`gcs.config.fingerprint.scenario_fingerprint`).
+Chunks are small (:data:`CHUNK_BYTES`) and flushed as they fill, so a writer that is
+killed loses at most the last chunk; :meth:`Recorder.finish` writes the summary.
 
 Reading (:func:`read_recording`): records are read in file order (the order
-they were received) with a streaming reader, so a file without a summary (its
-writer was killed) is recovered up to its last complete chunk, with a warning.
+they were received) with a streaming reader (metadata records go to a callback),
+so a file without a summary (its writer was killed) is recovered up to its last
+complete chunk, with a warning.
 A file that does not begin with MCAP's magic bytes (empty, or not MCAP at all)
 raises :class:`RecordingError` before anything is read.
 A schema this build does not speak, or a corrupt record, raises
@@ -39,16 +42,17 @@ import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.exceptions import EndOfFile, McapError
 from mcap.opcode import Opcode
-from mcap.records import Channel, Chunk, Footer, Message, Schema
+from mcap.records import Channel, Chunk, Footer, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
+from gcs.config import Scenario
+from gcs.config.fingerprint import scenario_fingerprint
 from protocols.codec import json_schema, wire_version
 from protocols.errors import ProtocolError
 
-__all__ = ["CHUNK_BYTES", "HEARTBEAT_ENCODING", "LIVELINESS_ENCODING", "MCAP_MAGIC", "Recorded", "Recorder",
-           "RecordingError",
-           "read_recording", "check_mcap"]
+__all__ = ["CHUNK_BYTES", "HEARTBEAT_ENCODING", "LIVELINESS_ENCODING", "MCAP_MAGIC", "SCENARIO_METADATA", "Recorded",
+           "Recorder", "RecordingError", "read_recording", "check_mcap"]
 
 log = logging.getLogger(__name__)
 
@@ -60,6 +64,8 @@ LIVELINESS_ENCODING = "gcs/liveliness"
 """Encoding of recorded liveliness changes (payload ``alive`` or ``gone``)."""
 HEARTBEAT_ENCODING = "gcs/heartbeat"
 """Encoding of a recorded MAVLink heartbeat from a vehicle (payload ``heartbeat``, on its liveliness key)."""
+SCENARIO_METADATA = "gcs.scenario"
+"""Name of the metadata record holding the run's scenario: ``{"name": ..., "fingerprint": ...}``."""
 MESSAGE_ENCODING = "json"
 SCHEMA_ENCODING = "jsonschema"
 
@@ -99,7 +105,8 @@ class Recorded:
 class Recorder:
     """Writes an MCAP file; see the module docstring. Use as a context manager or call :meth:`finish`."""
 
-    def __init__(self, path: str | Path, library: str = "gcs") -> None:
+    def __init__(self, path: str | Path, library: str = "gcs", scenario: Scenario | None = None) -> None:
+        """``scenario``: the run's, recorded at once (:meth:`write_scenario`), when the writer knows it."""
         self.path = Path(path)
         self._file = open(self.path, "wb")
         self._writer = Writer(self._file, chunk_size=CHUNK_BYTES, compression=CompressionType.ZSTD)
@@ -109,7 +116,10 @@ class Recorder:
         self._sequence: dict[int, int] = {}
         self._written_at_flush = 0
         self.messages = 0
+        self.scenario: tuple[str, str] | None = None
         self.finished = False
+        if scenario is not None:
+            self.write_scenario(scenario.name, scenario_fingerprint(scenario))
 
     def _schema_id(self, encoding: str) -> int:
         if encoding in (LIVELINESS_ENCODING, HEARTBEAT_ENCODING):
@@ -148,6 +158,12 @@ class Recorder:
         """Record a MAVLink heartbeat heard from the vehicle whose liveliness key is ``key``."""
         self.write(key, b"heartbeat", HEARTBEAT_ENCODING, log_time_ns)
 
+    def write_scenario(self, name: str, fingerprint: str) -> None:
+        """Record the run's scenario (a metadata record :data:`SCENARIO_METADATA`); only the first is kept."""
+        if self.scenario is None:
+            self.scenario = (name, fingerprint)
+            self._writer.add_metadata(SCENARIO_METADATA, {"name": name, "fingerprint": fingerprint})
+
     def finish(self) -> None:
         """Write the summary and close the file (idempotent)."""
         if not self.finished:
@@ -182,8 +198,10 @@ class _CountingReader(io.RawIOBase):
         return data
 
 
-def read_recording(path: str | Path, warn: Callable[[str], None] = log.warning) -> Iterator[Recorded]:
+def read_recording(path: str | Path, warn: Callable[[str], None] = log.warning,
+                   on_metadata: Callable[[str, dict[str, str]], None] | None = None) -> Iterator[Recorded]:
     """Every message of a recording in file order; see the module docstring for errors and recovery.
+    ``on_metadata(name, data)`` is called with each metadata record as it is read.
 
     Chunks are decompressed and their records split here (:func:`_chunk_records`)
     rather than by the ``mcap`` library's record-by-record reader: the messages
@@ -232,6 +250,8 @@ def read_recording(path: str | Path, warn: Callable[[str], None] = log.warning) 
                     count += 1
                     yield Recorded(channel.topic, item.data, channel.metadata.get("zenoh_encoding", ""),
                                    item.log_time, item.publish_time, item.channel_id, offset)
+                elif isinstance(item, Metadata) and on_metadata is not None:
+                    on_metadata(item.name, dict(item.metadata))
                 elif isinstance(item, Footer):
                     footer = True
         if not footer:

@@ -1,6 +1,6 @@
 """The daemon's Zenoh side: subscriptions that only enqueue, publications, queryables.
 
-Every subscription (reports, nav, truth, liveliness) delivers into a Zenoh
+Every subscription (reports, nav, truth, the vehicles' scenarios, liveliness) delivers into a Zenoh
 FIFO channel (:data:`INBOX_CAPACITY` samples each): Zenoh's threads only
 enqueue, and never run Python, so they never take the interpreter from the
 loop (a Python callback per sample did, thousands of times a second). A full
@@ -23,8 +23,8 @@ import zenoh
 
 from gcs.adapters.zenoh_session import ZenohSettings, declare_publisher, open_session
 from protocols.codec import encode
-from protocols.keys import (alive_selector, navs_selector, plan_key, reports_selector, status_key, track_key,
-                            tracks_selector, truth_selector)
+from protocols.keys import (alive_selector, navs_selector, plan_key, reports_selector, scenarios_selector, status_key,
+                            track_key, tracks_selector, truth_selector)
 from protocols.messages import DaemonStatus, Message, PlanCommand, TrackEstimate
 
 __all__ = ["Received", "ZenohIO", "INBOX_CAPACITY"]
@@ -49,7 +49,7 @@ class Received:
 
 
 class ZenohIO:
-    """Subscriptions to reports, nav, truth and liveliness; publications of tracks, plans and status."""
+    """Subscriptions to reports, nav, truth, scenarios and liveliness; publications of tracks, plans and status."""
 
     def __init__(self, settings: ZenohSettings, prefix: str = "gcs",
                  clock_ns: Callable[[], int] = time.time_ns,
@@ -67,7 +67,8 @@ class ZenohIO:
     def open(self) -> None:
         """Open the session and declare every subscriber and queryable."""
         self.session = open_session(self.settings)
-        for selector in (reports_selector(self.prefix), navs_selector(self.prefix), truth_selector(self.prefix)):
+        for selector in (reports_selector(self.prefix), navs_selector(self.prefix), truth_selector(self.prefix),
+                         scenarios_selector(self.prefix)):
             self._samples.append(self.session.declare_subscriber(selector, zenoh.handlers.FifoChannel(INBOX_CAPACITY)))
         self._liveliness = self.session.liveliness().declare_subscriber(
             alive_selector(self.prefix), zenoh.handlers.FifoChannel(INBOX_CAPACITY), history=True)

@@ -192,21 +192,24 @@ def publish(publisher: zenoh.Publisher, message: Message) -> int:
     return len(payload)
 
 
-def add_zenoh_arguments(parser, listen: Sequence[str], connect: Sequence[str]) -> None:
+def add_zenoh_arguments(parser, listen: Sequence[str], connect: Sequence[str], mode: str = "peer",
+                        mode_help: str | None = None) -> None:
     """``--zenoh-config``, ``--zenoh-mode``, ``--zenoh-listen``, ``--zenoh-connect`` and ``--prefix`` with
-    these defaults (used where neither an option nor the configuration file gives a value)."""
+    these defaults (used where neither an option nor the configuration file gives a value); ``mode_help``
+    says what the default mode is, when more than its name does."""
     parser.add_argument("--zenoh-config", metavar="FILE",
                         help="zenoh configuration file (JSON5, zenoh's format), e.g. for user/password "
                              "authentication or TLS; the options below override its mode and endpoints")
     parser.add_argument("--zenoh-mode", choices=["peer", "client", "none"], default=None,
                         help="zenoh session mode; 'none' opens no session (default: the configuration file's, "
-                             "else peer)")
+                             f"else {mode_help or mode})")
     parser.add_argument("--zenoh-listen", action="append", default=None, metavar="ENDPOINT",
                         help=f"endpoint to listen on, repeatable (default {', '.join(listen) or 'none'})")
     parser.add_argument("--zenoh-connect", action="append", default=None, metavar="ENDPOINT",
                         help=f"endpoint to connect to, repeatable (default {', '.join(connect) or 'none'})")
     parser.add_argument("--prefix", default="gcs", help="zenoh key prefix (default gcs)")
-    parser.set_defaults(zenoh_default_listen=tuple(listen), zenoh_default_connect=tuple(connect))
+    parser.set_defaults(zenoh_default_listen=tuple(listen), zenoh_default_connect=tuple(connect),
+                        zenoh_default_mode=mode)
 
 
 def settings_from_arguments(args) -> ZenohSettings | None:
@@ -217,7 +220,7 @@ def settings_from_arguments(args) -> ZenohSettings | None:
         return None
     path = getattr(args, "zenoh_config", None)
     file = load_config_file(path) if path is not None else None
-    mode = args.zenoh_mode or (file is not None and _given_by_file(file, "mode")) or "peer"
+    mode = args.zenoh_mode or (file is not None and _given_by_file(file, "mode")) or args.zenoh_default_mode
     endpoints = {}
     for side, given, default in (("listen", args.zenoh_listen, args.zenoh_default_listen),
                                  ("connect", args.zenoh_connect, args.zenoh_default_connect)):

@@ -47,7 +47,7 @@ def make_recording(scenario: Scenario, world: World, path: Path, duration_s: flo
     dt = sim.physics_step_s
     report_every, nav_every = round(1.0 / sim.report_rate_hz / dt), round(1.0 / sim.nav_rate_hz / dt)
     counts = {"report": 0, "nav": 0, "truth": 0}
-    with Recorder(path) as recorder:
+    with Recorder(path, scenario=scenario) as recorder:
         for vehicle_id in scene.vehicles:  # each simulated vehicle declares its token before it sends anything
             recorder.write_liveliness(alive_key(vehicle_id), True, scene.stamp_ns - 1)
         for step in range(round(duration_s / dt)):

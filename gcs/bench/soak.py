@@ -56,7 +56,7 @@ from gcs.bench.soak_report import EPOCH_NS, POST_INGEST, build_report, format_re
 from gcs.bench.urban import with_vehicles
 from gcs.scenarios import load_scenario
 from protocols.codec import decode
-from protocols.keys import navs_selector, reports_selector, status_key, truth_selector
+from protocols.keys import navs_selector, reports_selector, scenarios_selector, status_key, truth_selector
 from protocols.messages import DaemonStatus
 
 __all__ = ["SoakOptions", "run_soak", "format_report", "write_json", "scenario_file", "POST_INGEST"]
@@ -276,7 +276,7 @@ def run_soak(options: SoakOptions, command: str = "", progress: Callable[[str], 
         session = open_session(ZenohSettings(mode="client", connect=(soak.router_endpoint,)))
         injector = Injector(session, "gcs", np.random.default_rng(options.seed + 1), soak.scenario.time.step_s)
         on_sample = soak.observe(injector)
-        for selector in (reports_selector(), navs_selector(), truth_selector()):
+        for selector in (reports_selector(), navs_selector(), truth_selector(), scenarios_selector()):
             session.declare_subscriber(selector, on_sample)
         soak.relays = [UdpRelay() for _ in soak.groups]
         daemon = soak.start_daemon()

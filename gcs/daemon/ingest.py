@@ -28,7 +28,13 @@ flood of bad input cannot flood the log); nothing raises. Reasons:
 * ``unknown_target``: truth of more than :data:`MAX_TARGETS` targets;
 * ``unexpected_kind``: a key of the key space the daemon does not consume.
 
-Accepted messages are counted under ``accepted.<kind>``.
+Accepted messages are counted under ``accepted.<kind>``. A vehicle's scenario
+announcement (:class:`~protocols.messages.VehicleScenario`) is checked against the
+daemon's own scenario: one that names another scenario, or the same name with other
+settings (another fingerprint, :func:`gcs.config.fingerprint.scenario_fingerprint`),
+is logged at WARNING once per scenario and fingerprint, naming both; it is counted
+under ``accepted.scenario`` whatever it says (from any vehicle, listed or not: a
+vehicle of another scenario's roster is how the mistake shows), and steers nothing.
 """
 
 from __future__ import annotations
@@ -38,10 +44,12 @@ import logging
 from collections import Counter
 
 from gcs.adapters.zenoh_io import Received
+from gcs.config import Scenario
+from gcs.config.fingerprint import scenario_fingerprint
 from protocols.codec import decode
 from protocols.errors import ProtocolError
 from protocols.keys import MESSAGE_TYPE_BY_KIND, ParsedKey, parse_key
-from protocols.messages import NavReport, SensorReport, TargetTruth
+from protocols.messages import NavReport, SensorReport, TargetTruth, VehicleScenario
 
 __all__ = ["Ingest", "WARN_FIRST"]
 
@@ -78,8 +86,13 @@ MAX_TARGETS = 16
 class Ingest:
     """Decode and validate samples for a roster of vehicles under a key prefix."""
 
-    def __init__(self, roster: set[str], prefix: str = "gcs", accept_unlisted: bool = False) -> None:
-        """``accept_unlisted``: take reports from vehicles outside the roster too (see the module docstring)."""
+    def __init__(self, roster: set[str], prefix: str = "gcs", accept_unlisted: bool = False,
+                 scenario: Scenario | None = None) -> None:
+        """``accept_unlisted``: take reports from vehicles outside the roster too; ``scenario``: the daemon's own,
+        which the vehicles' announcements are checked against (None: not checked; see the module docstring)."""
+        self.own_scenario = None if scenario is None else (scenario.name, scenario_fingerprint(scenario))
+        self.foreign_scenarios: set[tuple[str, str]] = set()
+        """The other scenarios (name, fingerprint) vehicles announced, each warned about once."""
         self.roster = set(roster)
         self.prefix = prefix
         self.accept_unlisted = accept_unlisted
@@ -109,7 +122,7 @@ class Ingest:
         level = logging.WARNING if self.counters[name] <= WARN_FIRST else logging.DEBUG
         log.log(level, "rejected (%s): %s", reason, detail)
 
-    def accept(self, received: Received) -> SensorReport | NavReport | TargetTruth | None:
+    def accept(self, received: Received) -> SensorReport | NavReport | TargetTruth | VehicleScenario | None:
         """The decoded message if it passes every check, else None (counted and logged)."""
         parsed = self._keys.get(received.key)
         if parsed is None:
@@ -120,6 +133,8 @@ class Ingest:
                 return None
             if len(self._keys) < MAX_CACHED_KEYS:
                 self._keys[received.key] = parsed
+        if parsed.kind == "scenario":
+            return self._announced(received, parsed.ident)
         if parsed.kind not in _CONSUMED:
             self.reject("unexpected_kind", f"{received.key}: the daemon does not consume {parsed.kind!r} keys")
             return None
@@ -175,6 +190,25 @@ class Ingest:
             self.counters[f"accepted.unlisted.{parsed.kind}"] += 1
         else:
             self.counters[_ACCEPTED[parsed.kind]] += 1
+        return message
+
+    def _announced(self, received: Received, vehicle_id: str) -> VehicleScenario | None:
+        """A vehicle's scenario announcement: decoded, counted, and compared with the daemon's own scenario."""
+        try:
+            message = decode(received.payload, received.encoding, VehicleScenario)
+        except ProtocolError as error:
+            self.reject(error.reason, f"{received.key}: {error}")
+            return None
+        if message.vehicle_id != vehicle_id:
+            self.reject("id_mismatch", f"{received.key}: message says vehicle_id={message.vehicle_id!r}")
+            return None
+        self.counters["accepted.scenario"] += 1
+        theirs = (message.scenario, message.fingerprint)
+        if self.own_scenario not in (None, theirs) and theirs not in self.foreign_scenarios:
+            self.foreign_scenarios.add(theirs)
+            log.warning("vehicle %s flies scenario %s (fingerprint %s), but this daemon runs %s (fingerprint %s): "
+                        "start the daemon and the vehicles with the same --scenario", vehicle_id, *theirs,
+                        *self.own_scenario)
         return message
 
     def _off_clock(self, kind: str, source: str) -> None:

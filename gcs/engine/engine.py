@@ -89,7 +89,7 @@ class Engine:
         self.scenario, self.options, self.on_plan = scenario, options, on_plan
         self.roster = [v.id for v in scenario.vehicles]
         self.vehicle_config = {v.id: v for v in scenario.vehicles}
-        self.ingest = Ingest(set(self.roster), options.prefix, accept_unlisted=options.accept_unlisted)
+        self.ingest = Ingest(set(self.roster), options.prefix, options.accept_unlisted, scenario)
         self.steps = StepAssembler(round(scenario.time.step_s * NS_PER_S), options.max_wait_s)
         self.navigator = navigator_for(options.navigation, scenario)
         self.planner_name = options.planner or scenario_planner(scenario)

@@ -1,10 +1,11 @@
 """``gcs replay``'s work: a recording (``gcs record``, :mod:`gcs.recordings.record`; ``gcs run --record``) summarised,
 processed, or fed back (the command line is :mod:`gcs.recordings.replay_cli`).
 
-* ``gcs replay FILE --info`` summarises channels, counts, duration and vehicles.
+* ``gcs replay FILE --info`` summarises channels, counts, duration, vehicles and scenario.
 * ``gcs replay FILE [--rate R | --fast]`` republishes the recorded inputs
-  (reports, nav, truth; liveliness as tokens) so that a running daemon consumes
-  them, keeping their recorded spacing divided by ``R``, or as fast as possible.
+  (reports, nav, truth, the vehicles' scenario announcements; liveliness as tokens) so that a
+  running daemon consumes them, keeping their recorded spacing divided by ``R``, or as fast as
+  possible.
 * ``gcs replay FILE --view [--rate R] [--http ADDRESS]`` shows it on the live map
   with play/pause and speed (:mod:`gcs.recordings.replay_view`); ``--foxglove-mcap OUT``
   converts it to an MCAP file of Foxglove's map schemas.
@@ -21,7 +22,6 @@ processed, or fed back (the command line is :mod:`gcs.recordings.replay_cli`).
 from __future__ import annotations
 
 import csv
-import functools
 import logging
 import math
 import threading
@@ -44,65 +44,48 @@ from gcs.daemon.steps import HOLD_WAITS
 from gcs.engine.engine import Engine, EngineOptions
 from gcs.engine.events import Arrived, Heartbeat, PlannerFree, PublishPlan, PublishTrack, SubmitPlan, Tick
 from gcs.engine.inline import plan_at_once
+from gcs.recordings.keys import INPUT_KINDS, VEHICLE_KINDS, key_kind, prefix_of
+from gcs.recordings.recorded_scenario import ScenarioFinder
 from protocols.codec import decode, encode
 from protocols.errors import ProtocolError
-from protocols.keys import DEFAULT_PREFIX, parse_key, plan_key, track_key
+from protocols.keys import DEFAULT_PREFIX, plan_key, track_key
 from protocols.messages import PlanCommand, TargetTruth, TrackEstimate
 
 __all__ = ["process", "summarise", "write_outputs", "truth_error", "republish", "INPUT_KINDS", "key_kind"]
 
 log = logging.getLogger(__name__)
 
-INPUT_KINDS = ("report", "nav", "truth", "alive")
-"""Key kinds that are inputs of the daemon (the rest, tracks, plans and status, are its outputs)."""
 NS_PER_S = 1_000_000_000
 TOKEN_SETTLE_S = 0.5
 """Wait after declaring the recorded vehicles' liveliness tokens, before republishing data."""
 
 
-def _prefix_of(key: str) -> str | None:
-    """The prefix a key of the key space is under (``gcs`` for ``gcs/vehicle/uav1/report``)."""
-    for marker in ("/vehicle/", "/track/", "/plan/", "/daemon/", "/sim/"):
-        if marker in key:
-            return key[: key.index(marker)]
-    return None
-
-
-@functools.lru_cache(maxsize=4096)
-def key_kind(key: str) -> tuple[str | None, str | None]:
-    """Kind and id of a key of the key space under any prefix; (None, None) for other keys."""
-    prefix = _prefix_of(key)
-    if prefix is None:
-        return None, None
-    try:
-        parsed = parse_key(key, prefix)
-    except ProtocolError:
-        return None, None
-    return parsed.kind, parsed.ident
-
-
 # ------------------------------------------------------------------- --info
 
 def summarise(path: Path) -> dict:
-    """Channels (key, encoding, count), message count, duration and vehicles of a recording."""
+    """Channels (key, encoding, count), message count, duration, vehicles and scenario (the metadata's, else the
+    first a vehicle announced: ``{"name", "fingerprint"}``, or None) of a recording."""
     channels: Counter = Counter()
     vehicles: set[str] = set()
     first = last = None
     stamps: list[int] = []
-    for record in read_recording(path):
+    scenario = ScenarioFinder()
+    for record in read_recording(path, on_metadata=scenario.metadata):
         channels[(record.key, record.encoding)] += 1
         first = record.log_time_ns if first is None else min(first, record.log_time_ns)
         last = record.log_time_ns if last is None else max(last, record.log_time_ns)
         kind, ident = key_kind(record.key)
-        if kind in ("report", "nav", "alive") and ident is not None:
+        if kind in VEHICLE_KINDS and ident is not None:
             vehicles.add(ident)
         if kind == "report":
             stamps.append(record.publish_time_ns)
+        scenario.see(record, kind)
     return {
         "file": str(path), "messages": sum(channels.values()),
         "duration_s": 0.0 if first is None else (last - first) / NS_PER_S,
         "stamp_span_s": (max(stamps) - min(stamps)) / NS_PER_S if stamps else 0.0,
-        "vehicles": sorted(vehicles),
+        "reports": len(stamps), "vehicles": sorted(vehicles),
+        "scenario": None if scenario.found is None else dict(zip(("name", "fingerprint"), scenario.found)),
         "channels": [{"key": k, "encoding": e, "messages": n} for (k, e), n in sorted(channels.items())],
     }
 
@@ -282,13 +265,13 @@ def republish(path: Path, settings, prefix: str, rate: float | None, stop: threa
     keys = sorted({key for key, kind, _ in inputs if kind != "alive"})
     alive = sorted({key for key, kind, payload in inputs if kind == "alive" and payload == b"alive"})
     with open_session(settings) as session:
-        publishers = {key: session.declare_publisher(prefix + key[len(_prefix_of(key)):],
+        publishers = {key: session.declare_publisher(prefix + key[len(prefix_of(key)):],
                                                      congestion_control=zenoh.CongestionControl.BLOCK)
                       for key in keys}
         # every vehicle that was alive in the recording is declared first, so that a daemon expects its
         # reports from the first step even when they are replayed as fast as possible
-        tokens = {prefix + key[len(_prefix_of(key)):]: session.liveliness().declare_token(
-            prefix + key[len(_prefix_of(key)):]) for key in alive}
+        tokens = {prefix + key[len(prefix_of(key)):]: session.liveliness().declare_token(
+            prefix + key[len(prefix_of(key)):]) for key in alive}
         deadline = time.monotonic() + wait_for_subscriber_s
         while not all(p.matching_status.matching for p in publishers.values()) and time.monotonic() < deadline:
             if stop.wait(0.02):
@@ -306,7 +289,7 @@ def republish(path: Path, settings, prefix: str, rate: float | None, stop: threa
                     if stop.wait(max(0.0, due - time.monotonic())):
                         break
                 if kind == "alive":
-                    key = prefix + record.key[len(_prefix_of(record.key)):]
+                    key = prefix + record.key[len(prefix_of(record.key)):]
                     if record.payload == b"alive" and key not in tokens:
                         tokens[key] = session.liveliness().declare_token(key)
                     elif record.payload == b"gone" and key in tokens:

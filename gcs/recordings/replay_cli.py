@@ -17,6 +17,7 @@ from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, ZenohSettings, add_zeno
 from gcs.cli_errors import UsageError, existing_file, one_line, positive, set_command, stop_on_signals, writable_file
 from gcs.config.world import build_world
 from gcs.daemon.cli import add_acceptance_arguments, add_navigation_argument
+from gcs.recordings.recorded_scenario import recording_contents, replay_scenario
 from gcs.recordings.replay import NS_PER_S, process, republish, summarise, truth_error, truth_gospa, write_outputs
 from gcs.recordings.replay_view import cmd_view
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
@@ -31,14 +32,22 @@ def add_replay(sub: argparse._SubParsersAction) -> None:
     parser = sub.add_parser("replay", help="summarise, republish or process a recording",
                             description="Republish a recording's inputs to Zenoh for a running daemon, or process "
                                         "them directly with the daemon's estimator (--process), or summarise them "
-                                        "(--info).")
+                                        "(--info). --process and --view use the scenario the recording names (the "
+                                        "daemon's, or the one its vehicles announced) unless --scenario is given; "
+                                        "a different one is a warning naming both. --process on a recording without "
+                                        "any vehicle report is an error (exit status 1).")
     parser.add_argument("file", type=Path, metavar="FILE.mcap")
     mode = parser.add_mutually_exclusive_group()
-    mode.add_argument("--info", action="store_true", help="print channels, counts, duration and vehicles")
-    mode.add_argument("--process", action="store_true", help="run the estimator on the file, without Zenoh")
+    mode.add_argument("--info", action="store_true", help="print channels, counts, duration, vehicles and scenario")
+    mode.add_argument("--process", action="store_true",
+                      help="run the estimator on the file, without Zenoh, and print how many tracks it gave and its "
+                           "counters (and the error against the recorded truth); --out writes the tracks, without "
+                           "it they are not kept")
     mode.add_argument("--rate", type=float, default=1.0, help="republish R times faster than recorded (default 1)")
     mode.add_argument("--fast", action="store_true", help="republish as fast as possible")
-    parser.add_argument("--scenario", default=DEFAULT_SCENARIO, help="scenario of the recorded run (--process)")
+    parser.add_argument("--scenario", default=None, metavar="NAME_OR_FILE",
+                        help="scenario of the recorded run (--process, --view; default: the one the recording names, "
+                             f"else {DEFAULT_SCENARIO})")
     parser.add_argument("--out", type=Path, metavar="TRACKS", help="--process: write tracks (.mcap or .csv)")
     parser.add_argument("--plan", action="store_true",
                         help="--process: also plan every step (every GA generation, no deadline); plans go to an "
@@ -82,6 +91,15 @@ def check_replay(args: argparse.Namespace) -> ZenohSettings | None:
     except (ProtocolError, FoxgloveMissing, ValueError) as error:
         raise UsageError(error) from None
     if shown or args.process:
+        try:
+            args.recorded = recording_contents(args.file)
+        except RecordingError as error:
+            raise UsageError(error) from None
+        if args.scenario is not None:
+            load_scenario(args.scenario)  # a bad --scenario is bad input, whatever the file holds
+        if args.process and not args.recorded.has_report:
+            return None  # nothing to process: said as the command runs
+        args.scenario = replay_scenario(args.file, args.scenario, args.recorded.scenario)
         load_scenario(args.scenario)
     if shown or args.info or args.process:
         return None
@@ -100,6 +118,10 @@ def _cmd_replay(args: argparse.Namespace) -> int:
             _print_info(summarise(args.file), args.json)
             return 0
         if args.process:
+            if not args.recorded.has_report:
+                print(f"gcs replay: error: {args.file} holds no vehicle report, so there are no tracks to estimate "
+                      f"(gcs replay {args.file} --info lists what it holds)", file=sys.stderr)
+                return 1
             _process(args)
             return 0
         stop = threading.Event()
@@ -119,8 +141,11 @@ def _print_info(info: dict, as_json: bool) -> None:
     if as_json:
         print(json.dumps(info, indent=2))
         return
+    scenario = info["scenario"]
+    named = f"scenario {scenario['name']} (fingerprint {scenario['fingerprint']})" if scenario else "no scenario named"
     print(f"{info['file']}: {info['messages']} messages over {info['duration_s']:.1f} s "
-          f"(stamps span {info['stamp_span_s']:.1f} s); vehicles {', '.join(info['vehicles']) or '-'}")
+          f"(stamps span {info['stamp_span_s']:.1f} s); vehicles {', '.join(info['vehicles']) or '-'}; {named}"
+          + ("" if info["reports"] else "; no vehicle report: --process has nothing to estimate from"))
     for channel in info["channels"]:
         print(f"  {channel['messages']:>8}  {channel['key']}  [{channel['encoding']}]")
 
@@ -134,7 +159,8 @@ def _process(args: argparse.Namespace) -> None:
     if args.out is not None:
         write_outputs(tracks, plans, args.out, args.prefix)
     print(f"{len(tracks)} track estimates" + (f" and {len(plans)} plan commands" if args.plan else "")
-          + f" from {args.file}" + (f" -> {args.out}" if args.out else "") + "; "
+          + f" from {args.file}" + (f" -> {args.out}" if args.out else " (not kept: --out TRACKS.csv or .mcap writes "
+                                                                        "them)") + "; "
           + ", ".join(f"{k} {v}" for k, v in sorted(counters.items())))
     step_ns = round(scenario.time.step_s * NS_PER_S)
     if scenario.multitarget is not None:

@@ -27,9 +27,11 @@ import zenoh
 
 from gcs.adapters.mavlink_wire import mavlink
 from gcs.adapters.zenoh_session import ZenohSettings, listening_endpoints, open_session
+from gcs.config.fingerprint import scenario_fingerprint
 from protocols.codec import decode
-from protocols.keys import alive_key, alive_selector, navs_selector, parse_key, reports_selector, truth_selector
-from protocols.messages import NavReport, SensorReport, TargetTruth
+from protocols.keys import (alive_key, alive_selector, navs_selector, parse_key, reports_selector, scenarios_selector,
+                            truth_selector)
+from protocols.messages import NavReport, SensorReport, TargetTruth, VehicleScenario
 from sim_vehicles.payload import PayloadBridge
 from sim_vehicles.payload_command import PayloadOptions, PayloadRunner
 from tests.integration.mavproxy_harness import MavProxy
@@ -93,7 +95,7 @@ def test_bridge_behind_mavproxy_publishes_the_vehicles_reports_where_they_fly(tm
     alive: queue.Queue = queue.Queue()
     with open_session(ZenohSettings(mode="peer", listen=(ANY_PORT_ENDPOINT,), connect=())) as session:
         (endpoint,) = listening_endpoints(session)
-        for selector in (reports_selector(), navs_selector(), truth_selector()):
+        for selector in (reports_selector(), navs_selector(), truth_selector(), scenarios_selector()):
             session.declare_subscriber(selector, lambda s: received.put(
                 (str(s.key_expr), s.payload.to_bytes(), str(s.encoding), time.time_ns())))
         session.liveliness().declare_subscriber(alive_selector(), lambda s: alive.put((str(s.key_expr), s.kind)),
@@ -143,8 +145,15 @@ def test_bridge_behind_mavproxy_publishes_the_vehicles_reports_where_they_fly(tm
     navs: dict[str, list] = {v: [] for v in BRIDGED}
     reports: dict[str, list] = {v: [] for v in BRIDGED}
     truths: dict[int, TargetTruth] = {}
+    announced: dict[str, list[int]] = {v: [] for v in BRIDGED}
     for key, payload, encoding, received_ns in messages:
         parsed = parse_key(key)
+        if parsed.kind == "scenario":  # the bridged vehicles fly against the scenario: they say which
+            message = decode(payload, encoding, VehicleScenario)
+            assert (message.vehicle_id, message.scenario, message.fingerprint) == (
+                parsed.ident, ARDUPLANE.name, scenario_fingerprint(ARDUPLANE))
+            announced[parsed.ident].append(message.stamp_ns)
+            continue
         if parsed.kind == "truth":
             message = decode(payload, encoding, TargetTruth)
             truths[message.stamp_ns] = message
@@ -176,6 +185,10 @@ def test_bridge_behind_mavproxy_publishes_the_vehicles_reports_where_they_fly(tm
         assert checked >= 10, f"{vid}: {checked} nav reports inside the sampled truth"
         stamps = [r.stamp_ns for r in reports[vid]]
         assert all(b - a == 1_000_000_000 for a, b in zip(stamps, stamps[1:]))  # report_rate_hz 1
+        # announced with each report (1 Hz), stamped alike; the collection may end between the two of a pair
+        common = min(len(announced[vid]), len(stamps))
+        assert common >= 3 and announced[vid][:common] == stamps[:common]
+        assert abs(len(announced[vid]) - len(stamps)) <= 1
         for report in reports[vid]:
             true = truth.at(vid, report.stamp_ns)
             assert report.vehicle_position_std_m == nav.gps.h_acc_m

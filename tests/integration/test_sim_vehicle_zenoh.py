@@ -8,9 +8,11 @@ import time
 import zenoh
 
 from gcs.adapters.zenoh_session import ZenohSettings, listening_endpoints, open_session
+from gcs.config.fingerprint import scenario_fingerprint
 from protocols.codec import decode
-from protocols.keys import alive_key, alive_selector, navs_selector, parse_key, reports_selector
-from protocols.messages import NavReport, SensorReport
+from protocols.keys import (alive_key, alive_selector, navs_selector, parse_key, reports_selector,
+                           truth_selector)
+from protocols.messages import NavReport, SensorReport, VehicleScenario
 from tests.integration.sim_harness import SCENARIO, running_vehicles
 from sim_vehicles.run_options import RunOptions
 from tests.loopback import ANY_PORT_ENDPOINT
@@ -77,3 +79,33 @@ def test_reports_nav_and_liveliness_in_simulation_time() -> None:
     assert detected and all(len(r.detections) == 1 and r.detections[0].range_m is not None
                             and r.detections[0].range_std_m == 10.0 for r in detected)
     assert any(r.detections == () for rs in reports.values() for r in rs)
+
+
+def test_each_vehicle_announces_its_scenario_before_its_reports() -> None:
+    """With its first report and then with each report a second of its time later (reports come at 1 Hz): the
+    scenario's name and the fingerprint of its settings, stamped as the report it comes before."""
+    samples: queue.Queue = queue.Queue()
+    with open_session(ZenohSettings(mode="peer", listen=(ANY_PORT_ENDPOINT,), connect=())) as session:
+        (endpoint,) = listening_endpoints(session)
+        options = RunOptions(rate=RATE, seed=3, epoch_ns=EPOCH_NS, duration_s=20.0,
+                             zenoh=ZenohSettings(mode="peer", connect=(endpoint,)), wait_for_subscriber_s=30.0)
+        session.declare_subscriber("gcs/vehicle/*/*", lambda s: samples.put((str(s.key_expr), s.payload.to_bytes(),
+                                                                           str(s.encoding))))  # one: in order
+        session.declare_subscriber(truth_selector(), lambda s: None)  # the vehicles start once every key is heard
+        with running_vehicles(options) as runner:
+            while not runner.stop_event.wait(0.05) and runner.summary.simulated_s < 20.0:
+                pass
+        received = _collect(samples, 1.0)
+    order: dict[str, list[tuple[str, int]]] = {v.id: [] for v in SCENARIO.vehicles}
+    for key, payload, encoding in received:
+        parsed = parse_key(key)
+        if parsed.kind == "nav":
+            continue
+        message = decode(payload, encoding)
+        if parsed.kind == "scenario":
+            assert message == VehicleScenario(vehicle_id=parsed.ident, stamp_ns=message.stamp_ns,
+                                              scenario="wang2012_urban", fingerprint=scenario_fingerprint(SCENARIO))
+        order[parsed.ident].append((parsed.kind, message.stamp_ns))
+    for vehicle, seen in order.items():
+        assert len(seen) == 40, (vehicle, seen)  # 20 s at 1 Hz: 20 reports, each announced first
+        assert seen == [(kind, stamp) for _, stamp in seen[1::2] for kind in ("scenario", "report")], vehicle

@@ -4,7 +4,8 @@ A :class:`~gcs.app.Daemon` runs its real loop (:meth:`Daemon.turn`: ingest,
 registry, step assembly, fusion, planning, publication) on a fake Zenoh inbox
 fed by Hypothesis: valid reports from roster and unknown vehicles with absurd
 but valid values, duplicates, stale, future and out-of-order stamps, random
-bytes, NaN in JSON, wrong encodings and keys, liveliness coming and going.
+bytes, NaN in JSON, wrong encodings and keys, liveliness coming and going, the
+vehicles' scenario announcements (this scenario's, another's, under another's key).
 """
 
 from __future__ import annotations
@@ -23,9 +24,9 @@ from gcs.config.world import build_world
 from gcs.daemon.planner_start import start_planner
 from gcs.scenarios import load_scenario
 from protocols.codec import encode
-from protocols.keys import nav_key, report_key, truth_key
+from protocols.keys import nav_key, report_key, scenario_key, truth_key
 from protocols.messages import Measurement, NavReport, SensorReport, TargetTruth
-from tests.unit.test_protocols_codec import nav_reports, sensor_reports
+from tests.unit.test_protocols_codec import nav_reports, sensor_reports, vehicle_scenarios
 
 SCENARIO = load_scenario("wang2012_urban")
 WORLD = build_world(SCENARIO)
@@ -102,6 +103,13 @@ def truth_samples(draw) -> Received:
 
 
 @st.composite
+def scenario_samples(draw) -> Received:
+    announced = msgspec.structs.replace(draw(vehicle_scenarios), vehicle_id=draw(VEHICLE_IDS))
+    key_vehicle = announced.vehicle_id if draw(st.integers(0, 9)) else draw(VEHICLE_IDS)
+    return _sample(scenario_key(key_vehicle), announced)
+
+
+@st.composite
 def plausible_reports(draw) -> Received:
     """Reports a vehicle could send: the target seen about 300 m away, on the step grid."""
     vehicle = draw(st.sampled_from(ROSTER))
@@ -136,7 +144,7 @@ liveliness = st.builds(lambda vehicle, up: Received("alive" if up else "gone", f
                                                   "", 0),
                        VEHICLE_IDS | st.just("bad id"), st.integers(0, 3).map(bool))
 items = st.one_of(report_samples(), nav_samples(), truth_samples(), plausible_reports(), plausible_reports(),
-                  plausible_navs(), garbage, liveliness)
+                  plausible_navs(), scenario_samples(), garbage, liveliness)
 
 
 def _run(daemon: Daemon, batches: list[tuple[float, list[Received]]]) -> None:

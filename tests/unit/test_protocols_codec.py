@@ -29,6 +29,7 @@ from protocols import (
     SensorReport,
     TrackEstimate,
     TrackSummary,
+    VehicleScenario,
     VehicleStatus,
     decode,
     encode,
@@ -222,6 +223,13 @@ target_truths = st.builds(
     position_enu_m=st.tuples(positions, positions),
     velocity_enu_mps=st.tuples(velocities, velocities),
 )
+vehicle_scenarios = st.builds(
+    VehicleScenario,
+    vehicle_id=ids,
+    stamp_ns=stamps,
+    scenario=ids,
+    fingerprint=st.from_regex(r"[0-9a-f]{8,64}", fullmatch=True),
+)
 
 STRATEGIES = {
     SensorReport: sensor_reports(),
@@ -236,6 +244,7 @@ STRATEGIES = {
     TrackSummary: track_summaries,
     DaemonStatus: daemon_statuses,
     TargetTruth: target_truths,
+    VehicleScenario: vehicle_scenarios,
 }
 any_message = st.one_of(*STRATEGIES.values())
 ENCODINGS = [encoding_for(tp) for tp in MESSAGE_TYPES]

@@ -20,6 +20,7 @@ from protocols import (
     ProtocolError,
     SensorReport,
     TrackEstimate,
+    VehicleScenario,
     VehicleStatus,
     decode,
     encode,
@@ -83,6 +84,36 @@ def test_decode_error_names_the_field(payload: bytes, field: str) -> None:
     assert info.value.field == field
     assert f"`{field}`" in str(info.value)
     assert info.value.reason == "invalid"
+
+
+ANNOUNCEMENT = VehicleScenario(vehicle_id="uav1", stamp_ns=5, scenario="wang2012_urban", fingerprint="0123abcd" * 2)
+
+
+@pytest.mark.parametrize(("changes", "field"), [
+    ({"fingerprint": "0123ABCD"}, "$.fingerprint"),  # lower-case hex only
+    ({"fingerprint": "0123abc"}, "$.fingerprint"),  # at least 8 digits
+    ({"fingerprint": "0" * 65}, "$.fingerprint"),
+    ({"fingerprint": "0123abcd\n"}, "$.fingerprint"),
+    ({"scenario": "my city"}, "$.scenario"),  # a scenario name is an identifier
+    ({"scenario": ...}, "$.scenario"),
+    ({"vehicle_id": "uav/1"}, "$.vehicle_id"),
+    ({"city": "x"}, "$.city"),  # unknown field
+])
+def test_a_scenario_announcement_is_refused_naming_the_field(changes: dict, field: str) -> None:
+    payload = json.dumps(_changed(json.loads(encode(ANNOUNCEMENT)[0]), changes)).encode()
+    with pytest.raises(ProtocolError) as info:
+        decode(payload, encoding_for(VehicleScenario), VehicleScenario)
+    assert info.value.field == field and info.value.reason == "invalid"
+
+
+def test_a_scenario_announcement_travels_as_its_own_type_and_version() -> None:
+    payload, encoding = encode(ANNOUNCEMENT)
+    assert encoding == "application/json;gcs.VehicleScenario/1"
+    assert json.loads(payload) == {"vehicle_id": "uav1", "stamp_ns": 5, "scenario": "wang2012_urban",
+                                   "fingerprint": "0123abcd0123abcd"}
+    with pytest.raises(ProtocolError) as info:  # never mistaken for a vehicle's report or nav
+        decode(payload, encoding, NavReport)
+    assert info.value.reason == "unexpected_type"
 
 
 def test_nested_cross_field_error_has_the_full_path() -> None:

@@ -21,6 +21,7 @@ from protocols import (
     ProtocolError,
     SensorReport,
     TrackEstimate,
+    VehicleScenario,
     alive_key,
     alive_selector,
     encoding_for,
@@ -31,6 +32,8 @@ from protocols import (
     plans_selector,
     report_key,
     reports_selector,
+    scenario_key,
+    scenarios_selector,
     status_key,
     track_key,
     tracks_selector,
@@ -48,6 +51,7 @@ BUILDERS: dict[str, Callable[..., str]] = {
     "report": report_key,
     "nav": nav_key,
     "alive": alive_key,
+    "scenario": scenario_key,
     "track": track_key,
     "plan": plan_key,
 }
@@ -55,6 +59,7 @@ SELECTORS: dict[str, Callable[[str], str]] = {
     "report": reports_selector,
     "nav": navs_selector,
     "alive": alive_selector,
+    "scenario": scenarios_selector,
     "track": tracks_selector,
     "plan": plans_selector,
 }
@@ -72,6 +77,7 @@ def test_builders_default_prefix() -> None:
     assert report_key("uav1") == "gcs/vehicle/uav1/report"
     assert nav_key("uav1") == "gcs/vehicle/uav1/nav"
     assert alive_key("uav1") == "gcs/vehicle/uav1/alive"
+    assert scenario_key("uav1") == "gcs/vehicle/uav1/scenario"
     assert track_key("target") == "gcs/track/target"
     assert plan_key("uav-2_b") == "gcs/plan/uav-2_b"
     assert status_key() == "gcs/daemon/status"
@@ -83,6 +89,7 @@ def test_builders_and_selectors_custom_prefix() -> None:
     assert reports_selector("replay/run1") == "replay/run1/vehicle/*/report"
     assert navs_selector() == "gcs/vehicle/*/nav"
     assert alive_selector() == "gcs/vehicle/*/alive"
+    assert scenarios_selector("replay/run1") == "replay/run1/vehicle/*/scenario"
     assert tracks_selector() == "gcs/track/*"
     assert plans_selector() == "gcs/plan/*"
 
@@ -193,6 +200,7 @@ def test_kind_to_message_type() -> None:
     assert dict(MESSAGE_TYPE_BY_KIND) == {
         "report": SensorReport,
         "nav": NavReport,
+        "scenario": VehicleScenario,
         "track": TrackEstimate,
         "plan": PlanCommand,
         "status": DaemonStatus,
