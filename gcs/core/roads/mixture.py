@@ -50,7 +50,7 @@ from gcs.core.filters.estimate import NS_PER_S, GaussianEstimate
 from gcs.core.models.motion import constant_velocity
 from gcs.core.roads.model import RoadMotion
 from gcs.core.roads.gaussian_update import update_components
-from gcs.core.roads.mixture_parts import RoadComponents, branch, merge_and_prune, road_summary, start_components
+from gcs.core.roads.mixture_parts import RoadComponents, branch, forward_only, merge_and_prune, road_summary, start_components
 from gcs.core.roads.outputs import RoadHorizon, forward_stamp, moment_match, normalise_log_weights
 from gcs.core.roads.particles import aligned, invert_detections
 from gcs.core.roads.sensing import DetectionGroup, Looks, looks_log_likelihood
@@ -98,7 +98,7 @@ class RoadMixtureFilter(RoadMotion):
         graph = self.graph
         f = np.array([[1.0, dt], [0.0, 1.0]])
         q = self.speed_psd_m2_s3 * np.array([[dt**3 / 3.0, dt**2 / 2.0], [dt**2 / 2.0, dt]])
-        mean, cov = comp.mean @ f.T, f @ comp.cov @ f.T + q
+        mean, cov = forward_only(comp.mean @ f.T, f @ comp.cov @ f.T + q)
         edge, mean, cov, log_w = branch(graph, self.table, comp.edge, mean, cov, comp.log_weight)
         f4, q4 = constant_velocity(self.off_road_psd_m2_s3).matrices(dt)
         off_mean, off_cov = f4 @ comp.off_mean, f4 @ comp.off_cov @ f4.T + q4

@@ -23,7 +23,7 @@ from gcs.core.filters.estimate import GaussianEstimate
 from gcs.core.roads.graph import RoadGraph
 from gcs.core.roads.outputs import moment_match
 
-__all__ = ["RoadComponents", "branch", "merge_and_prune", "road_summary", "start_components", "SPLIT_MIN", "MERGE_D2"]
+__all__ = ["RoadComponents", "branch", "forward_only", "merge_and_prune", "road_summary", "start_components", "SPLIT_MIN", "MERGE_D2"]
 
 SPLIT_MIN = 0.01
 """Mass beyond (or before) a node below which a component is not split there."""
@@ -76,8 +76,13 @@ class RoadComponents:
                 np.append(weights, np.exp(self.off_log_weight)))
 
 
-def _truncated(mean: NDArray, cov: NDArray, limit: NDArray, above: bool) -> tuple[NDArray, NDArray]:
-    """Moments of (s, v) given ``s > limit`` (``above``) or ``s < limit`` (module docstring)."""
+def _truncated(mean: NDArray, cov: NDArray, limit: NDArray, above: bool, axis: int = 0) -> tuple[NDArray, NDArray]:
+    """Moments of (s, v) given ``s > limit`` (``above``) or ``s < limit`` (module docstring); ``axis = 1``
+    truncates the speed instead, and the arc length follows by its regression."""
+    if axis == 1:
+        swap = [1, 0]
+        m, p = _truncated(mean[:, swap], cov[:, swap][:, :, swap], limit, above)
+        return m[:, swap], p[:, swap][:, :, swap]
     mu, var = mean[:, 0], cov[:, 0, 0]
     sigma = np.sqrt(var)
     a = (limit - mu) / sigma
@@ -96,6 +101,19 @@ def _truncated(mean: NDArray, cov: NDArray, limit: NDArray, above: bool) -> tupl
     new_cov[:, 0, 1] = new_cov[:, 1, 0] = beta * s_var
     new_cov[:, 1, 1] = np.maximum(cov[:, 1, 1] - beta * cov[:, 0, 1] + beta * beta * s_var, 1e-6)
     return new_mean, new_cov
+
+
+def forward_only(mean: NDArray[np.float64], cov: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+    """Each component conditioned on ``v >= 0`` and then ``s >= 0`` where it has more than ``SPLIT_MIN`` of
+    its mass outside: a car drives its edge forwards (one turning round is on the reverse edge), and the
+    mass before the start of an edge is the car not yet past its last node."""
+    mean, cov = mean.copy(), cov.copy()
+    for axis in (1, 0):
+        outside = ndtr(-mean[:, axis] / np.sqrt(cov[:, axis, axis])) > SPLIT_MIN
+        if outside.any():
+            mean[outside], cov[outside] = _truncated(mean[outside], cov[outside], np.zeros(int(outside.sum())),
+                                                     above=True, axis=axis)
+    return mean, cov
 
 
 def branch(graph: RoadGraph, table: NDArray[np.float64], edge: NDArray[np.intp], mean: NDArray[np.float64],
@@ -130,27 +148,44 @@ def branch(graph: RoadGraph, table: NDArray[np.float64], edge: NDArray[np.intp],
 
 
 def merge_and_prune(comp: RoadComponents, max_components: int, prune_weight: float) -> RoadComponents:
-    """Merge close components of an edge, drop light ones, keep the heaviest ``max_components``; renormalise."""
+    """Merge close components of an edge, drop light ones, keep the heaviest ``max_components``; renormalise.
+
+    Greedy from the heaviest: each unmerged component takes every lighter unmerged one of its edge within
+    ``MERGE_D2`` of it (in its own metric); each group is moment-matched (vectorised over the groups).
+    """
     order = np.argsort(-comp.log_weight)
     order = order[np.exp(comp.log_weight[order]) >= prune_weight]
     edge, mean, cov, log_w = comp.edge[order], comp.mean[order], comp.cov[order], comp.log_weight[order]
-    used = np.zeros(len(order), dtype=bool)
-    keep_e, keep_m, keep_p, keep_w = [], [], [], []
-    for i in range(len(order)):
-        if used[i]:
-            continue
-        same = np.flatnonzero(~used & (edge == edge[i]))
-        d = mean[same] - mean[i]
-        close = same[np.einsum("ka,ka->k", d, np.linalg.solve(cov[i], d.T).T) < MERGE_D2]
-        used[close] = True
-        w = np.exp(log_w[close])
-        m, p = moment_match(w / w.sum(), mean[close], cov[close])
-        keep_e.append(edge[i]), keep_m.append(m), keep_p.append(p), keep_w.append(np.log(w.sum()))
-        if len(keep_e) == max_components:
-            break
-    total = np.logaddexp(np.logaddexp.reduce(keep_w) if keep_w else -np.inf, comp.off_log_weight)
-    return RoadComponents(np.array(keep_e, dtype=np.intp), np.array(keep_m).reshape(-1, 2),
-                          np.array(keep_p).reshape(-1, 2, 2), np.array(keep_w) - total, comp.off_mean, comp.off_cov,
+    n = len(order)
+    det = cov[:, 0, 0] * cov[:, 1, 1] - cov[:, 0, 1] ** 2
+    d = mean[None, :, :] - mean[:, None, :]  # d[i, j] = m_j - m_i
+    d2 = (cov[:, None, 1, 1] * d[..., 0] ** 2 - 2.0 * cov[:, None, 0, 1] * d[..., 0] * d[..., 1]
+          + cov[:, None, 0, 0] * d[..., 1] ** 2) / det[:, None]
+    close = (edge[:, None] == edge[None, :]) & (d2 < MERGE_D2)
+    label = np.full(n, -1)
+    groups = 0
+    for i in range(n):
+        if label[i] < 0:
+            label[close[i] & (label < 0)] = groups
+            label[i] = groups
+            groups += 1
+            if groups == max_components:
+                break
+    kept = label >= 0
+    label, w = label[kept], np.exp(log_w[kept])
+    total_w = np.bincount(label, weights=w, minlength=groups)
+    share = w / total_w[label]
+    new_mean = np.zeros((groups, 2))
+    np.add.at(new_mean, label, share[:, None] * mean[kept])
+    spread = mean[kept] - new_mean[label]
+    new_cov = np.zeros((groups, 2, 2))
+    np.add.at(new_cov, label, share[:, None, None] * (cov[kept] + spread[:, :, None] * spread[:, None, :]))
+    first = np.zeros(groups, dtype=np.intp)
+    first[label[::-1]] = np.flatnonzero(kept)[::-1]
+    with np.errstate(divide="ignore"):
+        log_total = np.log(total_w)
+    total = np.logaddexp(np.logaddexp.reduce(log_total) if groups else -np.inf, comp.off_log_weight)
+    return RoadComponents(edge[first], new_mean, new_cov, log_total - total, comp.off_mean, comp.off_cov,
                           comp.off_log_weight - total)
 
 
