@@ -73,6 +73,14 @@ class RoadMixtureEstimate(GaussianEstimate):
         """Weight of the off-road mode."""
         return float(np.exp(self.components.off_log_weight))
 
+    def branch_weights(self) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+        """The edges holding road components and the weight on each, heaviest first (the most likely branch first)."""
+        comp = self.components
+        edges, inverse = np.unique(comp.edge, return_inverse=True)
+        mass = np.bincount(inverse, weights=np.exp(comp.log_weight), minlength=len(edges))
+        order = np.argsort(-mass)
+        return edges[order], mass[order]
+
 
 @dataclass(frozen=True)
 class RoadMixtureFilter(RoadMotion):

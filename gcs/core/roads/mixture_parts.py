@@ -64,10 +64,11 @@ class RoadComponents:
                 np.exp(np.append(self.log_weight, self.off_log_weight)))
 
     def points(self, graph: RoadGraph, abscissae: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
-        """Each road component as points ``s = m_s + sigma_s a`` along its edge (equal shares of its weight) and
+        """Each road component as points ``s = m_s + sigma_s a`` along its edge, clipped to it (equal shares of its weight), and
         the off-road mean: states (len(a) C + 1, 4) and weights."""
         q = len(abscissae)
         s = self.mean[:, 0:1] + np.sqrt(self.cov[:, 0, 0])[:, None] * abscissae
+        s = np.clip(s, 0.0, graph.length[self.edge][:, None])  # the component's mass is on its edge
         edges = np.repeat(self.edge[:, None], q, axis=1)
         xy = graph.position(edges, s).reshape(-1, 2)
         v = (self.mean[:, 1:2, None] * graph.direction[self.edge][:, None, :]).repeat(q, axis=1).reshape(-1, 2)

@@ -74,6 +74,10 @@ class RoadParticleEstimate(GaussianEstimate):
         """Weight of the off-road mode."""
         return float(self.particles.weights[~self.particles.on_road].sum())
 
+    def branch_weights(self) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+        """The edges holding road hypotheses and the weight on each, heaviest first (the most likely branch first)."""
+        return self.particles.branch_weights()
+
 
 @dataclass(frozen=True)
 class RoadParticleFilter(RoadMotion):
