@@ -16,7 +16,7 @@ is no other way out (a dead end). ``successors[e, :]`` lists them, padded with
 -1, and ``turn_cos[e, k]`` is the cosine of the angle turned onto each (1 straight
 on, 0 a right-angle turn). :meth:`RoadGraph.branch_probabilities` turns those
 into the row-stochastic transition table ``T[e, k] = P(next = successors[e, k] |
-end of e)`` the trackers branch with (Ulmke and Koch 2006, section III; the turn
+end of e)`` the trackers branch with (the junction split of Ulmke and Koch 2006; the turn
 probabilities of the variable-structure IMM of Kirubarajan et al. 2000).
 
 Building: :meth:`RoadGraph.from_segments` merges end points closer than a

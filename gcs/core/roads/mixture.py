@@ -7,9 +7,9 @@ Weights ``w_c`` and ``w_off`` sum to 1.
 
 **Prediction over dt.** Along the road the speed is a white-noise acceleration
 (``q_s``): ``F = [[1, dt], [0, 1]]``, ``Q = q_s [[dt^3/3, dt^2/2], [dt^2/2, dt]]``.
-Then **branching** (Ulmke and Koch 2006, section III.B): the probability mass of a
+Then **branching** (as Ulmke and Koch 2006 split at junctions): the probability mass of a
 component beyond the end of its edge, ``alpha = P(s > l_e) = Phi((m_s - l_e) / sigma_s)``,
-is cut off (the truncated normal's moments, :mod:`gcs.core.roads.truncation`)
+is cut off (the truncated normal's moments, :mod:`gcs.core.roads.mixture_parts`)
 and continues on every successor ``e'`` with weight ``w alpha T[e, e']`` at
 ``s - l_e``; the mass before the node stays, weight ``w (1 - alpha)``. Parts
 below ``SPLIT_MIN`` of a component's mass are not split off.
@@ -23,15 +23,17 @@ velocity (``q_off``).
 **Update.** Every component by the iterated EKF on the step's stacked
 detections (:func:`gcs.core.roads.gaussian_update.update_components`), its
 weight multiplied by the marginal likelihood of the detections and by the
-looks' factors averaged over three points along the edge (``s = m_s`` and
-``m_s +- sqrt(3) sigma_s / sqrt(2)``... taken as ``m_s + sigma_s {-1.22, 0, 1.22}``, the
-three-point quadrature of a Gaussian): a branch a UAV had in sight and found
-empty loses weight (Koch 2007).
+looks' factors averaged over three points along the edge, ``s = m_s + sigma_s a``
+with ``a`` in ``{-sqrt(3/2), 0, sqrt(3/2)}`` (the three-point Gauss-Hermite rule,
+:data:`QUADRATURE`): a branch a UAV had in sight and found empty loses weight
+(Koch 2007). Along the edge a component is kept to ``v >= 0`` and ``s >= 0``
+(:func:`~gcs.core.roads.mixture_parts.forward_only`): a car turning round is a
+component on the reverse edge.
 
 **Merge and prune.** Components on the same edge closer than ``MERGE_D2``
 (Mahalanobis, the lighter against the heavier) are moment-matched into one;
 those lighter than ``prune_weight`` are dropped and at most ``max_components``
-kept (Salmond's joining and clustering, as Ulmke and Koch use).
+kept (mixture reduction by joining, Salmond 1990).
 
 **Recovery.** As the particle filter: detections that no component explains
 restart the mixture about them.
@@ -154,7 +156,7 @@ class RoadMixtureFilter(RoadMotion):
             off_basis = np.eye(2, 4)[None]
             o_mean, o_cov, off_lik, off_d2 = update_components(comp.off_mean[None], comp.off_cov[None],
                                                                np.zeros((1, 2)), off_basis, groups, spread2)
-            dof = road_d2.size and sum(np.size(z) for _, z, _, _ in groups)
+            dof = sum(np.size(z) for _, z, _, _ in groups)
             best = min(road_d2.min(initial=np.inf), off_d2[0])
             if best > chi2.isf(RECOVERY_PROBABILITY, dof):
                 fix = invert_detections(groups)

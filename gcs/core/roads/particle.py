@@ -1,4 +1,4 @@
-"""A particle filter on the road graph with an off-road mode (Arulampalam et al. 2002; Ristic et al. 2004, ch. 10).
+"""A particle filter on the road graph with an off-road mode (Arulampalam et al. 2002; Ristic et al. 2004).
 
 **State.** Particle ``i`` is either *on the road*: ``(e_i, s_i, v_i)``, the
 directed edge, the arc length along it and the speed along it (m/s, >= 0); or
@@ -133,9 +133,11 @@ class RoadParticleFilter(RoadMotion):
         speed[road] = new_speed
         off = np.flatnonzero(~on_road)
         if off.size:  # exact sample of the white-noise acceleration over dt, per axis (wang2012 eq. 2)
-            q = self.off_road_psd_m2_s3
-            block = q * np.array([[dt**3 / 3.0, dt**2 / 2.0], [dt**2 / 2.0, dt]])
-            noise = rng.multivariate_normal(np.zeros(2), block, size=(off.size, 2))  # (n, axis, [pos, vel])
+            q = self.off_road_psd_m2_s3  # Cholesky factor of q [[dt^3/3, dt^2/2], [dt^2/2, dt]]: [[a, 0], [b, c]]
+            a = np.sqrt(q * dt**3 / 3.0)
+            b = 0.5 * np.sqrt(3.0 * q * dt)
+            factor = np.array([[a, 0.0], [b, np.sqrt(max(q * dt - b * b, 0.0))]])
+            noise = rng.standard_normal((off.size, 2, 2)) @ factor.T  # (n, axis, [pos, vel])
             xy[off] += vxy[off] * dt + noise[:, :, 0]
             vxy[off] += noise[:, :, 1]
         return RoadParticles.build(graph, edge, s, speed, on_road, xy, vxy, cloud.log_weight)
