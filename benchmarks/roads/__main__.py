@@ -49,6 +49,13 @@ def _table(name: str, results: dict, estimators: Sequence[str]) -> str:
                      f"{s['max_m']:.0f} | {s['runs_over_50']} | {s['runs_over_100']} | {s['steps_over_50']} | "
                      f"{s['steps_over_100']} | {s['nees_inside']:.2f} | {s['ms_median']:.2f} "
                      f"({s['ms_p10']:.2f}-{s['ms_p90']:.2f}) |")
+    others = [e for e in estimators if e != BASELINE]
+    pairs = [(a, b) for i, a in enumerate(others) for b in others[i + 1:]]
+    if pairs:
+        lines += ["", "| paired per-run RMSE | p (Wilcoxon) | seeds the first is better |", "|---|---|---|"]
+        for a, b in pairs:
+            p = results["between"][f"{a} vs {b}"]
+            lines.append(f"| `{a}` vs `{b}` | {p['p']:.2g} | {p['better']}/{p['runs']} |")
     return "\n".join(lines)
 
 
@@ -82,6 +89,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             "unseen_median": float(np.median([r[2] for r in rows])), "unseen_max": int(max(r[2] for r in rows)),
             "summary": {e: summary(per[e]) for e in estimators},
             "paired": {e: paired(per[e], per[BASELINE]) for e in estimators if e != BASELINE and BASELINE in per},
+            "between": {f"{a} vs {b}": paired(per[a], per[b]) for i, a in enumerate(estimators) for b in estimators[i + 1:]
+                        if BASELINE not in (a, b)},
             "per_run_rmse_m": {e: [f["rmse_m"] for f in per[e]] for e in estimators},
         }
         print(_table(name, report[name], estimators), "\n", flush=True)
