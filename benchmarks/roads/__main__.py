@@ -63,7 +63,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.roads", description=__doc__.split("\n")[0])
     parser.add_argument("--seeds", type=int, default=20, help="seeds 0..N-1 per scenario (default 20)")
     parser.add_argument("--scenarios", default=",".join(SCENARIOS), help="comma-separated shipped scenarios")
-    parser.add_argument("--estimators", default=",".join(ESTIMATORS), help="comma-separated, of: " + ", ".join(ESTIMATORS))
+    parser.add_argument("--estimators", default=",".join(ESTIMATORS),
+                        help="comma-separated, of: " + ", ".join(ESTIMATORS))
     parser.add_argument("--duration", type=float, default=None, help="seconds per run (default: the scenario's)")
     parser.add_argument("--workers", type=int, default=1, help="processes (timing is cleanest with 1)")
     parser.add_argument("--out", default=None, help="write the figures as JSON here")
@@ -89,8 +90,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             "unseen_median": float(np.median([r[2] for r in rows])), "unseen_max": int(max(r[2] for r in rows)),
             "summary": {e: summary(per[e]) for e in estimators},
             "paired": {e: paired(per[e], per[BASELINE]) for e in estimators if e != BASELINE and BASELINE in per},
-            "between": {f"{a} vs {b}": paired(per[a], per[b]) for i, a in enumerate(estimators) for b in estimators[i + 1:]
-                        if BASELINE not in (a, b)},
+            "between": {f"{a} vs {b}": paired(per[a], per[b])
+                        for i, a in enumerate(estimators) for b in estimators[i + 1:] if BASELINE not in (a, b)},
             "per_run_rmse_m": {e: [f["rmse_m"] for f in per[e]] for e in estimators},
         }
         print(_table(name, report[name], estimators), "\n", flush=True)

@@ -35,7 +35,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from gcs.core.roads.sensing import DetectionGroup, _vehicle_variance
+from gcs.core.roads.sensing import DetectionGroup, per_axis_vehicle_variance
 
 __all__ = ["update_components", "ITERATIONS"]
 
@@ -54,7 +54,7 @@ def _measurements(points: NDArray[np.float64], groups: Sequence[DetectionGroup],
         p, v = points[:, None, :], xyz[None, :, :]
         pred = sensor.measure(p, v)  # (C, k, m)
         r = sensor.noise_variance(pred, p, v) + sensor.linearisation_variance(p, v, position_cov[:, None])
-        extra = _vehicle_variance(covs, len(xyz)) + spread_var_m2
+        extra = per_axis_vehicle_variance(covs, len(xyz)) + spread_var_m2
         r = r + sensor.isotropic_vehicle_variance(p, v, extra[None, :])
         c, k, m = pred.shape
         preds.append(pred.reshape(c, k * m))

@@ -189,7 +189,8 @@ class RoadGraph:
             count = valid.sum(axis=1, keepdims=True)
             uniform = valid / count
             with np.errstate(invalid="ignore", divide="ignore"):
-                share_straight = np.where(turns > 0, 1.0 - turn_probability, 1.0) / np.maximum(straight.sum(1, keepdims=True), 1)
+                straight_count = np.maximum(straight.sum(1, keepdims=True), 1)
+                share_straight = np.where(turns > 0, 1.0 - turn_probability, 1.0) / straight_count
                 share_turn = turn_probability / np.maximum(turns, 1)
             biased = np.where(straight, share_straight, np.where(valid, share_turn, 0.0))
             table = np.where(has_straight, biased, uniform)

@@ -52,7 +52,8 @@ from gcs.core.filters.estimate import NS_PER_S, GaussianEstimate
 from gcs.core.models.motion import constant_velocity
 from gcs.core.roads.model import RoadMotion
 from gcs.core.roads.gaussian_update import update_components
-from gcs.core.roads.mixture_parts import RoadComponents, branch, forward_only, merge_and_prune, road_summary, start_components
+from gcs.core.roads.mixture_parts import (RoadComponents, branch, forward_only, merge_and_prune, road_summary,
+                                          start_components)
 from gcs.core.roads.outputs import RoadHorizon, forward_stamp, moment_match, normalise_log_weights
 from gcs.core.roads.particles import aligned, invert_detections
 from gcs.core.roads.sensing import DetectionGroup, Looks, looks_log_likelihood

@@ -23,7 +23,8 @@ from gcs.core.filters.estimate import GaussianEstimate
 from gcs.core.roads.graph import RoadGraph
 from gcs.core.roads.outputs import moment_match
 
-__all__ = ["RoadComponents", "branch", "forward_only", "merge_and_prune", "road_summary", "start_components", "SPLIT_MIN", "MERGE_D2"]
+__all__ = ["RoadComponents", "branch", "forward_only", "merge_and_prune", "road_summary", "start_components",
+           "SPLIT_MIN", "MERGE_D2"]
 
 SPLIT_MIN = 0.01
 """Mass beyond (or before) a node below which a component is not split there."""
@@ -64,8 +65,8 @@ class RoadComponents:
                 np.exp(np.append(self.log_weight, self.off_log_weight)))
 
     def points(self, graph: RoadGraph, abscissae: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
-        """Each road component as points ``s = m_s + sigma_s a`` along its edge, clipped to it (equal shares of its weight), and
-        the off-road mean: states (len(a) C + 1, 4) and weights."""
+        """Each road component as points ``s = m_s + sigma_s a`` along its edge, clipped to it (equal shares of its
+        weight), and the off-road mean: states (len(a) C + 1, 4) and weights."""
         q = len(abscissae)
         s = self.mean[:, 0:1] + np.sqrt(self.cov[:, 0, 0])[:, None] * abscissae
         s = np.clip(s, 0.0, graph.length[self.edge][:, None])  # the component's mass is on its edge

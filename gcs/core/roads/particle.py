@@ -114,7 +114,8 @@ class RoadParticleFilter(RoadMotion):
     def _move(self, cloud: RoadParticles, dt: float, rng: np.random.Generator) -> RoadParticles:
         graph, n = self.graph, len(cloud.s)
         on_road = cloud.on_road.copy()
-        edge, s, speed, xy, vxy = cloud.edge.copy(), cloud.s.copy(), cloud.speed.copy(), cloud.xy.copy(), cloud.vxy.copy()
+        edge, s, speed = cloud.edge.copy(), cloud.s.copy(), cloud.speed.copy()
+        xy, vxy = cloud.xy.copy(), cloud.vxy.copy()
         u = rng.random(n)
         leaving = on_road & (u < -np.expm1(-self.leave_rate_per_s * dt))
         vxy[leaving] = speed[leaving, None] * graph.direction[edge[leaving]]
@@ -154,7 +155,8 @@ class RoadParticleFilter(RoadMotion):
         if components and d2.min() > chi2.isf(RECOVERY_PROBABILITY, components):
             fix = invert_detections(groups)
             if fix is not None:
-                start = self.start(GaussianEstimate(np.append(fix[0], [0.0, 0.0]), _fix_cov(fix[1]), prior.stamp_ns), rng)
+                restart = GaussianEstimate(np.append(fix[0], [0.0, 0.0]), _fix_cov(fix[1]), prior.stamp_ns)
+                start = self.start(restart, rng)
                 return self.update(start, groups, looks, rng)
         log_w, _ = normalise_log_weights(cloud.log_weight + log_lik + looks_log_likelihood(cloud.xy, looks))
         cloud = replace(cloud, log_weight=log_w)

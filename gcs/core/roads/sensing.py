@@ -38,10 +38,13 @@ from numpy.typing import NDArray
 from gcs.core.models.sensor import SensorModel
 from gcs.core.world.sight_table import SightTable
 
-__all__ = ["DetectionGroup", "Looks", "detection_log_likelihoods", "detections_log_likelihood", "looks_log_likelihood", "table_sees"]
+__all__ = ["DetectionGroup", "Looks", "per_axis_vehicle_variance", "detection_log_likelihoods",
+           "detections_log_likelihood",
+           "looks_log_likelihood", "table_sees"]
 
 DetectionGroup = tuple[SensorModel, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None]
-"""``(sensor, z (k, m), vehicle_xyz (k, 3), vehicle_cov)``; ``vehicle_cov`` None, per-axis variances (k,) or (k, 3, 3)."""
+"""``(sensor, z (k, m), vehicle_xyz (k, 3), vehicle_cov)``; ``vehicle_cov``: None, per-axis variances (k,) or
+(k, 3, 3) covariances."""
 
 Sees = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.bool_]]
 """``sees(points_xy (P, 2), vehicle_xyz (V, 3)) -> (V, P)``: in the sensor's field and in sight."""
@@ -72,7 +75,7 @@ class Looks:
         object.__setattr__(self, "detected", detected)
 
 
-def _vehicle_variance(covs: NDArray[np.float64] | None, k: int) -> NDArray[np.float64]:
+def per_axis_vehicle_variance(covs: NDArray[np.float64] | None, k: int) -> NDArray[np.float64]:
     """Per-axis variance (k,) of each vehicle's position: 0 when exact, the mean diagonal of a covariance."""
     if covs is None:
         return np.zeros(k)
@@ -91,7 +94,7 @@ def detection_log_likelihoods(points: NDArray[np.float64], group: DetectionGroup
     xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
     pred = sensor.measure(points[:, None, :], xyz[None, :, :])  # (P, k, m)
     r = sensor.noise_variance(pred, points[:, None, :], xyz[None, :, :])
-    extra = _vehicle_variance(covs, len(xyz)) + spread_var_m2
+    extra = per_axis_vehicle_variance(covs, len(xyz)) + spread_var_m2
     if np.any(extra > 0.0):
         r = r + sensor.isotropic_vehicle_variance(points[:, None, :], xyz[None, :, :], extra[None, :])
     r = np.broadcast_to(r, pred.shape)
