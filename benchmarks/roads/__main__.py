@@ -20,6 +20,7 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
+from gcs.config import ScenarioError
 from benchmarks.roads.estimators import ESTIMATORS, run_estimator
 from benchmarks.roads.metrics import longest_unseen, paired, run_figures, summary
 from benchmarks.roads.scene import SCENARIOS, load_scene, simulate
@@ -75,6 +76,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"python -m benchmarks.roads: bad --estimators {unknown} or --seeds {args.seeds}; "
               f"use some of {', '.join(ESTIMATORS)} and --seeds >= 1", file=sys.stderr)
         return 2
+    for name in args.scenarios.split(","):
+        try:
+            load_scene(name)
+        except ScenarioError as error:
+            print(f"python -m benchmarks.roads: --scenarios {name!r}: {error}", file=sys.stderr)
+            return 2
+        if load_scene(name).world.streets is None:
+            print(f"python -m benchmarks.roads: --scenarios {name!r} has no street grid for the car; "
+                  f"use a generated city, e.g. {', '.join(SCENARIOS)}", file=sys.stderr)
+            return 2
     jobs = [(name, seed, estimators, args.duration) for name in args.scenarios.split(",") for seed in range(args.seeds)]
     if args.workers > 1:
         with ProcessPoolExecutor(args.workers) as pool:
