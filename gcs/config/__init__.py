@@ -67,6 +67,7 @@ class CityConfig(_Config):
     blocks, heights uniform in [``min_height_m``, ``max_height_m``].
     ``kind = "geojson"``: polygons from ``geojson`` (a path relative to the
     scenario file) with a ``height_property`` in metres.
+    ``roads_geojson``: the drivable roads as GeoJSON LineStrings (any kind).
     """
 
     kind: Literal["generated", "geojson", "empty"] = "generated"
@@ -78,6 +79,11 @@ class CityConfig(_Config):
     max_height_m: NonNegative = 100.0
     geojson: str | None = None
     height_property: str = "height"
+    roads_geojson: str | None = None
+    """The road network: a GeoJSON file of LineStrings (relative to the scenario file), any ``kind``;
+    a generated city without it drives its street grid."""
+    roads_oneway_property: str = "oneway"
+    """The ``roads_geojson`` property that marks a one-way road (true, "yes", or "-1" against the drawing)."""
 
 
 class RestrictedAirspace(_Config):

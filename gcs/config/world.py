@@ -17,6 +17,13 @@ GeoJSON coordinates
     Only outer rings are used; holes are ignored (see
     :func:`gcs.core.world.buildings_from_geojson`).
 
+``city.roads_geojson``
+    The road network (:func:`gcs.core.roads.roads_from_geojson`): LineStrings in
+    the same coordinate convention as the buildings' file (below), one-way roads
+    marked by ``city.roads_oneway_property``. Without it a generated city's
+    street grid is its road graph (:func:`gcs.core.roads.roads_from_street_grid`);
+    other cities have none.
+
 ``[[restricted]]``
     Each zone becomes one polygon prism of :class:`gcs.core.world.RestrictedAirspace`.
 
@@ -35,9 +42,10 @@ from numpy.typing import NDArray
 
 from gcs.config import CityConfig, Origin, RestrictedAirspace as AirspaceConfig, Scenario, ScenarioError
 from gcs.core.geometry import LocalFrame
+from gcs.core.roads import RoadGraph, roads_from_geojson, roads_from_street_grid
 from gcs.core.world import Buildings, RestrictedAirspace, World, buildings_from_geojson, generate_city
 
-__all__ = ["build_world", "load_city_geojson", "airspace_from_config"]
+__all__ = ["build_world", "load_city_geojson", "load_roads_geojson", "airspace_from_config"]
 
 ToEnu = Callable[[NDArray[np.float64], NDArray[np.float64]], tuple[NDArray[np.float64], NDArray[np.float64]]]
 """``to_enu(lon_deg, lat_deg) -> (x_m, y_m)`` on arrays."""
@@ -47,7 +55,7 @@ GCS_FRAME_KEY = "gcs_frame"
 
 
 def build_world(scenario: Scenario, base_dir: Path | None = None) -> World:
-    """The buildings, streets and restricted airspace of a scenario.
+    """The buildings, streets, road graph and restricted airspace of a scenario.
 
     Parameters
     ----------
@@ -76,28 +84,47 @@ def build_world(scenario: Scenario, base_dir: Path | None = None) -> World:
     else:
         buildings = Buildings.empty()
     airspace = airspace_from_config(scenario.restricted, source=scenario.name)
-    return World(buildings, airspace, streets, (float(city.size_m[0]), float(city.size_m[1])))
+    if city.roads_geojson:
+        roads = load_roads_geojson(city, scenario.origin, base_dir)
+    else:
+        roads = roads_from_street_grid(streets) if streets is not None else None
+    return World(buildings, airspace, streets, (float(city.size_m[0]), float(city.size_m[1])), roads)
 
 
 def load_city_geojson(city: CityConfig, origin: Origin, base_dir: Path | None = None) -> Buildings:
     """Read ``city.geojson`` (see the module docstring for the coordinate convention)."""
     if not city.geojson:
         raise ScenarioError("$.city.geojson: required when kind = 'geojson'")
-    path = Path(city.geojson)
-    if not path.is_absolute():
-        path = (base_dir if base_dir is not None else Path.cwd()) / path
-    try:
-        with path.open("rb") as handle:
-            document = json.load(handle)
-    except OSError as exc:
-        raise ScenarioError(f"{path}: cannot read GeoJSON city: {exc.strerror or exc}") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise ScenarioError(f"{path}: not valid JSON: {exc}") from None
+    path, document = _read_geojson(city.geojson, base_dir, "GeoJSON city")
     try:
         to_enu = _converter(document, origin)
         return buildings_from_geojson(document, height_property=city.height_property, to_enu=to_enu)
     except ValueError as exc:
         raise ScenarioError(f"{path}: {exc}") from None
+
+
+def load_roads_geojson(city: CityConfig, origin: Origin, base_dir: Path | None = None) -> RoadGraph:
+    """Read ``city.roads_geojson``: the road graph of its LineStrings (same coordinate convention)."""
+    path, document = _read_geojson(city.roads_geojson, base_dir, "GeoJSON roads")
+    try:
+        return roads_from_geojson(document, to_enu=_converter(document, origin),
+                                  oneway_property=city.roads_oneway_property)
+    except ValueError as exc:
+        raise ScenarioError(f"{path}: $.city.roads_geojson: {exc}") from None
+
+
+def _read_geojson(name: str, base_dir: Path | None, what: str) -> tuple[Path, Any]:
+    """The path (relative to ``base_dir``) and parsed contents of a GeoJSON file; ScenarioError naming it."""
+    path = Path(name)
+    if not path.is_absolute():
+        path = (base_dir if base_dir is not None else Path.cwd()) / path
+    try:
+        with path.open("rb") as handle:
+            return path, json.load(handle)
+    except OSError as exc:
+        raise ScenarioError(f"{path}: cannot read {what}: {exc.strerror or exc}") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ScenarioError(f"{path}: not valid JSON: {exc}") from None
 
 
 def _converter(document: Any, origin: Origin) -> ToEnu | None:

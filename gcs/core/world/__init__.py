@@ -12,6 +12,7 @@ ground at z = 0, a generated city's south-west corner at (0, 0).
 * :class:`SightTable` (where a ground point is seen from, on a height grid,
   for the sight planner) -- :mod:`gcs.core.world.sight_table`
 * :class:`RestrictedAirspace` (eq. 5) -- :mod:`gcs.core.world.airspace`
+* the road network (:class:`gcs.core.roads.RoadGraph`), when the city has one;
 * :class:`World` bundles them; ``gcs.config.world.build_world`` makes one
   from a scenario.
 """
@@ -19,6 +20,7 @@ ground at z = 0, a generated city's south-west corner at (0, 0).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -35,6 +37,9 @@ from gcs.core.world.los import (
     visibility_map,
     visibility_maps,
 )
+
+if TYPE_CHECKING:
+    from gcs.core.roads.graph import RoadGraph
 
 __all__ = [
     "World",
@@ -67,12 +72,16 @@ class World:
         The street grid of a generated city; None for GeoJSON or empty cities.
     size_m : tuple of float
         Width (east) and depth (north) of the city rectangle, metres, from (0, 0).
+    roads : RoadGraph or None
+        The drivable roads (:mod:`gcs.core.roads`): a generated city's street grid, or
+        the scenario's declared roads; None where the world has none.
     """
 
     buildings: Buildings
     airspace: RestrictedAirspace
     streets: StreetGrid | None
     size_m: tuple[float, float]
+    roads: RoadGraph | None = None
     _sight_tables: dict = field(default_factory=dict, init=False, repr=False)
 
     @classmethod

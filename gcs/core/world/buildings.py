@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from gcs.core.world._geojson import features_with_parts
 from gcs.core.world._polygons import as_ring, bboxes, inside_any, pad_edges, signed_area
 
 __all__ = ["Buildings", "StreetGrid", "generate_city", "buildings_from_geojson"]
@@ -304,29 +305,11 @@ def buildings_from_geojson(
     ValueError
         Naming the feature index and the problem.
     """
-    if not isinstance(obj, Mapping) or obj.get("type") != "FeatureCollection":
-        raise ValueError("GeoJSON: expected an object with \"type\": \"FeatureCollection\"")
-    features = obj.get("features")
-    if not isinstance(features, list):
-        raise ValueError("GeoJSON: \"features\" must be a list")
     rings: list[NDArray[np.float64]] = []
     heights: list[float] = []
-    for index, feature in enumerate(features):
-        where = f"feature {index}"
-        if not isinstance(feature, Mapping):
-            raise ValueError(f"{where}: not an object")
+    for where, feature, parts in features_with_parts(obj, "Polygon", "MultiPolygon", "polygon"):
         height = _feature_height(feature, height_property, where)
-        geometry = feature.get("geometry")
-        kind = geometry.get("type") if isinstance(geometry, Mapping) else None
-        coordinates = geometry.get("coordinates") if isinstance(geometry, Mapping) else None
-        if kind == "Polygon":
-            polygons = [coordinates]
-        elif kind == "MultiPolygon" and isinstance(coordinates, list):
-            polygons = coordinates
-        else:
-            raise ValueError(f"{where}: geometry type {kind!r} is not supported (Polygon or MultiPolygon)")
-        for part, polygon in enumerate(polygons):
-            label = where if kind == "Polygon" else f"{where} polygon {part}"
+        for label, polygon in parts:
             if not isinstance(polygon, list) or not polygon:
                 raise ValueError(f"{label}: no rings")
             rings.append(_outer_ring(polygon[0], label, to_enu))
