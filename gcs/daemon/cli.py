@@ -117,7 +117,8 @@ def add_run(sub: argparse._SubParsersAction) -> None:
     parser = sub.add_parser(
         "run", help="the ground-station daemon: reports in over Zenoh, headings out over MAVLink",
         description="Fuse the vehicles' reports, predict the target, plan every vehicle's heading and command "
-                    "it over MAVLink; publish tracks and plans over Zenoh. Stop with Ctrl-C or SIGTERM.")
+                    "it over MAVLink; publish tracks and plans over Zenoh. Logs a line of status every 30 s of "
+                    "flight, and what it did when stopped (Ctrl-C or SIGTERM). docs/cli.md explains the output.")
     add_daemon_arguments(parser)
     add_mavlink_arguments(parser, DEFAULT_GCS_MAVLINK, "every vehicle is reached through")
     add_zenoh_arguments(parser, listen=(DEFAULT_ENDPOINT,), connect=())

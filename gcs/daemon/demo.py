@@ -87,17 +87,13 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         print(f"gcs demo: error: {one_line(error)}", file=sys.stderr)
         daemon.close()
         return 1
-    (endpoint,) = daemon.zenoh_listening
-    (mavlink,) = set(daemon.mavlink_bound.values())  # one port, shared by the vehicles
-    command = simulator_command(daemon, args.scenario, args.rate, duration, args.seed)
-    print(f"demo: {daemon.scenario.name}, {len(daemon.scenario.vehicles)} UAVs, {duration:g} s at {args.rate:g}x; "
-          f"zenoh {endpoint}, MAVLink {mavlink}", flush=True)
-    live = daemon.live
-    print(f"live map: {(live.url if live is not None else None) or 'off'}", flush=True)
-    if live is not None and live.foxglove is not None:
-        print(f"foxglove: {live.foxglove.url or 'no server'}" + (f", MCAP {args.foxglove_mcap}" if args.foxglove_mcap
-                                                                else ""), flush=True)
-    interrupted = run_together(daemon, command)
+    try:
+        _print_header(daemon, args, duration)
+        interrupted = run_together(daemon, command=simulator_command(daemon, args.scenario, args.rate, duration,
+                                                                     args.seed))
+    except BaseException:  # e.g. the reader of the output gone (BrokenPipeError): the planner is stopped too
+        daemon.close()
+        raise
     progress.end()
     summary = summarise(daemon.records, daemon.plans, daemon.roster, [t.id for t in daemon.scenario.all_targets])
     counters = daemon.status(time.monotonic()).counters
@@ -112,6 +108,19 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     if args.json is not None:
         args.json.write_text(json.dumps(summary, indent=2))
     return 0  # run_command says "interrupted" and returns 130 when a signal stopped the run
+
+
+def _print_header(daemon: Daemon, args: argparse.Namespace, duration: float) -> None:
+    """What runs where: the scenario, the loopback ports, the live map's address."""
+    (endpoint,) = daemon.zenoh_listening
+    (mavlink,) = set(daemon.mavlink_bound.values())  # one port, shared by the vehicles
+    print(f"demo: {daemon.scenario.name}, {len(daemon.scenario.vehicles)} UAVs, {duration:g} s at {args.rate:g}x; "
+          f"zenoh {endpoint}, MAVLink {mavlink}", flush=True)
+    live = daemon.live
+    print(f"live map: {(live.url if live is not None else None) or 'off'}", flush=True)
+    if live is not None and live.foxglove is not None:
+        print(f"foxglove: {live.foxglove.url or 'no server'}" + (f", MCAP {args.foxglove_mcap}" if args.foxglove_mcap
+                                                                else ""), flush=True)
 
 
 def simulator_command(daemon: Daemon, scenario: str, rate: float, duration_s: float, seed: int,

@@ -127,3 +127,9 @@ def test_demo_stopped_by_ctrl_c_says_so_with_the_summary_of_the_steps_flown(tmp_
     assert f"target seen by at least one UAV in {summary['seen_any']}/{summary['steps']}" in stdout
     assert stderr.rstrip().endswith("gcs demo: interrupted"), stderr[-3000:]
     assert list(temporary.iterdir()) == []  # the simulator's output, stopped as asked, is not left behind
+
+
+def test_demo_whose_output_nobody_reads_ends_quietly() -> None:
+    # `gcs demo | head -0`: the first line finds no reader; the demo closes what it opened and ends, status 141
+    code, stderr = _output_read_by_nobody([script("gcs"), "demo", "--duration", "5", "--http", "none"])
+    assert code == BROKEN_PIPE_STATUS and "Traceback" not in stderr, stderr[-3000:]
