@@ -110,10 +110,11 @@ def print_summary(summary: dict, step_s: float) -> None:
     if summary.get("interrupted"):
         planned = round(summary["duration_s"] / step_s)
         print(f"interrupted after {steps} of {planned} steps: the figures below are of the steps flown")
-    per_uav = ", ".join(f"{v} {n}/{steps}" for v, n in summary["seen_per_uav"].items())
-    print(f"steps {steps}; target seen by at least one UAV in {summary['seen_any']}/{steps}; per UAV {per_uav}")
-    median, p99 = (_ms(summary[key]) for key in ("decision_ms_median", "decision_ms_p99"))
     many = "gospa_m_mean" in summary
+    per_uav = ", ".join(f"{v} {n}/{steps}" for v, n in summary["seen_per_uav"].items())
+    print(f"steps {steps}; {'a target' if many else 'target'} seen by at least one UAV in {summary['seen_any']}/{steps}; "
+          f"per UAV {per_uav}")
+    median, p99 = (_ms(summary[key]) for key in ("decision_ms_median", "decision_ms_p99"))
     if not many:
         rmse = "-" if summary["rmse_m"] is None else \
             f"{summary['rmse_m']:.1f} m over {summary['scored_steps']}/{steps} steps"
