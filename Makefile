@@ -1,10 +1,12 @@
-# Two commands for a fresh machine: `make demo` and `make test`.
-# Both create .venv when it is missing and install the project with its test and cluster extras.
+# Two commands for a fresh machine: `make demo` and `make test`. Both create .venv when it is missing.
+# `make demo` installs the project alone (what `gcs` and `sim-vehicles` need); `make test` adds the
+# test and cluster extras and MAVProxy, which only the tests use.
 
 PYTHON ?= python3
 VENV   ?= .venv
 BIN    := $(VENV)/bin
-STAMP  := $(VENV)/.installed
+DEMO_STAMP := $(VENV)/.installed-demo
+TEST_STAMP := $(VENV)/.installed-test
 # MAVProxy, the real GCS the integration tests drive (tests/integration/mavproxy_harness.py).
 # Installed without its dependencies: its wheel pulls vtk, opencv and matplotlib (about
 # 1 GB) for the map and 3D views; the console needs only pymavlink, defusedxml, pyserial,
@@ -13,21 +15,27 @@ MAVPROXY := MAVProxy==1.8.75
 
 .PHONY: demo test venv clean
 
-venv: $(STAMP)
+venv: $(DEMO_STAMP)
 
-$(STAMP): pyproject.toml Makefile
-	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+$(BIN)/python:
+	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
+
+$(DEMO_STAMP): pyproject.toml Makefile | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e .
+	@touch $@
+
+$(TEST_STAMP): pyproject.toml Makefile | $(BIN)/python
 	$(BIN)/python -m pip install --quiet -e '.[test,cluster]'
 	$(BIN)/python -m pip install --quiet --no-deps '$(MAVPROXY)'
-	@touch $(STAMP)
+	@touch $@
 
 # The ground station (daemon) against three simulated fixed-wings (a separate process) on
 # loopback: the default scenario, 300 simulated seconds at 10x, a live line, then a summary.
-demo: $(STAMP)
+demo: $(DEMO_STAMP)
 	$(BIN)/gcs demo
 
-test: $(STAMP)
+test: $(TEST_STAMP)
 	$(BIN)/python -m pytest
 
 clean:

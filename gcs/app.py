@@ -148,11 +148,17 @@ class Daemon:
             self.recorder.write(key, payload, encoding, time_ns)
 
     def open(self) -> None:
-        """Open the recording, Zenoh, MAVLink and the live map, and start the planner (idempotent: ``run``
+        """Open MAVLink, the live map, the recording and Zenoh, and start the planner (idempotent: ``run``
         opens if not yet open)."""
         if self._opened:
             return
         self._opened = True
+        if self.options.mavlink is not None:  # first: a port another program holds is refused before anything starts
+            self.commander = MavlinkCommander(
+                self.frame, {v.id: v.sysid for v in self.scenario.vehicles}, self.options.mavlink,
+                signing_key=self.options.signing_key,
+                max_turn_rate_rad_s={v.id: v.max_turn_rate_rad_s for v in self.scenario.vehicles},
+                stream_rate_hz=self.options.stream_rate_hz, takeover=self.options.takeover)
         self.planner = start_planner(self.options.planner_mode, self.scenario, self.world, self.planner_name,
                                      self.options.seed, self._subset, self.options.planner_niceness)
         if self.options.http is not None or self.options.foxglove is not None:
@@ -165,12 +171,6 @@ class Daemon:
         if self.options.record is not None:
             self.recorder = Recorder(self.options.record, library=f"gcs {__version__}", scenario=self.scenario)
         self.zenoh.open()
-        if self.options.mavlink is not None:
-            self.commander = MavlinkCommander(
-                self.frame, {v.id: v.sysid for v in self.scenario.vehicles}, self.options.mavlink,
-                signing_key=self.options.signing_key,
-                max_turn_rate_rad_s={v.id: v.max_turn_rate_rad_s for v in self.scenario.vehicles},
-                stream_rate_hz=self.options.stream_rate_hz, takeover=self.options.takeover)
         listen = list(self.options.zenoh.listen)
         self.zenoh_listening = listening_endpoints(self.zenoh.session) if any(e.endswith(":0") for e in listen) \
             else listen

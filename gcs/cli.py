@@ -9,7 +9,6 @@ works.
 from __future__ import annotations
 
 import argparse
-import importlib
 import logging
 import sys
 from collections.abc import Callable, Sequence
@@ -17,7 +16,8 @@ from collections.abc import Callable, Sequence
 import msgspec
 
 from gcs import __version__
-from gcs.cli_errors import OneLineParser, run_command, set_command
+from gcs.cli_commands import CommandLine, Subcommand
+from gcs.cli_errors import set_command
 from gcs.config import ScenarioError
 from gcs.scenarios import DEFAULT_SCENARIO, list_scenarios, load_scenario
 
@@ -55,63 +55,32 @@ def _add_scenario(sub: argparse._SubParsersAction) -> None:
     set_command(parser, _cmd_scenario)
 
 
-SUBCOMMANDS: tuple[tuple[str, str], ...] = (
-    ("demo", "gcs.daemon.demo:add_demo"),
-    ("run", "gcs.daemon.cli:add_run"),
-    ("status", "gcs.daemon.status_cli:add_status"),
-    ("record", "gcs.recordings.record:add_record"),
-    ("replay", "gcs.recordings.replay_cli:add_replay"),
-    ("router", "gcs.adapters.zenoh_router:add_router"),
-    ("scenario", "gcs.cli:_add_scenario"),
-    ("bench", "gcs.bench.cli:add_bench"),
+SUBCOMMANDS: tuple[Subcommand, ...] = (
+    Subcommand("demo", "gcs.daemon.demo:add_demo", "daemon + simulated vehicles on loopback, live progress and a summary"),
+    Subcommand("run", "gcs.daemon.cli:add_run",
+               "the ground-station daemon: reports in over Zenoh, headings out over MAVLink"),
+    Subcommand("status", "gcs.daemon.status_cli:add_status",
+               "print a running daemon's status (vehicles, links, tracks, counters)"),
+    Subcommand("record", "gcs.recordings.record:add_record", "record the Zenoh traffic under a prefix to MCAP"),
+    Subcommand("replay", "gcs.recordings.replay_cli:add_replay", "summarise, republish or process a recording"),
+    Subcommand("router", "gcs.adapters.zenoh_router:add_router", "a Zenoh router for clients (no zenohd needed)"),
+    Subcommand("scenario", "gcs.cli:_add_scenario", "list, show or check scenario files"),
+    Subcommand("bench", "gcs.bench.cli:add_bench", "reproduce the papers' experiments and measure speed"),
 )
-"""Each subcommand and its registration function (``module:function``), in the order ``--help`` lists them.
-Registration modules are imported only when needed: ``gcs status`` (Docker's healthcheck) need not load SciPy."""
+"""Each subcommand, in the order ``--help`` lists them; only the one named is imported (:mod:`gcs.cli_commands`):
+``gcs --help`` loads none, ``gcs status`` (Docker's healthcheck) need not load SciPy."""
 
 
-def _register(sub: argparse._SubParsersAction, target: str) -> None:
-    module, _, function = target.partition(":")
-    getattr(importlib.import_module(module), function)(sub)
-
-
-def build_parser(command: str | None = None) -> argparse.ArgumentParser:
-    """The argument parser with every implemented subcommand, or with ``command``'s alone."""
-    parser = OneLineParser(
-        prog="gcs",
-        description="Ground station that steers fixed-wing UAVs to keep a ground target in sight.",
-    )
-    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
-    parser.add_argument("--log-level", default="INFO",
-                        choices=["DEBUG", "INFO", "WARNING", "ERROR"], help="logging threshold (default INFO)")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for name, target in SUBCOMMANDS:
-        if command is None or name == command:
-            _register(sub, target)
-    return parser
-
-
-def requested_command(argv: Sequence[str]) -> str | None:
-    """The subcommand ``argv`` names, if it names a known one before any help flag (else None: all are needed)."""
-    names = {name for name, _ in SUBCOMMANDS}
-    tokens = iter(argv)
-    for token in tokens:
-        if token == "--log-level":
-            next(tokens, None)
-        elif not token.startswith("-"):
-            return token if token in names else None
-        elif not token.startswith("--log-level="):
-            return None  # --help, --version or a mistake: the full parser answers
-    return None
+COMMAND_LINE = CommandLine("gcs", "Ground station that steers fixed-wing UAVs to keep a ground target in sight.",
+                           __version__, SUBCOMMANDS)
+build_parser = COMMAND_LINE.build_parser
+requested_command = COMMAND_LINE.requested_command
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``gcs`` console script; returns the process exit code (2 for bad input, with one
-    line on stderr naming it: :mod:`gcs.cli_errors`)."""
-    argv = sys.argv[1:] if argv is None else list(argv)
-    parser = build_parser(requested_command(argv))
-    args = parser.parse_args(argv)
-    logging.basicConfig(level=args.log_level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    return run_command(args, known=(ScenarioError,))
+    line on stderr naming it; 130 on Ctrl-C: :mod:`gcs.cli_errors`)."""
+    return COMMAND_LINE.main(argv, known=(ScenarioError,))
 
 
 if __name__ == "__main__":  # pragma: no cover

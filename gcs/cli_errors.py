@@ -8,6 +8,13 @@ line and returns 2; argparse's own errors take the same form
 (:class:`OneLineParser`), without the usage block. What goes wrong later, once
 the input was good (a router that is not there, a port another program holds),
 is one clear line and status 1, printed by the command itself.
+
+Ctrl-C (SIGINT) and SIGTERM ask a running command to stop (:func:`stop_on_signals`): it
+closes what it opened, prints what it has (a summary), and :func:`run_command` then says
+``<prog>: interrupted`` and returns 128 + the signal's number (130 for Ctrl-C, 143 for
+SIGTERM), as a shell reports a process the signal ended. A command that installs no handler
+is ended by ``KeyboardInterrupt`` with the same line and status. Output cut short by a reader
+that went away (``gcs status | head``) ends the command quietly (:func:`guard_console`).
 """
 
 from __future__ import annotations
@@ -21,7 +28,17 @@ from pathlib import Path
 from typing import NoReturn
 
 __all__ = ["UsageError", "OneLineParser", "one_line", "run_command", "set_command", "writable_file",
-           "existing_file", "positive", "stop_on_signals"]
+           "existing_file", "positive", "stop_on_signals", "stopped_by", "guard_console", "INTERRUPTED_STATUS",
+           "BROKEN_PIPE_STATUS"]
+
+INTERRUPTED_STATUS = 128 + signal.SIGINT
+"""Exit status after Ctrl-C (130), as a shell reports a process SIGINT ended."""
+BROKEN_PIPE_STATUS = 128 + signal.SIGPIPE
+"""Exit status when the reader of the output went away (141), as for a process SIGPIPE ended."""
+
+_signals_received: list[int] = []
+"""The signals that asked the running command to stop (:func:`stop_on_signals`), oldest first. Module state because
+signal handlers are the process's: one command runs per process, and :func:`run_command` clears it."""
 
 
 class UsageError(Exception):
@@ -49,15 +66,39 @@ def set_command(parser: argparse.ArgumentParser, handler: Callable[[argparse.Nam
 
 def run_command(args: argparse.Namespace, known: tuple[type[BaseException], ...] = ()) -> int:
     """Run the parsed command: :class:`UsageError` (and the ``known`` input errors, e.g. a scenario that does
-    not load) become one line on stderr and status 2; Ctrl-C is status 130."""
+    not load) become one line on stderr and status 2; a command stopped by a signal says ``interrupted`` and
+    returns 128 + its number (130 for Ctrl-C) unless it failed otherwise (its own status then)."""
     prog = getattr(args, "command_prog", None) or Path(sys.argv[0]).name
+    _signals_received.clear()
     try:
-        return args.handler(args)
+        status = args.handler(args)
     except (UsageError, *known) as error:
         print(f"{prog}: error: {one_line(error)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        return 130
+        print(f"{prog}: interrupted", file=sys.stderr)
+        return INTERRUPTED_STATUS
+    signum = stopped_by()
+    if signum is None:
+        return status
+    print(f"{prog}: interrupted", file=sys.stderr)
+    return status or 128 + signum
+
+
+def guard_console(prog: str, main: Callable[[], int]) -> int:
+    """Run a console script's ``main``: Ctrl-C before its command runs (while modules load) is one line and
+    status 130, not a traceback; a reader that went away (``| head``) ends it quietly, status 141."""
+    try:
+        return main()
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted", file=sys.stderr)
+        return INTERRUPTED_STATUS
+    except BrokenPipeError:
+        # Python flushes stdout again at exit, which would fail the same way: point it at /dev/null.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+        return BROKEN_PIPE_STATUS
 
 
 def writable_file(path: Path | None, option: str) -> Path | None:
@@ -93,7 +134,24 @@ def positive(value: float | None, option: str) -> float | None:
     return value
 
 
-def stop_on_signals(stop: Callable[[], None]) -> None:
-    """SIGINT and SIGTERM call ``stop()``: the command's loop returns and closes what it opened."""
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop())
+def stop_on_signals(stop: Callable[[], None]) -> Callable[[], None]:
+    """SIGINT and SIGTERM call ``stop()``: the command's loop returns and closes what it opened, and
+    :func:`run_command` reports the command interrupted. Returns a function that puts the previous
+    handlers back (for a command that runs several loops, each stopped on its own)."""
+
+    def on_signal(signum: int, frame) -> None:
+        _signals_received.append(signum)
+        stop()
+
+    previous = {signum: signal.signal(signum, on_signal) for signum in (signal.SIGINT, signal.SIGTERM)}
+
+    def restore() -> None:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+    return restore
+
+
+def stopped_by() -> int | None:
+    """The first signal that asked the running command to stop (:func:`stop_on_signals`), or None."""
+    return _signals_received[0] if _signals_received else None

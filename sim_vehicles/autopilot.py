@@ -21,6 +21,8 @@ which override the hooks named below.
   ``telemetry_rate_hz``); ``PARAM_REQUEST_LIST`` /
   ``_READ`` / ``PARAM_SET`` over a small parameter set; ``MISSION_REQUEST_LIST``
   (no mission: ``MISSION_COUNT`` 0). Every command gets a ``COMMAND_ACK``.
+* **Refuses** MAVLink FTP (``FILE_TRANSFER_PROTOCOL``): a NAK for every request, so that a ground
+  station fetches the parameters with ``PARAM_REQUEST_LIST`` at once instead of after an FTP time-out.
 * **Ignores** messages addressed to another system and GCS heartbeats (noting the time).
 * **Sends** HEARTBEAT (fixed-wing, ArduPilot, so tools use ArduPlane's mode
   numbers), SYS_STATUS, GLOBAL_POSITION_INT, ATTITUDE, GPS_RAW_INT, VFR_HUD and,
@@ -49,6 +51,7 @@ from dataclasses import dataclass, field, replace
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODE_NAMES, ARDUPLANE_MODES, mavlink, ned_yaw_from_enu_heading
 from gcs.config.simulation import AirframeConfig
 from gcs.core.geometry import LocalFrame
+from sim_vehicles import telemetry_messages
 from sim_vehicles.streams import STREAMED_MESSAGES, MessageSchedule
 from sim_vehicles.autopilot_params import ParameterTable
 from sim_vehicles.egress import Egress
@@ -367,6 +370,10 @@ class SimAutopilot(GroundStart, Egress, ParameterTable):
 
     def _on_mission_request_list(self, msg, now_s: float, state: AirframeState) -> list:
         return [self.encoder.mission_count_encode(msg.get_srcSystem(), msg.get_srcComponent(), 0, msg.mission_type)]
+
+    def _on_file_transfer_protocol(self, msg, now_s: float, state: AirframeState) -> list:
+        reply = telemetry_messages.ftp_refusal(self.encoder, msg)
+        return [] if reply is None else [reply]
 
     def _param_changed(self, name: str, value: float) -> None:
         if name == "AIRSPEED_CRUISE":

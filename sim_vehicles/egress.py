@@ -35,7 +35,7 @@ class Egress:
                                              base, self.mode, status)
 
     def sys_status(self):
-        """SYS_STATUS (every sensor healthy)."""
+        """SYS_STATUS (every sensor healthy, no fence breached)."""
         return telemetry_messages.sys_status(self.encoder)
 
     def autopilot_version(self):

@@ -9,6 +9,7 @@ by id (:data:`sim_vehicles.streams.STREAMED_MESSAGES`).
 from __future__ import annotations
 
 import math
+import struct
 
 import numpy as np
 
@@ -17,15 +18,21 @@ from gcs.core.geometry import LocalFrame
 from sim_vehicles.truth.fixed_wing import AirframeState
 from sim_vehicles.truth.gps import GpsReading
 
-__all__ = ["SENSORS", "CAPABILITIES", "SOFTWARE_VERSION", "autopilot_version", "home_position", "stream_message",
-           "sys_status", "e7", "param_name"]
+__all__ = ["SENSORS", "HEALTHY", "CAPABILITIES", "SOFTWARE_VERSION", "autopilot_version", "home_position",
+           "stream_message", "sys_status", "ftp_refusal", "e7", "param_name"]
 
 SENSORS = (mavlink.MAV_SYS_STATUS_SENSOR_3D_GYRO | mavlink.MAV_SYS_STATUS_SENSOR_3D_ACCEL
            | mavlink.MAV_SYS_STATUS_SENSOR_3D_MAG | mavlink.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
            | mavlink.MAV_SYS_STATUS_SENSOR_DIFFERENTIAL_PRESSURE | mavlink.MAV_SYS_STATUS_SENSOR_GPS
            | mavlink.MAV_SYS_STATUS_SENSOR_ANGULAR_RATE_CONTROL | mavlink.MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION
            | mavlink.MAV_SYS_STATUS_SENSOR_YAW_POSITION | mavlink.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
-           | mavlink.MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL | mavlink.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS)
+           | mavlink.MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL | mavlink.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
+           | mavlink.MAV_SYS_STATUS_AHRS)
+"""The sensors and controllers a simulated vehicle has: present, enabled and healthy (SYS_STATUS)."""
+HEALTHY = SENSORS | mavlink.MAV_SYS_STATUS_GEOFENCE
+"""SYS_STATUS health: every sensor, and the geofence bit of a fence not breached. ArduPilot sets that bit
+whether or not a fence is present ("GEOFENCE always defaults to healthy"), and ground stations read a clear
+bit as a breach: MAVProxy's fence module announces "fence breach" when it sees the bit clear."""
 
 CAPABILITIES = (mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2 | mavlink.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
                 | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
@@ -51,8 +58,34 @@ def param_name(raw) -> str:
 
 
 def sys_status(encoder: mavlink.MAVLink):
-    """SYS_STATUS with every simulated sensor present, enabled and healthy."""
-    return encoder.sys_status_encode(SENSORS, SENSORS, SENSORS, 100, 12600, -1, -1, 0, 0, 0, 0, 0, 0)
+    """SYS_STATUS with every simulated sensor present, enabled and healthy, and no fence breached."""
+    return encoder.sys_status_encode(SENSORS, SENSORS, HEALTHY, 100, 12600, -1, -1, 0, 0, 0, 0, 0, 0)
+
+
+FTP_NAK = 129
+"""MAVLink FTP's NAK opcode (``Nack``); 128 is its ACK."""
+FTP_UNKNOWN_COMMAND = 7
+"""MAVLink FTP's error ``UnknownCommand``: the server does not carry out this request."""
+_FTP_HEADER = struct.Struct("<HBBBBBBI")  # seq, session, opcode, size, req_opcode, burst_complete, padding, offset
+
+
+def ftp_refusal(encoder: mavlink.MAVLink, request):
+    """The NAK (``UnknownCommand``) that answers a FILE_TRANSFER_PROTOCOL request, or None for an ACK or NAK.
+
+    The simulated vehicle keeps no files and its AUTOPILOT_VERSION does not claim
+    MAV_PROTOCOL_CAPABILITY_FTP. A ground station may try FTP all the same (MAVProxy fetches the
+    parameters as ``@PARAM/param.pck`` first): refused at once, it falls back to PARAM_REQUEST_LIST
+    without waiting for its FTP time-out. The reply carries the request's sequence number plus one,
+    its session and its opcode, as an FTP server's replies do."""
+    payload = bytes(request.payload)
+    if len(payload) < _FTP_HEADER.size:
+        return None
+    seq, session, opcode = _FTP_HEADER.unpack_from(payload)[:3]
+    if opcode >= 128:  # a reply (ACK or NAK), not a request
+        return None
+    reply = _FTP_HEADER.pack((seq + 1) & 0xFFFF, session, FTP_NAK, 1, opcode, 0, 0, 0) + bytes([FTP_UNKNOWN_COMMAND])
+    return encoder.file_transfer_protocol_encode(0, request.get_srcSystem(), request.get_srcComponent(),
+                                                 list(reply.ljust(251, b"\0")))
 
 
 def autopilot_version(encoder: mavlink.MAVLink, sysid: int):

@@ -15,6 +15,7 @@ counter-clockwise). :func:`ned_yaw_from_enu_heading` is the one conversion.
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import math
 import os
@@ -42,6 +43,8 @@ __all__ = [
     "normalise_connection",
     "check_connection",
     "open_connection",
+    "bind_udp_exclusively",
+    "PortInUse",
     "read_signing_key",
     "signing_key_from_passphrase",
     "sign_outgoing",
@@ -115,13 +118,64 @@ def check_connection(connection: str) -> str:
 
 
 def open_connection(connection: str, source_system: int, source_component: int = 1) -> mavutil.mavfile:
-    """Open a pymavlink connection (MAVLink 2, ``ardupilotmega``) with a clear error on failure."""
+    """Open a pymavlink connection (MAVLink 2, ``ardupilotmega``) with a clear error on failure.
+
+    A UDP port to listen on (``udpin:``, ``udp:``) is bound for this connection alone
+    (:func:`bind_udp_exclusively`): ValueError when another program holds it."""
     text = normalise_connection(connection)
+    scheme, _, address = text.partition(":")
     try:
+        if scheme in ("udpin", "udp"):
+            return _listening_udp(text, address, source_system, source_component)
         return mavutil.mavlink_connection(text, source_system=source_system, source_component=source_component,
                                           dialect="ardupilotmega", autoreconnect=True)
     except (OSError, ValueError) as error:
         raise ValueError(f"cannot open MAVLink connection {connection!r}: {error}") from error
+
+
+class PortInUse(OSError):
+    """A UDP port another socket holds (the message names the port and what to do)."""
+
+
+def bind_udp_exclusively(host: str, port: int) -> socket.socket:
+    """A UDP socket bound to ``host:port`` without ``SO_REUSEADDR``, so that the port is this socket's alone.
+
+    pymavlink's ``udpin`` sets ``SO_REUSEADDR`` before it binds, and on Linux two sockets that
+    both set it bind the same UDP port side by side: a second program listening there (another
+    ``gcs run``, ``mavproxy.py --master=udpin:...`` on the daemon's port) starts without an error
+    and takes the datagrams meant for the first. A socket bound without it is refused while any
+    other socket holds the port (:class:`PortInUse`), and while it holds the port every later
+    bind there is refused, ``SO_REUSEADDR`` or not. The kernel decides at the bind itself, so
+    there is no window between a check and the bind for another program to slip into.
+    """
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        sock.bind((host, port))
+    except OSError as error:
+        sock.close()
+        if error.errno == errno.EADDRINUSE:
+            raise PortInUse(f"UDP port {port} on {host} is in use by another program (another gcs "
+                                         "run, a MAVProxy or a simulator listening there); stop it, or listen on "
+                                         "another port") from None
+        raise
+    sock.setblocking(False)
+    return sock
+
+
+def _listening_udp(text: str, address: str, source_system: int, source_component: int) -> mavutil.mavfile:
+    """pymavlink's ``udpin`` connection on a socket of :func:`bind_udp_exclusively`: pymavlink opens it on a
+    port of the system's choosing, which is then swapped for the exclusive socket (its ``port`` and ``fd``)."""
+    host, _, port = address.rpartition(":")
+    sock = bind_udp_exclusively(host, int(port))
+    try:
+        conn = mavutil.mavlink_connection(f"udpin:{host}:0", source_system=source_system,
+                                          source_component=source_component, dialect="ardupilotmega")
+    except BaseException:
+        sock.close()
+        raise
+    conn.port.close()
+    conn.port, conn.fd, conn.address = sock, sock.fileno(), address
+    return conn
 
 
 def signing_key_from_passphrase(passphrase: str) -> bytes:

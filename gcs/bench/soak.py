@@ -54,6 +54,7 @@ from gcs.bench.daemon import _load_average, machine_note
 from gcs.bench.faults import Injector, UdpRelay, every_kind
 from gcs.bench.soak_report import EPOCH_NS, POST_INGEST, build_report, format_report, received, write_json
 from gcs.bench.urban import with_vehicles
+from gcs.cli_errors import INTERRUPTED_STATUS
 from gcs.scenarios import load_scenario
 from protocols.codec import decode
 from protocols.keys import navs_selector, reports_selector, scenarios_selector, status_key, truth_selector
@@ -352,7 +353,7 @@ def run_soak(options: SoakOptions, command: str = "", progress: Callable[[str], 
         if session is not None:
             session.close()
     for name, code in exit_codes.items():
-        if code != 0:
+        if code not in (0, INTERRUPTED_STATUS):  # 130: ended by the SIGINT sent above, as after Ctrl-C
             soak.crashes[name] += 1
     return build_report(options, soak, status, dict(injector.counts), memory, baseline, end, exit_codes, command,
                         note, load_start, time.monotonic() - started, workdir)

@@ -16,6 +16,7 @@ from gcs.adapters.mavlink_commands import DEFAULT_STREAM_RATE_HZ, HANDBACK_MODES
 from gcs.cli_errors import UsageError, one_line, positive, set_command, stop_on_signals, writable_file
 from gcs.config.multitarget import MULTITARGET_PLANNERS
 from gcs.config.world import build_world
+from gcs.daemon.flight_report import FlightReport
 from gcs.daemon.navigation import NAVIGATION_MODES
 from gcs.daemon.status_cli import add_status, format_status, query_status
 from gcs.daemon.planning import PLANNER_MODES, PLANNER_NICENESS
@@ -116,7 +117,8 @@ def add_run(sub: argparse._SubParsersAction) -> None:
     parser = sub.add_parser(
         "run", help="the ground-station daemon: reports in over Zenoh, headings out over MAVLink",
         description="Fuse the vehicles' reports, predict the target, plan every vehicle's heading and command "
-                    "it over MAVLink; publish tracks and plans over Zenoh. Stop with Ctrl-C or SIGTERM.")
+                    "it over MAVLink; publish tracks and plans over Zenoh. Logs a line of status every 30 s of "
+                    "flight, and what it did when stopped (Ctrl-C or SIGTERM). docs/cli.md explains the output.")
     add_daemon_arguments(parser)
     add_mavlink_arguments(parser, DEFAULT_GCS_MAVLINK, "every vehicle is reached through")
     add_zenoh_arguments(parser, listen=(DEFAULT_ENDPOINT,), connect=())
@@ -171,8 +173,10 @@ def run_daemon(daemon, command: str, until=None) -> int:
 
 def _cmd_run(args: argparse.Namespace) -> int:
     daemon = check_run(args)
+    report = FlightReport(lambda: daemon.status(daemon.clock()), daemon.scenario.time.step_s)
+    daemon.on_step = report
     stop_on_signals(daemon.stop)
     status = run_daemon(daemon, "gcs run")
     if status == 0:
-        log.info("daemon stopped after %d decisions", daemon.counters["decisions"])
+        log.info("%s", report.stopped(daemon.status(daemon.clock()).counters, daemon.options.mavlink is not None))
     return status

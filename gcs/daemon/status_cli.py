@@ -15,6 +15,7 @@ import msgspec
 
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, open_session, query, required_settings
 from gcs.cli_errors import UsageError, one_line, positive, set_command
+from gcs.daemon.status_text import counters_help, format_status
 from protocols.codec import decode
 from protocols.errors import ProtocolError
 from protocols.keys import status_key
@@ -28,7 +29,11 @@ log = logging.getLogger(__name__)
 def add_status(sub: argparse._SubParsersAction) -> None:
     """Register ``gcs status``."""
     parser = sub.add_parser("status", help="print a running daemon's status (vehicles, links, tracks, counters)",
-                            description="Query gcs/daemon/status over Zenoh and print it.")
+                            description="Query gcs/daemon/status over Zenoh and print it: the daemon, each vehicle "
+                                        "(link, reports, who flies it), each track, the steering commands' age and "
+                                        "the counters. Times are UTC with their age at the status; docs/cli.md has "
+                                        "the same table of counters.",
+                            epilog=counters_help(), formatter_class=argparse.RawDescriptionHelpFormatter)
     add_zenoh_arguments(parser, listen=(), connect=(DEFAULT_ENDPOINT,))
     parser.add_argument("--timeout", type=float, default=3.0, help="seconds to wait for the daemon (default 3)")
     parser.add_argument("--json", action="store_true", help="print the status as JSON")
@@ -43,28 +48,15 @@ def query_status(settings, prefix: str, timeout_s: float) -> DaemonStatus | None
     return None
 
 
-def format_status(status: DaemonStatus) -> list[str]:
-    """Human-readable lines: the daemon, one line per vehicle, one per track (or ``no tracks``), the counters."""
-    lines = [f"scenario {status.scenario}, up {status.uptime_s:.0f} s, last track stamp "
-             f"{status.last_track_stamp_ns if status.last_track_stamp_ns is not None else 'none'}"]
-    if status.command_age_ms_median is not None:
-        lines.append(f"command age median {status.command_age_ms_median:.0f} ms, p99 "
-                     f"{status.command_age_ms_p99:.0f} ms (vehicle time flown less the decision step's stamp)")
-    for vehicle in status.vehicles:
-        lines.append(f"  {vehicle.vehicle_id:<10} sysid {vehicle.sysid or '-':>3}  link {vehicle.link:<7} "
-                     f"(heartbeat {vehicle.heartbeat or '-'}, liveliness {vehicle.liveliness or '-'})  "
-                     f"reports {vehicle.reports:>6}  autopilot {vehicle.autopilot or '-'}  "
-                     f"control {vehicle.control or '-'}")
-    for track in status.tracks:
-        speed = "-" if track.speed_mps is None else f"{track.speed_mps:.1f} m/s"
-        lines.append(f"  track {track.target_id:<10} at ({track.x_m:.1f}, {track.y_m:.1f}) m  "
-                     f"1-sigma {track.position_std_m:.1f} m  speed {speed}  stamp {track.stamp_ns}  "
-                     f"vehicles {', '.join(track.contributing_vehicles) or '-'}")
-    if not status.tracks:
-        lines.append("  no tracks")
-    for name, value in sorted(status.counters.items()):
-        lines.append(f"  {name:<40} {value:>10}")
-    return lines
+def _decision_period_s(scenario: str) -> float | None:
+    """The decision period of a shipped scenario the status names (None for one this machine does not have)."""
+    from gcs.config import ScenarioError
+    from gcs.scenarios import load_scenario
+
+    try:
+        return load_scenario(scenario).time.step_s
+    except (ScenarioError, OSError, ValueError):
+        return None
 
 
 def check_status(args: argparse.Namespace):
@@ -94,6 +86,6 @@ def _cmd_status(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(msgspec.to_builtins(status), indent=2))
     else:
-        print("\n".join(format_status(status)))
+        print("\n".join(format_status(status, _decision_period_s(status.scenario))))
     return 0
 

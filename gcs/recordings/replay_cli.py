@@ -166,7 +166,7 @@ def _process(args: argparse.Namespace) -> None:
     if scenario.multitarget is not None:
         mean, scored = truth_gospa(args.file, tracks, step_ns)
         if mean is not None:
-            print(f"GOSPA against every recorded truth {mean:.2f} m mean over {scored} steps")
+            print(f"GOSPA mean {mean:.2f} m against every recorded truth over {scored} steps")
         return
     rmse, scored = truth_error(args.file, tracks, step_ns, scenario.target.id)
     if rmse is not None:

@@ -30,3 +30,17 @@ def stop(process: subprocess.Popen, timeout: float = 20.0) -> int:
             process.kill()
             process.wait()
     return process.returncode
+
+
+def output_read_by_nobody(command: list[str], timeout: float = 120.0) -> tuple[int, str]:
+    """Run ``command`` with its standard output a pipe whose reader has gone (``command | head`` once head has
+    exited); its exit status and what it wrote to stderr."""
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    process.stdout.close()  # before the command has written anything: every write it makes finds no reader
+    try:
+        _, stderr = process.communicate(timeout=timeout)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    return process.returncode, stderr

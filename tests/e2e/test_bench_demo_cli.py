@@ -53,4 +53,4 @@ def test_bench_demo_flies_the_scenario_asked_for_in_both_loops_and_scores_many_t
     # Both loops scored their steps against the recorded truths (GOSPA against the five cars)
     assert all(r["rmse_m"] is not None and math.isfinite(r["rmse_m"]) and r["rmse_m"] >= 0.0
                for r in (demo_run, loop_run))
-    assert "GOSPA RMS (m)" in done.stdout
+    assert "GOSPA mean (m)" in done.stdout

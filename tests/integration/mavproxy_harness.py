@@ -167,7 +167,7 @@ class MavProxy:
         if self._child is not None:
             raise RuntimeError("MAVProxy is already started")
         if importlib.util.find_spec("MAVProxy") is None:
-            raise RuntimeError("MAVProxy is not installed in this environment: run `make venv` "
+            raise RuntimeError("MAVProxy is not installed in this environment: run `make test` "
                                "(it runs pip install --no-deps MAVProxy==1.8.75)")
         self.workdir.mkdir(parents=True, exist_ok=True)
         env = dict(os.environ, HOME=str(self.workdir), TERM="dumb", PYTHONUNBUFFERED="1")

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import argparse
 import json
+import subprocess
+import sys
 
 import pytest
 
@@ -36,15 +39,36 @@ def test_gcs_help_lists_every_registered_subcommand(capsys: pytest.CaptureFixtur
 ])
 def test_only_the_named_subcommand_is_loaded(argv: list[str], expected: str | None) -> None:
     assert gcs_cli.requested_command(argv) == expected
-    names = _subcommands(gcs_cli.build_parser(expected))
-    assert names == ({expected} if expected else {name for name, _ in gcs_cli.SUBCOMMANDS})
+    names = _subcommands(gcs_cli.build_parser(expected) if expected else gcs_cli.COMMAND_LINE.listing_parser())
+    assert names == ({expected} if expected else {s.name for s in gcs_cli.SUBCOMMANDS})
+
+
+@pytest.mark.parametrize("command_line", [gcs_cli.COMMAND_LINE, sim_cli.COMMAND_LINE], ids=["gcs", "sim-vehicles"])
+def test_the_listing_shows_each_subcommands_own_help_line(command_line) -> None:
+    # the listing (gcs --help) imports no subcommand: its help lines are a copy, held equal to the parsers' own here
+    def help_lines(parser) -> dict[str, str]:
+        action = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+        return {choice.dest: choice.help for choice in action._choices_actions}
+
+    assert help_lines(command_line.listing_parser()) == help_lines(command_line.build_parser())
+
+
+@pytest.mark.parametrize("argv", [["gcs", "--help"], ["gcs", "--version"], ["sim-vehicles", "--help"],
+                                  ["sim-vehicles", "--version"]], ids=" ".join)
+def test_help_and_version_load_no_heavy_module(argv: list[str]) -> None:
+    # what makes a command line start slowly (a second or more); --help and --version need none of it
+    code = (f"import sys; sys.argv = {argv!r}\n"
+            f"from {'gcs' if argv[0] == 'gcs' else 'sim_vehicles'}.cli import main\n"
+            "try:\n    main()\nexcept SystemExit as stop:\n    assert stop.code == 0, stop.code\n"
+            "heavy = ('numpy', 'scipy', 'zenoh', 'pymavlink', 'matplotlib')\n"
+            "print(sorted(m for m in heavy if m in sys.modules), file=sys.stderr)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert done.stderr.strip().splitlines()[-1] == "[]"
 
 
 def test_gcs_status_loads_neither_scipy_nor_the_daemon() -> None:
     # it is Docker's healthcheck, run every few seconds: it should start in a fraction of a second
-    import subprocess
-    import sys
-
     code = ("import sys; from gcs import cli; cli.build_parser(cli.requested_command(['status'])); "
             "print(sorted(m for m in ('scipy', 'gcs.app', 'gcs.engine.tracking', 'pymavlink') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=60)

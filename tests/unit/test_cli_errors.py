@@ -9,7 +9,9 @@ before it opens anything) and asserts that nothing escapes but a one-line refusa
 from __future__ import annotations
 
 import argparse
+import os
 import re
+import signal
 from pathlib import Path
 
 import pytest
@@ -19,7 +21,7 @@ from hypothesis import strategies as st
 import gcs.cli
 import sim_vehicles.cli
 from gcs.adapters.recording import Recorder
-from gcs.cli_errors import run_command
+from gcs.cli_errors import run_command, stop_on_signals
 from gcs.config import ScenarioError
 
 WORK = Path("/nonexistent-gcs-test-folder")
@@ -228,3 +230,39 @@ def test_random_input_to_every_parser_and_check_is_refused_in_one_line_or_taken(
                                                                                         lines[0])), (argv, lines)
 
     check()
+
+
+# ------------------------------------------------------------------ Ctrl-C
+
+
+def _stops_itself(signum: int, status: int):
+    """A command that stops on signals, receives ``signum`` while it runs, finishes and returns ``status``."""
+    def handler(args: argparse.Namespace) -> int:
+        stopped = []
+        restore = stop_on_signals(lambda: stopped.append(True))
+        try:
+            os.kill(os.getpid(), signum)
+            assert stopped == [True]  # the handler ran: the command's loop was asked to return
+        finally:
+            restore()
+        return status
+    return handler
+
+
+@pytest.mark.parametrize(("signum", "status", "expected"), [(signal.SIGINT, 0, 130), (signal.SIGTERM, 0, 143),
+                                                            (signal.SIGINT, 1, 1)])
+def test_a_command_stopped_by_a_signal_says_interrupted_and_exits_128_plus_its_number(capsys, signum, status,
+                                                                                      expected) -> None:
+    args = argparse.Namespace(handler=_stops_itself(signum, status), command_prog="gcs run")
+    assert run_command(args) == expected  # a failure of its own (1) is not hidden behind the interruption
+    assert capsys.readouterr().err.splitlines() == ["gcs run: interrupted"]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # the previous handlers are back
+
+
+def test_ctrl_c_without_a_handler_is_one_line_and_130(capsys) -> None:
+    def handler(args: argparse.Namespace) -> int:
+        raise KeyboardInterrupt
+
+    assert run_command(argparse.Namespace(handler=handler, command_prog="gcs bench urban")) == 130
+    assert capsys.readouterr().err.splitlines() == ["gcs bench urban: interrupted"]
+    assert run_command(argparse.Namespace(handler=lambda args: 0, command_prog="gcs scenario")) == 0  # cleared

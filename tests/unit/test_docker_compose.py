@@ -186,7 +186,8 @@ def test_dockerfile_slim_non_root_installs_the_repository():
     assert users and users[-1] not in ("root", "0"), "the containers must not run as root"
     copied = {source.rstrip("/") for i in instructions if i.startswith("COPY ") for source in i.split()[1:-1]}
     packages = [p.rstrip("*") for p in PYPROJECT["tool"]["setuptools"]["packages"]["find"]["include"]]
-    missing = {"pyproject.toml", "README.md", *packages} - copied
+    license_files = PYPROJECT["project"].get("license-files", [])
+    missing = {"pyproject.toml", "README.md", *license_files, *packages} - copied
     assert not missing, f"the image is built from the repository: COPY {sorted(missing)}"
     install = next(i for i in instructions if "pip install" in i)
     assert "--no-cache-dir" in install and re.search(r"pip install\s+(--\S+\s+)*\.(\s|$)", install)

@@ -16,7 +16,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGES = ("gcs", "sim_vehicles", "protocols")
-GCS_ROOT_MODULES = {"__init__.py", "app.py", "cli.py", "cli_errors.py"}
+GCS_ROOT_MODULES = {"__init__.py", "app.py", "cli.py", "cli_commands.py", "cli_errors.py"}
 MAX_LINES = 400
 
 

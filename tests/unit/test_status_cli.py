@@ -27,7 +27,7 @@ def test_one_line_per_track_after_the_vehicles_and_before_the_counters() -> None
     t1, t2 = track_lines
     assert t1.split()[:2] == ["track", "t1"]
     assert "at (1200.3, -40.5) m" in t1
-    assert "1-sigma 3.0 m" in t1 and "speed 12.5 m/s" in t1 and "stamp 7000000000" in t1
+    assert "1-sigma 3.0 m" in t1 and "speed 12.5 m/s" in t1 and "1970-01-01T00:00:07Z, 1 s ago" in t1  # at the status
     assert t1.endswith("vehicles uav1, uav2")
     assert t2.split()[:2] == ["track", "t2"]
     assert "at (-5.0, 310.0) m" in t2 and "1-sigma 0.0 m" in t2 and "speed -" in t2 and t2.endswith("vehicles -")
