@@ -46,7 +46,7 @@ from protocols.errors import ProtocolError
 from protocols.keys import alive_key
 from sim_vehicles.autopilot import SimAutopilot
 from sim_vehicles.personalities import make_autopilot
-from sim_vehicles.lockstep import PeerClock
+from sim_vehicles.lockstep import PeerClock, wait_for_vehicles
 from sim_vehicles.plan_clock import STALE_AFTER_S as PLAN_STALE_AFTER_S
 from sim_vehicles.plan_clock import PlanClock
 from sim_vehicles.run_options import RunOptions, RunSummary
@@ -86,6 +86,8 @@ class Runner:
                  clock: Callable[[], float] = time.monotonic, sleep: Callable[[float], None] = time.sleep) -> None:
         if not options.rate > 0:
             raise ValueError(f"--rate must be > 0, got {options.rate}")
+        if options.start_with and options.zenoh is None:
+            raise ValueError("start_with hears the other vehicles over zenoh: it needs a zenoh session")
         self.scenario = scenario
         self.options = options
         self.clock, self.sleep = clock, sleep
@@ -199,7 +201,9 @@ class Runner:
             self._declare_tokens()
         else:
             self._declare_tokens()
-            if ahead_s is not None:
+            if self.options.start_with:
+                self._wait_for_fleet()
+            elif ahead_s is not None:
                 self.stop_event.wait(ahead_s)
             wall_start = self.clock()
         steps_total = None if self.options.duration_s is None else round(self.options.duration_s / dt) - skipped
@@ -283,6 +287,14 @@ class Runner:
             autopilot.schedule.skip_to(elapsed)
         log.info("joined the run at t = %.1f s (the target moved %d steps without publishing)", elapsed, steps)
         return steps
+
+    def _wait_for_fleet(self) -> None:
+        """``start_with``: hold the clock at zero until each of those vehicles has its liveliness token up (or the
+        run is stopped)."""
+        others = self.options.start_with
+        if not wait_for_vehicles(self.session, self.options.prefix, others, lambda: not self.stop_event.is_set(),
+                                 self.clock):
+            log.info("%s up: the clock starts", ", ".join(others))
 
     def _wait_for_peers(self) -> None:
         """Before joining: up to two report periods (at least 0.5 s) of wall time for the report of every
