@@ -53,7 +53,8 @@ def add_run(sub: argparse._SubParsersAction) -> None:
     parser.add_argument("--start-with", action="append", default=[], metavar="ID",
                         help="start the simulation clock once vehicle ID, flown by another process started the same "
                              "way, has come up on zenoh (repeatable), however long the machine takes to start them: "
-                             "e.g. --only uav1 --start-with uav2 --start-with uav3 (needs Zenoh; not with --start-at)")
+                             "e.g. --only uav1 --start-with uav2 --start-with uav3 (needs Zenoh on which the processes hear "
+                             "each other, e.g. clients of one router; not with --start-at)")
     parser.add_argument("--lockstep", action="store_true",
                         help="keep one clock with the other simulated vehicles under the prefix (other processes): "
                              "hold while more than one report ahead of the slowest, so that a machine that cannot "

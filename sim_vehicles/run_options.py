@@ -47,7 +47,9 @@ class RunOptions:
         Instead of ``start_at_ns``: start the simulation clock once each of these
         vehicles (flown by other processes, started the same way) has its liveliness
         token up, however long the machine takes to start them
-        (:func:`sim_vehicles.lockstep.wait_for_vehicles`).
+        (:func:`sim_vehicles.lockstep.wait_for_vehicles`). The processes must hear
+        each other's tokens (clients of one router, say: peers connected only to a
+        third peer do not).
     wait_for_subscriber_s : float
         Before the clock starts, wait up to this long (wall time) for subscribers
         to every key (a ground station), so that the first reports are not
