@@ -80,17 +80,22 @@ class _Timer:
 
 
 class Runner:
-    """Runs a :class:`Scene` with its vehicles' MAVLink peers and Zenoh publishers."""
+    """Runs a :class:`Scene` with its vehicles' MAVLink peers and Zenoh publishers.
+
+    ``clock`` and ``sleep`` are the monotonic wall clock (seconds) the run is paced against and its sleep;
+    ``unix_ns`` is the Unix time (ns) that ``options.start_at_ns`` is read against (tests give fake ones).
+    """
 
     def __init__(self, scenario: Scenario, world: World, options: RunOptions, base_dir: Path | None = None,
-                 clock: Callable[[], float] = time.monotonic, sleep: Callable[[float], None] = time.sleep) -> None:
+                 clock: Callable[[], float] = time.monotonic, sleep: Callable[[float], None] = time.sleep,
+                 unix_ns: Callable[[], int] = time.time_ns) -> None:
         if not options.rate > 0:
             raise ValueError(f"--rate must be > 0, got {options.rate}")
         if options.start_with and options.zenoh is None:
             raise ValueError("start_with hears the other vehicles over zenoh: it needs a zenoh session")
         self.scenario = scenario
         self.options = options
-        self.clock, self.sleep = clock, sleep
+        self.clock, self.sleep, self.unix_ns = clock, sleep, unix_ns
         self.scene = Scene(scenario, world, options.seed, options.epoch_ns, base_dir, options.only)
         self.vehicles = [v for v in scenario.vehicles if v.id in self.scene.vehicles]
         self.publishes_truth = scenario.vehicles[0].id in self.scene.vehicles
@@ -194,10 +199,10 @@ class Runner:
         reports, navs = _Timer(sim.report_rate_hz), _Timer(sim.nav_rate_hz)
         progress = _Timer(1.0 / 30.0)
         skipped = 0
-        ahead_s = None if self.options.start_at_ns is None else (self.options.start_at_ns - time.time_ns()) / 1e9
+        ahead_s = None if self.options.start_at_ns is None else (self.options.start_at_ns - self.unix_ns()) / 1e9
         if ahead_s is not None and ahead_s <= 0:  # the clock started already: join it where it is now
             skipped = self._join(dt, (heartbeat, reports, navs, progress))
-            wall_start = self.clock() - (time.time_ns() - self.options.start_at_ns) / 1e9
+            wall_start = self.clock() - (self.unix_ns() - self.options.start_at_ns) / 1e9
             self._declare_tokens()
         else:
             self._declare_tokens()
@@ -267,7 +272,7 @@ class Runner:
             middle = self.peers.middle_ns() if self.peers is not None else None
             if middle is not None:
                 return middle - self.scene.epoch_ns + dt_ns
-            return round((time.time_ns() - self.options.start_at_ns) * self.options.rate)
+            return round((self.unix_ns() - self.options.start_at_ns) * self.options.rate)
 
         steps = 0
         while self.scene.elapsed_ns + dt_ns <= (goal := goal_ns()):
