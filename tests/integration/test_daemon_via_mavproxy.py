@@ -166,24 +166,31 @@ def path_course(daemon: Daemon, vehicle_id: str, xy: np.ndarray) -> float | None
     return None if path is None else float(path.courses[path.nearest(xy)])
 
 
-def watch(runner: Runner, daemon: Daemon, daemon_thread: threading.Thread,
+def watch(runner: Runner, daemon: Daemon, daemon_thread: threading.Thread, stopping: threading.Event,
           commander: Callable[[], MavlinkCommander | None]) -> Watch:
-    """Sample the vehicles and the daemon's view of them until the daemon's thread ends."""
+    """Sample the vehicles and the daemon's view of them while it steers: until ``stopping`` is set (the daemon's
+    loop has decided to stop, and hands the vehicles back as it closes) or its thread ends. A sample is kept only
+    if ``stopping`` was still clear once it was taken, however long the machine held this thread in between."""
     seen = Watch()
-    while daemon_thread.is_alive():
+    while not stopping.is_set() and daemon_thread.is_alive():
         link_view = commander()
         if link_view is not None and runner.autopilots.keys() >= set(VEHICLES):  # the runner's MAVLink is open
             elapsed = runner.scene.elapsed_s
+            taken: dict[str, Sample] = {}
             for vehicle_id in VEHICLES:
                 state = runner.scene.vehicles[vehicle_id].state
                 link = link_view.link(vehicle_id)
                 command, position = link.command, link.position_enu_m
-                seen.samples[vehicle_id].append(Sample(
+                taken[vehicle_id] = Sample(
                     elapsed, runner.autopilots[vehicle_id].mode, guidance_direction(runner, vehicle_id),
                     state.course_rad(runner.scene.wind), None if command is None else command.heading_enu_rad,
                     path_course(daemon, vehicle_id, state.position_enu_m[:2]),
                     (float(state.position_enu_m[0]), float(state.position_enu_m[1])),
-                    None if position is None else (float(position[0]), float(position[1]))))
+                    None if position is None else (float(position[0]), float(position[1])))
+            if stopping.is_set():
+                break
+            for vehicle_id, sample in taken.items():
+                seen.samples[vehicle_id].append(sample)
             if elapsed >= SIMULATED_S / 2 and not seen.commands_mid_run:
                 seen.commands_mid_run = {v: commands_received(runner, v) for v in VEHICLES}
         time.sleep(SAMPLE_PERIOD_S)
@@ -240,6 +247,7 @@ def test_vehicle_behind_mavproxy_is_tracked_and_steered_like_a_direct_one(tmp_pa
         with closing(daemon), running_vehicles(sim) as runner:
             wall_deadline = time.monotonic() + 10.0 * SIMULATED_S / RATE + 60.0  # a backstop for a stalled simulation
             last_look: dict[str, float] = {}
+            stopping = threading.Event()
 
             def flown_and_acknowledged() -> bool:
                 """Stop once the vehicles have flown SIMULATED_S and every command sent so far has its ack back
@@ -247,9 +255,11 @@ def test_vehicle_behind_mavproxy_is_tracked_and_steered_like_a_direct_one(tmp_pa
                 machine has in flight), or at the backstop."""
                 last_look["elapsed_s"] = runner.scene.elapsed_s  # the daemon's last look at the vehicles' time
                 links = commander()
-                return time.monotonic() > wall_deadline or (
-                    last_look["elapsed_s"] >= SIMULATED_S and links is not None
-                    and all(acks(links, v) >= commands_sent(links, v) for v in VEHICLES))
+                if time.monotonic() > wall_deadline or (
+                        last_look["elapsed_s"] >= SIMULATED_S and links is not None
+                        and all(acks(links, v) >= commands_sent(links, v) for v in VEHICLES)):
+                    stopping.set()
+                return stopping.is_set()
 
             def run_daemon() -> None:
                 try:
@@ -260,7 +270,7 @@ def test_vehicle_behind_mavproxy_is_tracked_and_steered_like_a_direct_one(tmp_pa
             thread = threading.Thread(target=run_daemon, name="gcs-daemon", daemon=True)
             thread.start()
             try:
-                seen = watch(runner, daemon, thread, commander)
+                seen = watch(runner, daemon, thread, stopping, commander)
             finally:
                 daemon.stop()
                 thread.join(timeout=10)
