@@ -13,6 +13,7 @@ from gcs.config import ScenarioError, TargetConfig
 from gcs.config.world import build_world
 from gcs.core.roads import RoadGraph
 from gcs.core.world import FRAME_MARGIN_M, Buildings, World, content_bounds
+from gcs.daemon.picture_geometry import world_geometry
 from gcs.scenarios import load_scenario, parse_scenario
 from sim_vehicles.truth.target import WhiteNoiseTarget, start_state, target_model
 
@@ -54,6 +55,8 @@ def test_a_geojson_city_is_framed_on_its_buildings_and_the_start_points(tmp_path
     # the buildings reach from (100, 100) to (380, 380); the UAVs start as far as (1800, 1900)
     assert world.bounds_m == (0.0, 0.0, 1900.0, 2000.0)
     assert build_world(URBAN).bounds_m == (0.0, 0.0, 3000.0, 3000.0)  # a generated city: its rectangle
+    scene = world_geometry(scenario, world)  # what the live map draws and frames
+    assert scene["bounds_m"] == [0.0, 0.0, 1900.0, 2000.0] and scene["size_m"] == [1900.0, 2000.0]
 
 
 def test_start_points_are_checked_against_a_rectangle_only_where_there_is_one(tmp_path: Path) -> None:
