@@ -16,12 +16,17 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 
-__all__ = ["Box", "inside", "clip_segment", "clipped_runs"]
+__all__ = ["Box", "box_text", "inside", "clip_segment", "clipped_runs"]
 
 Box = tuple[float, float, float, float]
 """``west, south, east, north``, degrees."""
 Point = tuple[int, float, float]
 """``(key, lon, lat)``: an OSM node id, or a negative key for a point made at the box's edge."""
+
+
+def box_text(box: Sequence[float]) -> str:
+    """``W,S,E,N`` as the command line takes it, every digit kept."""
+    return ",".join(repr(float(value)) for value in box)
 
 
 def inside(box: Box, lon: float, lat: float) -> bool:

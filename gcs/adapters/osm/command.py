@@ -1,7 +1,8 @@
 """``gcs scenario from-osm FILE --bbox W,S,E,N --out city.toml``: a scenario from an OpenStreetMap extract.
 
 This module holds the command line alone (light: the ``scenario`` command's
-parser imports it); the work, and pyosmium, are imported when the command runs
+parser imports it, and it imports only the standard library's modules); the
+work, and pyosmium, are imported when the command runs
 (:mod:`gcs.adapters.osm.importer`). Bad input is one line and exit status 2:
 a missing file, a box that is not four numbers, out of range or in the wrong
 order, a box beyond the file's data or with nothing in it, a scenario name that
@@ -15,15 +16,14 @@ import re
 import shlex
 from pathlib import Path
 
+from gcs.adapters.osm.clipping import box_text
+from gcs.adapters.osm.heights import DEFAULT_HEIGHT_M
 from gcs.cli_errors import UsageError, existing_file, positive, set_command, writable_file
 
-__all__ = ["add_from_osm", "parse_box", "parse_origin"]
+__all__ = ["add_from_osm", "parse_box", "parse_origin", "recorded_command"]
 
 HELP = "build a scenario from an OpenStreetMap extract (.osm.pbf or .osm): buildings, roads, a car on them"
 NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
-DEFAULT_HEIGHT_M = 15.0
-"""Kept equal to :data:`gcs.adapters.osm.heights.DEFAULT_HEIGHT_M` (a unit test checks), which this light module
-does not import."""
 
 
 def add_from_osm(actions: argparse._SubParsersAction) -> None:
@@ -96,8 +96,6 @@ def _check(args: argparse.Namespace) -> None:
 
 def recorded_command(args: argparse.Namespace) -> str:
     """The command line as the scenario records it: the file names without their folders, the box's digits."""
-    from gcs.adapters.osm.importer import box_text
-
     words = ["gcs", "scenario", "from-osm", args.source.name, f"--bbox={box_text(args.box)}"]
     if args.origin_lat_lon is not None:
         words.append("--origin=" + ",".join(repr(v) for v in args.origin_lat_lon))

@@ -22,7 +22,7 @@ import numpy as np
 
 from gcs.adapters.osm.city_files import (ATTRIBUTION, LICENCE, LICENCE_URL, PlacedBuilding, buildings_document,
                                          roads_document, select_buildings)
-from gcs.adapters.osm.clipping import Box
+from gcs.adapters.osm.clipping import Box, box_text
 from gcs.adapters.osm.reading import Extract, read_extract
 from gcs.adapters.osm.road_network import RoadNetwork, drive_network
 from gcs.adapters.osm.scenario_text import STREET_SPEED_MPS, CityLayout, scenario_text
@@ -31,7 +31,7 @@ from gcs.config.world import build_world
 from gcs.core.geometry import LocalFrame
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, parse_scenario
 
-__all__ = ["OsmRequest", "OsmCity", "OsmBoxError", "build_osm_scenario", "box_text"]
+__all__ = ["OsmRequest", "OsmCity", "OsmBoxError", "build_osm_scenario"]
 
 
 class OsmBoxError(ValueError):
@@ -73,11 +73,6 @@ class OsmCity:
         """Median roof height of the buildings whose height was tagged (not the default), metres."""
         tagged = [b.height_m for b in self.buildings if b.height_source != "default"]
         return statistics.median(tagged) if tagged else None
-
-
-def box_text(box: Box) -> str:
-    """``W,S,E,N`` as the command line takes it, every digit kept."""
-    return ",".join(repr(float(value)) for value in box)
 
 
 def build_osm_scenario(request: OsmRequest) -> OsmCity:

@@ -146,7 +146,7 @@ def _segments(ways: Iterable[Way], box: Box) -> tuple[list[_Segment], dict[int, 
         for present, group in itertools.groupby(nodes, key=lambda node: node is not None):
             if not present:
                 continue
-            points: list[Point] = list(group)  # type: ignore[arg-type]
+            points: list[Point] = list(group)
             for run in clipped_runs(box, points, new_key):
                 for a, b in zip(run, run[1:]):
                     where[a[0]], where[b[0]] = a[1:], b[1:]

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import pytest
 
-from gcs.adapters.osm.command import DEFAULT_HEIGHT_M as COMMAND_DEFAULT
 from gcs.adapters.osm.heights import DEFAULT_HEIGHT_M, METRES_PER_LEVEL, building_height, parse_height, parse_levels
 
 
@@ -33,4 +32,4 @@ def test_the_first_rule_that_applies_gives_the_height() -> None:
     assert building_height({"building:levels": "2.5"}) == (7.5, "building:levels")
     assert building_height({"building": "yes"}) == (DEFAULT_HEIGHT_M, "default")
     assert building_height({"building:levels": "lots"}, default_height_m=9.0) == (9.0, "default")
-    assert METRES_PER_LEVEL == 3.0 and DEFAULT_HEIGHT_M == 15.0 == COMMAND_DEFAULT
+    assert METRES_PER_LEVEL == 3.0 and DEFAULT_HEIGHT_M == 15.0

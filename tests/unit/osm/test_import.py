@@ -140,3 +140,17 @@ def test_origin_and_default_height_options(tmp_path: Path) -> None:
     # about the extract's own origin, A (0, 0) is a node of the graph and the buildings lie where they were drawn
     assert np.hypot(*world.roads.nodes.T).min() < 0.05
     assert world.buildings.contains_xy([[27.5, 50.0], [150.0, 67.5], [50.0, 150.0]]).tolist() == [True, True, True]
+
+
+def test_a_box_with_buildings_and_no_road_gets_a_free_driving_target(tmp_path: Path) -> None:
+    """Only w206 (235-305 m east, 10-90 m north) lies in this box; no road reaches into it."""
+    source = write_xml(tmp_path / "town.osm")
+    box = ",".join(repr(v) for v in box_degrees((220.0, 10.0, 320.0, 95.0)))
+    out = tmp_path / "shed.toml"
+    assert main(["scenario", "from-osm", str(source), f"--bbox={box}", "--out", str(out)]) == 0
+    assert not out.with_name("shed_roads.geojson").exists()
+    scenario = load_scenario(out)
+    assert scenario.city.roads_geojson is None and scenario.target.motion == "white_noise_acceleration"
+    world = build_world(scenario, tmp_path)
+    assert len(world.buildings) == 1 and world.roads is None
+    assert world.inside(np.array([scenario.target.start_enu_m])).all()
