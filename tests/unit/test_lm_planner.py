@@ -109,6 +109,19 @@ def test_lm_never_ends_with_a_higher_penalised_cost_than_keeping_the_headings(pr
     assert end.iterations <= GCRLB_LM.max_iterations
 
 
+def test_a_vehicle_on_the_target_with_no_prior_has_no_cost_to_minimise() -> None:
+    """No information at the kept headings (a vehicle right on the target, no prior): the bound's trace is no
+    positive number, so there is nothing to normalise by; cost() and solve() both say inf, and keep the headings."""
+    problem = HeadingProblem(np.zeros((1, 3)), np.zeros(1), 0.0, 1.0, np.zeros(1), np.zeros(2), np.zeros((2, 2)),
+                             (SensorModel.bearing_only(0.05, reference_range_m=1500.0),),
+                             max_detection_range_m=20_000.0)
+    with np.errstate(all="ignore"):
+        assert math.isinf(float(GCRLB_LM.cost(problem, np.zeros(1))))
+        result = GCRLB_LM.solve(problem)
+    assert math.isinf(result.cost) and not result.success
+    np.testing.assert_array_equal(result.heading_change, [0.0])
+
+
 # --- the objective ---------------------------------------------------------------------------
 
 

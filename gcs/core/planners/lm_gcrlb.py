@@ -93,6 +93,13 @@ __all__ = [
 ]
 
 
+def _normaliser(problem: HeadingProblem, sensors: Sequence[SensorModel]) -> float | None:
+    """``f_0``, the bound's trace for the headings kept, which normalises the cost; None where it is not a
+    positive number (no information, or a degenerate geometry such as a vehicle right above the target)."""
+    scale = float(trace_bound(problem, np.zeros(len(sensors)), sensors))
+    return scale if np.isfinite(scale) and scale > 0.0 else None
+
+
 @lru_cache(maxsize=64)
 def _constant_noise(sensor: SensorModel) -> SensorModel:
     return dataclasses.replace(sensor, distance_dependent=False)
@@ -181,7 +188,9 @@ class LmGcrlbPlanner:
     def cost(self, problem: HeadingProblem, heading_change: NDArray[np.float64]) -> NDArray[np.float64]:
         """The penalised, normalised cost of eq. (40) that :meth:`solve` minimises, for changes (..., M)."""
         sensors = self._sensors(problem)
-        scale = float(trace_bound(problem, np.zeros(len(sensors)), sensors))
+        scale = _normaliser(problem, sensors)
+        if scale is None:  # no information at the kept headings: the cost solve() reports then
+            return np.full(np.shape(heading_change)[:-1], math.inf)
         ratio = np.divide(heading_change, problem.max_turn_rad, out=np.zeros(np.shape(heading_change)),
                           where=problem.max_turn_rad > 0)
         return self._costs(problem, sensors, np.arcsin(np.clip(ratio, -1.0, 1.0)), scale)
@@ -191,8 +200,8 @@ class LmGcrlbPlanner:
         start = now() if now is not None else 0.0
         sensors = self._sensors(problem)
         m = len(sensors)
-        scale = float(trace_bound(problem, np.zeros(m), sensors))
-        if not (np.isfinite(scale) and scale > 0.0):
+        scale = _normaliser(problem, sensors)
+        if scale is None:
             return _result(problem, np.zeros(m), math.inf, 1, 0, False, "no information: headings kept", now, start)
         h = self.difference_step
         stencil = np.concatenate([np.zeros((1, m)), h * np.eye(m), -h * np.eye(m)])  # (2M + 1, M)
