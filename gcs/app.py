@@ -45,10 +45,10 @@ from gcs.core.steering import SAMPLES_PER_STEP, course_loop
 from gcs.core.world import World
 from gcs.daemon.live import LiveMap
 from gcs.daemon.options import DaemonOptions
-from gcs.daemon.planning import Planner
+from gcs.daemon.plan_runners import Planner
 from gcs.daemon.planner_start import start_planner
-from gcs.daemon.records import PlanRecord, StepRecord
-from gcs.daemon.registry import LOST_AFTER_S
+from gcs.engine.records import PlanRecord, StepRecord
+from gcs.engine.registry import LOST_AFTER_S
 from gcs.daemon.track_summary import summarise_track
 from gcs.engine.engine import ALIVE_REFRESH_S, Engine, EngineOptions
 from gcs.engine.events import (Action, Arrived, Heartbeat, LetGo, Observed, PlanDone, PlannerFree, PublishPlan,

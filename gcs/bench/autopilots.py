@@ -44,8 +44,8 @@ from gcs.config.simulation import AirframeConfig
 from gcs.core.geometry import LocalFrame, wrap_angle
 from gcs.core.steering import SAMPLES_PER_STEP, CourseLoop, PlannedPath, course_loop
 from gcs.core.world import World
-from gcs.daemon.records import step_error_m
-from gcs.daemon.steps import HOLD_WAITS
+from gcs.engine.records import step_error_m
+from gcs.engine.steps import HOLD_WAITS
 from gcs.engine.engine import Engine, EngineOptions
 from gcs.engine.events import Arrived, PlannerFree, SubmitPlan, Tick
 from gcs.engine.inline import plan_at_once
@@ -79,7 +79,7 @@ def with_autopilot(scenario: Scenario, personality: str) -> Scenario:
 @dataclass
 class FlightRecord:
     """One flight: who saw the target at each decision step (steps, V), the fused position error (steps,; with
-    ``[multitarget]`` the step's GOSPA against every target, :func:`gcs.daemon.records.step_error_m`), and
+    ``[multitarget]`` the step's GOSPA against every target, :func:`gcs.engine.records.step_error_m`), and
     each vehicle's course errors against its planned path at each steering instant after :data:`SETTLE_S`."""
 
     personality: str

@@ -53,9 +53,9 @@ from dataclasses import asdict
 from gcs.adapters.ports import LOCALHOST
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.app import Daemon, DaemonOptions
-from gcs.daemon.records import PlanRecord, StepRecord
-from gcs.daemon.navigation import runs_skf
-from gcs.daemon.planning import START_TIMEOUT_S
+from gcs.engine.records import PlanRecord, StepRecord
+from gcs.engine.navigation import runs_skf
+from gcs.daemon.plan_runners import START_TIMEOUT_S
 from gcs.bench.daemon_load import LOAD_NICENESS, Fleet, publisher_main
 from gcs.bench.daemon_report import fmt, format_report, write_json
 from gcs.bench.daemon_timing import PlanTiming, StepTiming, Trial, percentiles, step_latencies_ms, track_latencies_ms

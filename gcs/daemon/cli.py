@@ -17,9 +17,9 @@ from gcs.cli_errors import UsageError, one_line, positive, set_command, stop_on_
 from gcs.config.multitarget import MULTITARGET_PLANNERS
 from gcs.config.world import build_world
 from gcs.daemon.flight_report import FlightReport
-from gcs.daemon.navigation import NAVIGATION_MODES
+from gcs.engine.navigation import NAVIGATION_MODES
 from gcs.daemon.status_cli import add_status, format_status, query_status
-from gcs.daemon.planning import PLANNER_MODES, PLANNER_NICENESS
+from gcs.daemon.plan_runners import PLANNER_MODES, PLANNER_NICENESS
 from gcs.daemon.niceness import niceness_argument
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
 from gcs.engine.tracking import PLANNERS

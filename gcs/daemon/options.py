@@ -13,7 +13,7 @@ from pathlib import Path
 from gcs.adapters.foxglove_out import FoxgloveOptions
 from gcs.adapters.mavlink_commands import DEFAULT_STREAM_RATE_HZ, Takeover
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.daemon.planning import PLANNER_NICENESS
+from gcs.daemon.plan_runners import PLANNER_NICENESS
 
 __all__ = ["DaemonOptions"]
 
@@ -41,12 +41,12 @@ class DaemonOptions:
         Record everything received and published to this MCAP file
         (:mod:`gcs.adapters.recording`), finished when the daemon stops.
     planner_mode : str
-        Where plans are made (:mod:`gcs.daemon.planning`): ``process`` (the
+        Where plans are made (:mod:`gcs.daemon.plan_runners`): ``process`` (the
         default: a child process, so that planning never takes the interpreter
         from the loop), ``thread``, or ``inline`` (in the loop, each plan made when
         it is handed over; deterministic).
     planner_niceness : int
-        How much lower the planner process's priority is (0-19; :data:`gcs.daemon.planning.PLANNER_NICENESS`).
+        How much lower the planner process's priority is (0-19; :data:`gcs.daemon.plan_runners.PLANNER_NICENESS`).
     http : (host, port) or None
         Serve the live map there (:mod:`gcs.daemon.live`; port 0 picks a free
         one); None: no page.
@@ -68,12 +68,12 @@ class DaemonOptions:
         daemon took over is given back; it takes them again when the target is seen again. The
         daemon gives them back when it stops, too.
     navigation : str
-        Where a detection's vehicle position comes from (:data:`gcs.daemon.navigation.NAVIGATION_MODES`):
+        Where a detection's vehicle position comes from (:data:`gcs.engine.navigation.NAVIGATION_MODES`):
         ``skf`` runs feng2019's SKF on each roster vehicle's ``NavReport``s and fuses with its
-        estimate and covariance (steps then wait for the nav reports, :mod:`gcs.daemon.steps`);
+        estimate and covariance (steps then wait for the nav reports, :mod:`gcs.engine.steps`);
         ``reported`` takes the ``SensorReport``'s own position as exact; ``auto`` (the default) is
         ``skf`` for a scenario with GPS-denied zones, else ``reported``
-        (:func:`gcs.daemon.navigation.navigator_for`).
+        (:func:`gcs.engine.navigation.navigator_for`).
     """
 
     zenoh: ZenohSettings

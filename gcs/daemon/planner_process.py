@@ -1,4 +1,4 @@
-"""The planner in a child process (:mod:`gcs.daemon.planning`'s ``process`` mode, the daemon's default).
+"""The planner in a child process (:mod:`gcs.daemon.plan_runners`'s ``process`` mode, the daemon's default).
 
 Python runs one thread at a time in a process, so a planning *thread* takes the
 interpreter from the daemon's loop for as long as it computes; a child process
@@ -24,7 +24,8 @@ import numpy as np
 from gcs.config import Scenario
 from gcs.core.tracker import TrackerConfig
 from gcs.core.world import World
-from gcs.daemon.planning import PLANNER_NICENESS, START_TIMEOUT_S, PlanJob, PlanOutcome, Planner, run_job
+from gcs.daemon.plan_runners import PLANNER_NICENESS, START_TIMEOUT_S, Planner, run_job
+from gcs.engine.plan_jobs import PlanJob, PlanOutcome
 from gcs.daemon.niceness import check_niceness, lower_priority
 from gcs.engine.tracking import subset_config, tracker_config
 

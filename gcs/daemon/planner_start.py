@@ -1,6 +1,6 @@
 """Which planner the daemon runs: in a process of its own, on a thread, or inline (``gcs run --plan-in``).
 
-The planners themselves are :mod:`gcs.daemon.planning` (thread, inline and the job they run) and
+The planners themselves are :mod:`gcs.daemon.plan_runners` (thread, inline and the job they run) and
 :mod:`gcs.daemon.planner_process` (the process, which builds on the first).
 """
 
@@ -14,7 +14,7 @@ from gcs.config import Scenario
 from gcs.core.tracker import TrackerConfig
 from gcs.core.world import World
 from gcs.daemon.planner_process import ProcessPlanner
-from gcs.daemon.planning import PLANNER_MODES, PLANNER_NICENESS, InlinePlanner, Planner, ThreadPlanner
+from gcs.daemon.plan_runners import PLANNER_MODES, PLANNER_NICENESS, InlinePlanner, Planner, ThreadPlanner
 
 __all__ = ["start_planner"]
 

@@ -7,18 +7,18 @@ scene) and where the actions go differ (design.md section 2: "one engine"). Ever
 decides lives here, so that live and replayed runs cannot drift apart:
 
 * **acceptance** (:meth:`Engine.feed` of an :class:`~gcs.engine.events.Arrived`): validation and
-  counting (:class:`~gcs.daemon.ingest.Ingest`, with or without ``accept_unlisted``), the
-  vehicle registry (liveliness tokens, MAVLink heartbeats: :class:`~gcs.daemon.registry.Registry`),
-  decision-step assembly (:class:`~gcs.daemon.steps.StepAssembler`, reorder window ``max_wait_s``),
-  the vehicles' own navigation (:func:`~gcs.daemon.navigation.navigator_for`);
+  counting (:class:`~gcs.engine.ingest.Ingest`, with or without ``accept_unlisted``), the
+  vehicle registry (liveliness tokens, MAVLink heartbeats: :class:`~gcs.engine.registry.Registry`),
+  decision-step assembly (:class:`~gcs.engine.steps.StepAssembler`, reorder window ``max_wait_s``),
+  the vehicles' own navigation (:func:`~gcs.engine.navigation.navigator_for`);
 * **step release and fusion** (a :class:`~gcs.engine.events.Tick`): the steps complete for the
   vehicles alive (token or heartbeat; with ``accept_unlisted`` the observers' tokens too; less those
   whose clocks went wrong), or whose wait ran out,
-  are fused (:func:`gcs.daemon.fusion.fuse_step`, every roster vehicle's reports and the unlisted
+  are fused (:func:`gcs.engine.fusion.fuse_step`, every roster vehicle's reports and the unlisted
   observers') and their tracks published with the k+1..k+n prediction (with ``[multitarget]``, a scan
   of the multi-target tracker, :class:`~gcs.engine.multitarget.TrackKeeper`, and every confirmed
   track published); each is recorded
-  (:class:`~gcs.daemon.records.StepRecord`) and watched for the target being lost;
+  (:class:`~gcs.engine.records.StepRecord`) and watched for the target being lost;
 * **what to plan and when** (a :class:`~gcs.engine.events.PlannerFree`): the newest fused step,
   for the vehicles alive when it was fused, at most every :func:`~gcs.engine.memory.plan_interval_s`;
 * **finished plans** (a :class:`~gcs.engine.events.PlanDone`): the warm start kept, the
@@ -46,13 +46,13 @@ from gcs.core.multitarget.planning import plans_targets
 from gcs.core.steering import PlannedPath
 from gcs.core.tracker import TrackerConfig, prediction
 from gcs.core.world import World
-from gcs.daemon.fusion import FusionDiverged, fuse_step, plan_commands, track_message, with_observers
-from gcs.daemon.ingest import MAX_UNLISTED, Ingest
-from gcs.daemon.navigation import navigator_for
-from gcs.daemon.planning import PlanJob, PlanOutcome
-from gcs.daemon.records import PlanRecord, StepRecord, StepScorer, keep_newest
-from gcs.daemon.registry import Registry
-from gcs.daemon.steps import ReadyStep, StepAssembler
+from gcs.engine.fusion import FusionDiverged, fuse_step, plan_commands, track_message, with_observers
+from gcs.engine.ingest import MAX_UNLISTED, Ingest
+from gcs.engine.navigation import navigator_for
+from gcs.engine.plan_jobs import PlanJob, PlanOutcome
+from gcs.engine.records import PlanRecord, StepRecord, StepScorer, keep_newest
+from gcs.engine.registry import Registry
+from gcs.engine.steps import ReadyStep, StepAssembler
 from gcs.engine.events import (Action, Arrived, Heartbeat, Input, LetGo, Observed, PlanDone, PlannerFree,
                                PublishPlan, PublishTrack, RetireTrack, SubmitPlan, Tick)
 from gcs.engine.memory import CommandAges, LoopMemory, Planning, plan_interval_s

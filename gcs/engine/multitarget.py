@@ -2,7 +2,7 @@
 
 :class:`TrackKeeper` holds the multi-target tracker's state between decision steps. Each
 released step's detections, every vehicle's and none with an identity
-(:func:`gcs.daemon.fusion.scan_detections`), are one scan of
+(:func:`gcs.engine.fusion.scan_detections`), are one scan of
 :class:`gcs.core.multitarget.MultiTargetTracker`, with the coverage of the vehicles that
 reported in it (in range, the smallest of the vehicles' sensor ranges, and in sight
 past the buildings, :func:`gcs.core.multitarget.coverage.coverage`; with no world, every
@@ -36,9 +36,9 @@ from gcs.core.multitarget.lost import LostTargets
 from gcs.core.multitarget.planning import TargetsToPlan, targets_to_plan
 from gcs.core.tracker import TrackerConfig
 from gcs.core.world import World
-from gcs.daemon.fusion import scan_detections, track_message
-from gcs.daemon.navigation import FleetNavigator
-from gcs.daemon.steps import ReadyStep
+from gcs.engine.fusion import scan_detections, track_message
+from gcs.engine.navigation import FleetNavigator
+from gcs.engine.steps import ReadyStep
 from protocols.messages import TrackEstimate
 
 __all__ = ["TrackKeeper", "Scanned", "MIN_CLUTTER_PER_SCAN", "FOUND_PROBABILITY", "track_name"]

@@ -84,7 +84,7 @@ def test_an_unknown_subcommand_gets_the_full_list(capsys: pytest.CaptureFixture[
 
 
 def test_run_takes_the_planners_niceness_0_to_19(capsys: pytest.CaptureFixture[str]) -> None:
-    from gcs.daemon.planning import PLANNER_NICENESS
+    from gcs.daemon.plan_runners import PLANNER_NICENESS
 
     assert gcs_cli.build_parser().parse_args(["run"]).planner_niceness == PLANNER_NICENESS == 5
     assert gcs_cli.build_parser().parse_args(["run", "--planner-nice", "19"]).planner_niceness == 19

@@ -209,7 +209,7 @@ def test_reports_from_outside_the_roster_are_rejected_unless_accepted_on_request
 
 
 def test_a_step_whose_fusion_diverges_is_counted_and_the_previous_estimate_stands(monkeypatch) -> None:
-    import gcs.daemon.fusion as fusion
+    import gcs.engine.fusion as fusion
     from gcs.core.filters.uif import NotPositiveDefinite
 
     daemon = _daemon()
@@ -435,7 +435,7 @@ def test_a_withdrawn_token_is_seen_at_once_and_an_aged_heartbeat_within_the_refr
     the refresh (the step is released without the vehicle in the same pass), and a vehicle alive by
     MAVLink heartbeat alone is lost no later than the refresh after its heartbeat passes LOST_AFTER_S."""
     from gcs.app import ALIVE_REFRESH_S
-    from gcs.daemon.registry import LOST_AFTER_S
+    from gcs.engine.registry import LOST_AFTER_S
 
     daemon = _ready_daemon()
     gone, kept = ROSTER[0], ROSTER[1:]

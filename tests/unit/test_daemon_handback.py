@@ -9,7 +9,7 @@ from gcs.app import Daemon, DaemonOptions
 from gcs.config.world import build_world
 from gcs.core.kinematics import VehicleState
 from gcs.core.steering import PlannedPath
-from gcs.daemon.steps import ReadyStep
+from gcs.engine.steps import ReadyStep
 from gcs.scenarios import load_scenario
 
 SCENARIO = load_scenario("wang2012_urban")

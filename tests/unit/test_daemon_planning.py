@@ -12,7 +12,8 @@ from gcs.core.filters.uif import GaussianEstimate
 from gcs.core.kinematics import VehicleState
 from gcs.core.tracker import TrackerState, prediction
 from gcs.daemon.planner_process import ProcessPlanner
-from gcs.daemon.planning import PLANNER_MODES, PlanJob
+from gcs.daemon.plan_runners import PLANNER_MODES
+from gcs.engine.plan_jobs import PlanJob
 from gcs.daemon.planner_start import start_planner
 from gcs.scenarios import load_scenario
 from gcs.engine.tracking import subset_config, tracker_config

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from gcs.daemon.flight_report import FlightReport
-from gcs.daemon.records import StepRecord
+from gcs.engine.records import StepRecord
 from gcs.daemon.status_text import (COUNTER_FAMILIES, COUNTERS, REJECTIONS, command_age_text, counter_meaning,
                                     format_stamp, format_status, keeps_up)
 from protocols.messages import DaemonStatus, TrackSummary, VehicleStatus

@@ -4,7 +4,7 @@ Both call :func:`fuse_step` on the same steps and get the same ``TrackEstimate``
 bit for bit: detections are taken in roster order (not arrival order) from
 every roster vehicle that reported in the step, whether or not it is being
 planned for, and the prediction is the tracker's own (eq. 16-17). With a
-:class:`~gcs.daemon.navigation.FleetNavigator` (advanced to the step's stamp by
+:class:`~gcs.engine.navigation.FleetNavigator` (advanced to the step's stamp by
 the caller) a detection's vehicle position and its covariance are the
 navigator's; without one, or for a vehicle it has no estimate of, the report's
 own ``vehicle_position_enu_m``, taken as exact.
@@ -31,8 +31,8 @@ from gcs.core.kinematics import VehicleState, rollout
 from gcs.core.models.sensor import RANGE, SensorModel
 from gcs.core.multitarget.filter import innovations
 from gcs.core.tracker import Detection, TrackerConfig, TrackerState, fuse, initial_estimate, prediction
-from gcs.daemon.navigation import FleetNavigator
-from gcs.daemon.steps import ReadyStep
+from gcs.engine.navigation import FleetNavigator
+from gcs.engine.steps import ReadyStep
 from gcs.config import VehicleConfig
 from protocols.messages import PlanCommand, PredictedPoint, SensorReport, TrackEstimate
 
