@@ -132,7 +132,7 @@ def _steer(vehicle: _Vehicle, steering: str, now: float) -> HeadingCommand | Non
     """The command the daemon's steering (``lead``) or the pursuit of a point on the plan gives at ``now``.
 
     ``lead`` follows the path from the latest telemetry, aged as the daemon ages it (``now`` less the
-    time the position was heard, :meth:`gcs.app.Daemon._steer`)."""
+    time the position was heard, :meth:`gcs.daemon.app.Daemon._steer`)."""
     path, link = vehicle.path, vehicle.link
     if path is None:
         return None

@@ -3,8 +3,8 @@
 Two processes on 127.0.0.1, joined by a Zenoh TCP link (peers, multicast off,
 a free port; no MAVLink): the **load** (:mod:`gcs.bench.daemon_load`, a spawned
 process, ``load_niceness`` below this one's priority: the vehicles' own computers
-in use) plays N vehicles; the **daemon** (:class:`gcs.app.Daemon`, in this
-process, running its own loop :meth:`~gcs.app.Daemon.run`) consumes their
+in use) plays N vehicles; the **daemon** (:class:`gcs.daemon.app.Daemon`, in this
+process, running its own loop :meth:`~gcs.daemon.app.Daemon.run`) consumes their
 reports. The daemon's ``on_step`` hook notes the wall time at which each
 decision step was fused (its ``TrackEstimate`` put); its ``on_plan`` hook, the
 time each plan's ``PlanCommand`` messages were put and the planner thread's
@@ -52,7 +52,7 @@ from dataclasses import asdict
 
 from gcs.adapters.ports import LOCALHOST
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from gcs.engine.records import PlanRecord, StepRecord
 from gcs.engine.navigation import runs_skf
 from gcs.daemon.plan_runners import START_TIMEOUT_S

@@ -24,7 +24,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from gcs.app import Daemon
+from gcs.daemon.app import Daemon
 from gcs.cli_errors import one_line, positive, set_command, stop_on_signals, stopped_by
 from gcs.daemon.cli import add_daemon_arguments, build_daemon
 from gcs.daemon.demo_summary import Progress, print_summary, summarise

@@ -1,4 +1,4 @@
-"""How to run the daemon (:class:`DaemonOptions`): the composition root's frozen configuration of :mod:`gcs.app`.
+"""How to run the daemon (:class:`DaemonOptions`): the composition root's frozen configuration of :mod:`gcs.daemon.app`.
 
 The options that change what the engine decides (``accept_unlisted``, ``navigation``,
 ``max_wait_s``, ``planner``, ``plan_fraction``, ``handback_after_lost_s``) go to its
@@ -48,7 +48,7 @@ class DaemonOptions:
     planner_niceness : int
         How much lower the planner process's priority is (0-19; :data:`gcs.daemon.plan_runners.PLANNER_NICENESS`).
     http : (host, port) or None
-        Serve the live map there (:mod:`gcs.daemon.live`; port 0 picks a free
+        Serve the live map there (:mod:`gcs.adapters.live_map.outputs`; port 0 picks a free
         one); None: no page.
     foxglove : FoxgloveOptions or None
         Also send the map to a Foxglove WebSocket server and/or MCAP file.

@@ -45,7 +45,7 @@ def _serve(conn, scenario: Scenario, world: World, planner_name: str, seed: int,
         return
     configs: dict[tuple[int, ...], TrackerConfig] = {}
     rng = np.random.default_rng(seed)
-    gc.freeze()  # the imports and the world: never garbage, and slow to walk (see gcs.app.Daemon.run)
+    gc.freeze()  # the imports and the world: never garbage, and slow to walk (see gcs.daemon.app.Daemon.run)
     conn.send(("ready", None))
     while True:
         try:

@@ -1,6 +1,6 @@
 """The one loop of the ground station, as an object fed time-stamped inputs that returns actions.
 
-The daemon (:mod:`gcs.app`), ``gcs replay --process/--plan`` (:mod:`gcs.recordings.replay`) and the
+The daemon (:mod:`gcs.daemon.app`), ``gcs replay --process/--plan`` (:mod:`gcs.recordings.replay`) and the
 in-process closed loop of ``gcs bench autopilots`` (:mod:`gcs.bench.autopilots`) all drive an
 :class:`Engine`; only where the inputs come from (Zenoh and MAVLink, a recording, a simulated
 scene) and where the actions go differ (design.md section 2: "one engine"). Everything that

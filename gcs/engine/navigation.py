@@ -1,6 +1,6 @@
 """Every roster vehicle's own position from its ``NavReport``s: feng2019's SKF, in stamp order, for the daemon and replay.
 
-The daemon (:mod:`gcs.app`) and ``gcs replay --process`` (:mod:`gcs.recordings.replay`) hold one
+The daemon (:mod:`gcs.daemon.app`) and ``gcs replay --process`` (:mod:`gcs.recordings.replay`) hold one
 :class:`FleetNavigator` and drive it the same way, so that the position a detection is
 fused with does not depend on when the nav reports arrived:
 

@@ -21,7 +21,7 @@ from pathlib import Path
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODES
 from gcs.adapters.recording import read_recording
 from gcs.adapters.zenoh_session import ZenohSettings, declare_publisher, listening_endpoints, open_session, publish
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from protocols.keys import report_key
 from protocols.messages import SensorReport
 from tests.e2e.processes import script, stop

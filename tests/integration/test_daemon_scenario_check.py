@@ -6,7 +6,7 @@ import logging
 import threading
 
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from gcs.config.fingerprint import scenario_fingerprint
 from gcs.config.world import build_world
 from gcs.scenarios import load_scenario

@@ -14,7 +14,7 @@ import msgspec
 from gcs.adapters.mavlink_commands import Takeover
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODES
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from gcs.daemon.cli import query_status
 from tests.integration.sim_harness import SCENARIO, WORLD, options, running_vehicles, wait_until
 from tests.loopback import ANY_PORT_ENDPOINT, ANY_UDP, daemon_ports

@@ -32,7 +32,7 @@ import numpy as np
 from gcs.adapters.mavlink_io import MavlinkCommander
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODES, mavlink
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from gcs.config.world import build_world
 from sim_vehicles.runner import Runner
 from tests.integration.mavproxy_harness import MavProxy

@@ -18,7 +18,7 @@ import pytest
 
 from gcs.adapters.recording import Recorder, read_recording
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from gcs.bench.replay import make_recording
 from gcs.bench.urban import with_vehicles
 from gcs.config.world import build_world

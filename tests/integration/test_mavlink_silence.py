@@ -13,7 +13,7 @@ import time
 from contextlib import ExitStack
 
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from gcs.bench.faults import UdpRelay
 from tests.integration.sim_harness import SCENARIO, WORLD, options, running_vehicles
 from tests.loopback import ANY_PORT_ENDPOINT

@@ -6,7 +6,7 @@ import threading
 from contextlib import ExitStack
 
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from tests.integration.sim_harness import SCENARIO, WORLD, options, running_vehicles, wait_until
 from tests.loopback import ANY_PORT_ENDPOINT, ANY_UDP, daemon_ports
 

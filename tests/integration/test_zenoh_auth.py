@@ -20,7 +20,7 @@ from contextlib import ExitStack
 import pytest
 
 from gcs.adapters.zenoh_session import ZenohSettings, listening_endpoints, open_session
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from gcs.daemon.cli import query_status
 from tests.integration.sim_harness import SCENARIO, WORLD
 from tests.loopback import ANY_PORT_ENDPOINT

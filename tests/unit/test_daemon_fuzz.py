@@ -1,6 +1,6 @@
 """The daemon's whole ingest path, fuzzed: whatever arrives, the loop goes on and counts what it rejects.
 
-A :class:`~gcs.app.Daemon` runs its real loop (:meth:`Daemon.turn`: ingest,
+A :class:`~gcs.daemon.app.Daemon` runs its real loop (:meth:`Daemon.turn`: ingest,
 registry, step assembly, fusion, planning, publication) on a fake Zenoh inbox
 fed by Hypothesis: valid reports from roster and unknown vehicles with absurd
 but valid values, duplicates, stale, future and out-of-order stamps, random
@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 
 from gcs.adapters.zenoh_io import Received
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from gcs.config.world import build_world
 from gcs.daemon.planner_start import start_planner
 from gcs.scenarios import load_scenario
@@ -289,7 +289,7 @@ class _HeldPlanner:
 
 
 def test_a_plan_interval_grows_with_the_team_from_the_minimum_to_a_steering_period() -> None:
-    from gcs.app import MIN_PLAN_INTERVAL_S, PLAN_INTERVAL_PER_VEHICLE_S, STEER_RATE_HZ, plan_interval_s
+    from gcs.daemon.app import MIN_PLAN_INTERVAL_S, PLAN_INTERVAL_PER_VEHICLE_S, STEER_RATE_HZ, plan_interval_s
 
     small = int(MIN_PLAN_INTERVAL_S / PLAN_INTERVAL_PER_VEHICLE_S)
     assert [plan_interval_s(n) for n in (0, 1, 3, small)] == [MIN_PLAN_INTERVAL_S] * 4
@@ -301,7 +301,7 @@ def test_a_plan_interval_grows_with_the_team_from_the_minimum_to_a_steering_peri
 @pytest.mark.parametrize("per_vehicle_s", [None, 0.05])
 def test_the_newest_step_waits_for_a_free_planner_and_plans_are_handed_over_at_most_every_interval(
         per_vehicle_s, monkeypatch) -> None:
-    from gcs import app
+    from gcs.daemon import app
     from gcs.engine import memory
 
     if per_vehicle_s is not None:  # as if the team were large: the interval is that of 3 vehicles at this cost
@@ -337,7 +337,7 @@ def test_the_newest_step_waits_for_a_free_planner_and_plans_are_handed_over_at_m
 def test_the_loop_freezes_what_it_keeps_every_second_and_collects_it_all_every_ten_minutes(monkeypatch) -> None:
     import gc
 
-    from gcs import app
+    from gcs.daemon import heap
 
     calls: list[str] = []
     monkeypatch.setattr(gc, "freeze", lambda: calls.append("freeze"))
@@ -356,7 +356,7 @@ def test_the_loop_freezes_what_it_keeps_every_second_and_collects_it_all_every_t
     assert len(full) == 1  # once in 700 s
     assert 650 <= calls.count("freeze") <= 750  # once a second, each after a collection of the young generations
     assert calls.count("collect") == calls.count("freeze") - 1  # (not before the first, at the start)
-    assert app.FULL_COLLECT_EVERY_S == 600.0 and app.FREEZE_EVERY_S == 1.0
+    assert heap.FULL_COLLECT_EVERY_S == 600.0 and heap.FREEZE_EVERY_S == 1.0
 
 
 def _ready_daemon() -> Daemon:
@@ -434,7 +434,7 @@ def test_a_withdrawn_token_is_seen_at_once_and_an_aged_heartbeat_within_the_refr
     """The loop reuses its set of vehicles alive (ALIVE_REFRESH_S): a liveliness change must not wait for
     the refresh (the step is released without the vehicle in the same pass), and a vehicle alive by
     MAVLink heartbeat alone is lost no later than the refresh after its heartbeat passes LOST_AFTER_S."""
-    from gcs.app import ALIVE_REFRESH_S
+    from gcs.daemon.app import ALIVE_REFRESH_S
     from gcs.engine.registry import LOST_AFTER_S
 
     daemon = _ready_daemon()

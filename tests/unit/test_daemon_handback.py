@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from gcs.config.world import build_world
 from gcs.core.kinematics import VehicleState
 from gcs.core.steering import PlannedPath
