@@ -197,7 +197,7 @@ class _Run:
         wall = time.perf_counter() - started
         sent = dict(zip(reply["stamps"], reply["last_sent_ns"]))
         # the newest step's planning may still wait in the loop (plan_interval_s) before its plan
-        yield from self._wait(lambda: not self.daemon.planner.busy and self.daemon.loop.waiting is None, 10.0,
+        yield from self._wait(lambda: not self.daemon.plan_runner.busy and self.daemon.loop.waiting is None, 10.0,
                               "the last plan")
         yield False  # one more pass applies it
         log = [step for step in self.log[first_step:] if step.stamp_ns >= reply["stamps"][0]]

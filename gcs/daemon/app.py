@@ -45,8 +45,8 @@ from gcs.core.world import World
 from gcs.daemon.daemon_status import daemon_status
 from gcs.daemon.heap import HeapFreezer
 from gcs.daemon.options import DaemonOptions
-from gcs.daemon.plan_runners import Planner
-from gcs.daemon.planner_start import start_planner
+from gcs.daemon.plan_runners import PlanRunner
+from gcs.daemon.plan_runner_start import start_plan_runner
 from gcs.daemon.steering import steer_along_paths
 from gcs.engine.engine import ALIVE_REFRESH_S, Engine, EngineOptions
 from gcs.engine.events import (Action, Arrived, Heartbeat, LetGo, Observed, PlanDone, PlannerFree, PublishPlan,
@@ -82,7 +82,7 @@ class Daemon:
         self.recorder: Recorder | None = None
         self.zenoh = ZenohIO(options.zenoh, options.prefix, tap=self._record_published)
         self.commander: MavlinkCommander | None = None
-        self.planner: Planner | None = None
+        self.plan_runner: PlanRunner | None = None
         self._heard: dict[str, float | None] = {}
         self._stopping = False
         self._started_s = clock()
@@ -152,8 +152,8 @@ class Daemon:
                 signing_key=self.options.signing_key,
                 max_turn_rate_rad_s={v.id: v.max_turn_rate_rad_s for v in self.scenario.vehicles},
                 stream_rate_hz=self.options.stream_rate_hz, takeover=self.options.takeover)
-        self.planner = start_planner(self.options.planner_mode, self.scenario, self.world, self.planner_name,
-                                     self.options.seed, self._subset, self.options.planner_niceness)
+        self.plan_runner = start_plan_runner(self.options.plan_runner, self.scenario, self.world, self.planner_name,
+                                             self.options.seed, self._subset, self.options.plan_process_niceness)
         if self.options.http is not None or self.options.foxglove is not None:
             try:
                 self.live = LiveMap.open(self.options.http, self.scenario, self.world,
@@ -176,8 +176,8 @@ class Daemon:
     def close(self) -> None:
         """Stop the planner, close MAVLink and Zenoh and finish the recording (idempotent).
         The commander's last view stays readable."""
-        if self.planner is not None:
-            self.planner.close()
+        if self.plan_runner is not None:
+            self.plan_runner.close()
         self.engine.flush()
         if self.commander is not None and not self._closed:
             self._carry_out([self.engine.let_go_all("the daemon stopped")])
@@ -210,7 +210,7 @@ class Daemon:
                     next_status = now + 1.0
                 heap.turn(now, busy)
                 if not busy:  # wake for input, or for a finished plan to command at once
-                    self.zenoh.wait(idle_s, until=self.planner.finished)
+                    self.zenoh.wait(idle_s, until=self.plan_runner.finished)
         finally:
             self.close()
             heap.stop()
@@ -246,7 +246,7 @@ class Daemon:
             self._heartbeats()
         activity += self._release(now)
         activity += self._apply_finished_plans()
-        if not self.planner.planning:
+        if not self.plan_runner.planning:
             self._carry_out(self.engine.feed(PlannerFree(now)))
         if now >= self._next_steer_s:
             self._steer(now)
@@ -293,7 +293,7 @@ class Daemon:
 
     def _apply_finished_plans(self) -> int:
         """Hand the engine what the planner has finished (checked several times a pass, so that a plan waits little)."""
-        outcomes = self.planner.take()
+        outcomes = self.plan_runner.take()
         for outcome in outcomes:
             self._carry_out(self.engine.feed(PlanDone(outcome)))
         return len(outcomes)
@@ -311,7 +311,7 @@ class Daemon:
                 if self.live is not None:
                     self.live.observe(action.message)
             elif isinstance(action, SubmitPlan):
-                self.planner.submit(action.job)
+                self.plan_runner.submit(action.job)
             elif isinstance(action, LetGo) and self.commander is not None:
                 for vehicle_id in action.vehicle_ids:
                     self.commander.let_go(vehicle_id, action.why)
@@ -326,5 +326,5 @@ class Daemon:
 
     def status(self, now: float) -> DaemonStatus:
         """The daemon's health (:func:`~gcs.daemon.daemon_status.daemon_status`)."""
-        return daemon_status(self.engine, self.scenario.name, self.commander, self.planner,
+        return daemon_status(self.engine, self.scenario.name, self.commander, self.plan_runner,
                              max(now - self._started_s, 0.0), now)

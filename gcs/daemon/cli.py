@@ -21,7 +21,7 @@ from gcs.daemon.app import Daemon
 from gcs.daemon.options import DaemonOptions
 from gcs.daemon.flight_report import FlightReport
 from gcs.daemon.status_cli import add_status, format_status, query_status
-from gcs.daemon.plan_runners import PLANNER_MODES, PLANNER_NICENESS
+from gcs.daemon.plan_runners import PLAN_RUNNERS, PLAN_PROCESS_NICENESS
 from gcs.daemon.niceness import niceness_argument
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
 from gcs.engine.tracking import PLANNERS
@@ -46,12 +46,13 @@ def add_daemon_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of the planner's random generator (default 0)")
     parser.add_argument("--record", type=Path, metavar="FILE.mcap",
                         help="record everything received and published (MCAP), finished on exit")
-    parser.add_argument("--plan-in", choices=PLANNER_MODES, default="process", dest="planner_mode",
+    parser.add_argument("--plan-in", choices=PLAN_RUNNERS, default="process", dest="plan_runner",
                         help="where plans are made: a child process (default), a thread of the daemon, or inline "
                              "in its loop (deterministic; the loop waits for each plan)")
-    parser.add_argument("--planner-nice", type=niceness_argument, default=PLANNER_NICENESS, dest="planner_niceness",
+    parser.add_argument("--planner-nice", type=niceness_argument, default=PLAN_PROCESS_NICENESS,
+                        dest="plan_process_niceness",
                         metavar="N", help=f"how much lower the planner process's priority is, 0-19 (default "
-                                          f"{PLANNER_NICENESS}; 19: the loop first when reports flood in, at the "
+                                          f"{PLAN_PROCESS_NICENESS}; 19: the loop first when reports flood in, at the "
                                           "price of plans cut short on a busy machine)")
     add_http_argument(parser, "the live map (vehicles, track, plans, status)")
     add_foxglove_arguments(parser)
@@ -123,8 +124,8 @@ def build_daemon(args: argparse.Namespace, **kwargs) -> Daemon:
         mavlink = connections_from_arguments(args, [v.id for v in scenario.vehicles])
         options = DaemonOptions(zenoh=zenoh, prefix=args.prefix, mavlink=mavlink,
                                 signing_key=signing_key_from_arguments(args), seed=args.seed, planner=args.planner,
-                                record=args.record, planner_mode=args.planner_mode,
-                                planner_niceness=args.planner_niceness, http=args.http,
+                                record=args.record, plan_runner=args.plan_runner,
+                                plan_process_niceness=args.plan_process_niceness, http=args.http,
                                 foxglove=foxglove_options(args), accept_unlisted=args.accept_unlisted,
                                 max_wait_s=positive(args.max_wait, "--max-wait"),
                                 navigation=args.navigation, **_control_options(args))

@@ -6,7 +6,7 @@ from __future__ import annotations
 import time
 
 from gcs.adapters.mavlink_io import MavlinkCommander
-from gcs.daemon.plan_runners import Planner
+from gcs.daemon.plan_runners import PlanRunner
 from gcs.daemon.track_summary import summarise_track
 from gcs.engine.engine import Engine
 from gcs.engine.registry import LOST_AFTER_S
@@ -18,7 +18,7 @@ AUTOPILOT_NAMES = {3: "ArduPilot", 12: "PX4"}
 """MAV_AUTOPILOT values the status names."""
 
 
-def daemon_status(engine: Engine, scenario: str, commander: MavlinkCommander | None, planner: Planner | None,
+def daemon_status(engine: Engine, scenario: str, commander: MavlinkCommander | None, plan_runner: PlanRunner | None,
                   uptime_s: float, now: float) -> DaemonStatus:
     """The daemon's health at loop time ``now``: vehicles, link state, counters, the newest step's tracks (the first
     :data:`~protocols.status.MAX_STATUS_TRACKS`)."""
@@ -38,9 +38,9 @@ def daemon_status(engine: Engine, scenario: str, commander: MavlinkCommander | N
                                       liveliness=engine.registry.liveliness_state(vehicle_id),
                                       control=control))
     counters = engine.counters_now()
-    if planner is not None:
-        counters["plans_superseded"] = planner.superseded
-        counters["planner_restarts"] = getattr(planner, "restarts", 0)
+    if plan_runner is not None:
+        counters["plans_superseded"] = plan_runner.superseded
+        counters["planner_restarts"] = getattr(plan_runner, "restarts", 0)
     if commander is not None:
         counters.update({f"mavlink.{k}": v for k, v in commander.counters().items()})
     return DaemonStatus(stamp_ns=time.time_ns(), uptime_s=uptime_s,

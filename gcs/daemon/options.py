@@ -13,7 +13,7 @@ from pathlib import Path
 from gcs.adapters.foxglove_out import FoxgloveOptions
 from gcs.adapters.mavlink_commands import DEFAULT_STREAM_RATE_HZ, Takeover
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.daemon.plan_runners import PLANNER_NICENESS
+from gcs.daemon.plan_runners import PLAN_PROCESS_NICENESS
 
 __all__ = ["DaemonOptions"]
 
@@ -40,13 +40,13 @@ class DaemonOptions:
     record : Path or None
         Record everything received and published to this MCAP file
         (:mod:`gcs.adapters.recording`), finished when the daemon stops.
-    planner_mode : str
-        Where plans are made (:mod:`gcs.daemon.plan_runners`): ``process`` (the
+    plan_runner : str
+        Where the planner runs (:mod:`gcs.daemon.plan_runners`): ``process`` (the
         default: a child process, so that planning never takes the interpreter
         from the loop), ``thread``, or ``inline`` (in the loop, each plan made when
         it is handed over; deterministic).
-    planner_niceness : int
-        How much lower the planner process's priority is (0-19; :data:`gcs.daemon.plan_runners.PLANNER_NICENESS`).
+    plan_process_niceness : int
+        How much lower the plan process's priority is (0-19; :data:`gcs.daemon.plan_runners.PLAN_PROCESS_NICENESS`).
     http : (host, port) or None
         Serve the live map there (:mod:`gcs.adapters.live_map.outputs`; port 0 picks a free
         one); None: no page.
@@ -85,8 +85,8 @@ class DaemonOptions:
     max_wait_s: float = 0.5
     plan_fraction: float = 0.6
     record: Path | None = None
-    planner_mode: str = "process"
-    planner_niceness: int = PLANNER_NICENESS
+    plan_runner: str = "process"
+    plan_process_niceness: int = PLAN_PROCESS_NICENESS
     http: tuple[str, int] | None = None
     foxglove: FoxgloveOptions | None = None
     accept_unlisted: bool = False

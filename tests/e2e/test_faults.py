@@ -47,7 +47,7 @@ def _running_daemon(stack: ExitStack, zenoh: ZenohSettings, mavlink: dict[str, s
     """The daemon in a thread (a cheap planner, planned inline), opened first (its ports are known on return),
     stopped and joined when the stack closes."""
     daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=zenoh, mavlink=mavlink, planner="orbit",
-                                                   planner_mode="inline"))
+                                                   plan_runner="inline"))
     daemon.open()
     thread = threading.Thread(target=daemon.run, name="daemon", daemon=True)
     thread.start()

@@ -33,7 +33,7 @@ def modes(runner) -> dict[str, int | None]:
 def start_daemon(stack: ExitStack, takeover: Takeover) -> tuple[Daemon, str, int]:
     daemon = Daemon(SCENARIO, WORLD, DaemonOptions(
         zenoh=ZenohSettings(listen=(ANY_PORT_ENDPOINT,), connect=()), mavlink=dict.fromkeys(VEHICLES, ANY_UDP),
-        planner="orbit", planner_mode="inline", takeover=takeover))
+        planner="orbit", plan_runner="inline", takeover=takeover))
     daemon.open()
     endpoint, port = daemon_ports(daemon)
     thread = threading.Thread(target=daemon.run, name="daemon", daemon=True)

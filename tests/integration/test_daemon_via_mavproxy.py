@@ -207,7 +207,7 @@ def test_vehicle_behind_mavproxy_is_tracked_and_steered_like_a_direct_one(tmp_pa
     # Two links on ports the system chooses: equal connection strings would share one, so the direct vehicles'
     # is spelt "localhost" (the same 127.0.0.1).
     daemon = Daemon(SCENARIO, build_world(SCENARIO), DaemonOptions(
-        zenoh=ZenohSettings(mode="peer", listen=(ANY_PORT_ENDPOINT,), connect=()), planner_mode="thread",
+        zenoh=ZenohSettings(mode="peer", listen=(ANY_PORT_ENDPOINT,), connect=()), plan_runner="thread",
         mavlink={PROXIED: f"udpin:{LOCALHOST}:0", **{v: "udpin:localhost:0" for v in DIRECT}}))
     daemon.open()  # it listens before the vehicles connect (as `gcs demo` does)
     zenoh_endpoint, ports = daemon_ports(daemon)

@@ -59,7 +59,7 @@ def _live(folder: Path, inputs: Path, scenario=SCENARIO, rate: float = RATE, **o
     """Republish ``inputs`` to a daemon run with ``options``; its recording, the tracks it published, its counters."""
     recording = folder / "live.mcap"
     daemon = Daemon(scenario, WORLD, DaemonOptions(zenoh=ZenohSettings(listen=(ANY_PORT_ENDPOINT,), connect=()),
-                                                   record=recording, planner="pursuit", planner_mode="thread",
+                                                   record=recording, planner="pursuit", plan_runner="thread",
                                                    **options))
     daemon.open()
     endpoint, _ = daemon_ports(daemon)

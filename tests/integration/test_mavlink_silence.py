@@ -43,7 +43,7 @@ def test_commands_stop_while_the_link_is_silent_and_resume_when_it_returns() -> 
         daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=ZenohSettings(listen=(ANY_PORT_ENDPOINT,), connect=()),
                                                        mavlink={v: f"udpout:127.0.0.1:{relay.ground_port}"
                                                                 for v in ROSTER},
-                                                       planner="orbit", planner_mode="inline"))
+                                                       planner="orbit", plan_runner="inline"))
         daemon.open()
         (endpoint,) = daemon.zenoh_listening
         thread = threading.Thread(target=daemon.run, name="daemon", daemon=True)

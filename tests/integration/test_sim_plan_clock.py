@@ -18,7 +18,7 @@ S = 1_000_000_000
 def test_with_wait_for_plans_every_step_is_planned_before_the_vehicles_fly_past_it() -> None:
     daemon = Daemon(SCENARIO, WORLD, DaemonOptions(
         zenoh=ZenohSettings(listen=(ANY_PORT_ENDPOINT,), connect=()),
-        mavlink=dict.fromkeys((v.id for v in SCENARIO.vehicles), ANY_UDP), planner_mode="thread"))
+        mavlink=dict.fromkeys((v.id for v in SCENARIO.vehicles), ANY_UDP), plan_runner="thread"))
     daemon.open()
     endpoint, port = daemon_ports(daemon)
     thread = threading.Thread(target=daemon.run, name="daemon", daemon=True)

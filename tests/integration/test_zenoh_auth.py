@@ -95,7 +95,7 @@ def test_a_daemon_behind_an_authenticated_router_answers_only_clients_with_crede
         (endpoint,) = listening_endpoints(router)
         daemon = Daemon(SCENARIO, WORLD, DaemonOptions(
             zenoh=ZenohSettings(mode="client", connect=(endpoint,), config_file=credentials["right"]),
-            planner="orbit", planner_mode="inline"))
+            planner="orbit", plan_runner="inline"))
         thread = threading.Thread(target=daemon.run, name="daemon", daemon=True)
         thread.start()
         stack.callback(thread.join, 15)
