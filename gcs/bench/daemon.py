@@ -63,7 +63,7 @@ from gcs.bench.urban import with_vehicles
 from gcs.config import Scenario
 from gcs.core.world import World
 from gcs.daemon.niceness import check_niceness
-from gcs.engine.tracking import scenario_planner
+from gcs.engine.tracker_factory import scenario_planner
 
 __all__ = ["GOAL_REPORTS_PER_S", "GOAL_LATENCY_MS_P99", "GRACE_S", "Trial", "StepTiming", "PlanTiming",
            "step_latencies_ms", "track_latencies_ms",

@@ -15,7 +15,6 @@ from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, required_settings
 from gcs.adapters.mavlink_commands import DEFAULT_STREAM_RATE_HZ, HANDBACK_MODES, Takeover
 from gcs.cli_errors import UsageError, one_line, positive, set_command, stop_on_signals, writable_file
-from gcs.config.multitarget import MULTITARGET_PLANNERS
 from gcs.config.world import build_world
 from gcs.daemon.app import Daemon
 from gcs.daemon.options import DaemonOptions
@@ -24,7 +23,7 @@ from gcs.daemon.status_cli import add_status, format_status, query_status
 from gcs.daemon.plan_runners import PLAN_RUNNERS, PLAN_PROCESS_NICENESS
 from gcs.daemon.niceness import niceness_argument
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
-from gcs.engine.tracking import PLANNERS
+from gcs.core.planner_names import MULTITARGET_PLANNERS, PLANNERS
 from protocols.errors import ProtocolError
 from protocols.keys import validate_prefix
 

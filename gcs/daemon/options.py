@@ -31,7 +31,7 @@ class DaemonOptions:
     seed : int
         Seed of the planner's random generator.
     planner : str or None
-        One of :data:`gcs.engine.tracking.PLANNERS`; None takes the scenario's.
+        One of :data:`gcs.core.planner_names.PLANNERS`; None takes the scenario's.
     max_wait_s : float
         Wall time a decision step waits for missing vehicles' reports.
     plan_fraction : float

@@ -27,7 +27,7 @@ from gcs.core.world import World
 from gcs.daemon.plan_runners import PLAN_PROCESS_NICENESS, START_TIMEOUT_S, PlanRunner, run_job
 from gcs.engine.plan_jobs import PlanJob, PlanOutcome
 from gcs.daemon.niceness import check_niceness, lower_priority
-from gcs.engine.tracking import subset_config, tracker_config
+from gcs.engine.tracker_factory import subset_config, tracker_config
 
 __all__ = ["ProcessPlanRunner"]
 

@@ -40,7 +40,7 @@ from collections.abc import Callable
 import numpy as np
 
 from gcs.config import Scenario
-from gcs.config.multitarget import MULTITARGET_PLANNERS
+from gcs.core.planner_names import MULTITARGET_PLANNERS
 from gcs.core.kinematics import VehicleState
 from gcs.core.multitarget.planning import plans_targets
 from gcs.core.steering import PlannedPath
@@ -58,7 +58,7 @@ from gcs.engine.events import (Action, Arrived, Heartbeat, Input, LetGo, Observe
 from gcs.engine.memory import CommandAges, LoopMemory, Planning, plan_interval_s
 from gcs.engine.multitarget import TrackKeeper
 from gcs.engine.options import EngineOptions
-from gcs.engine.tracking import observer_sensor_model, scenario_planner, subset_config, tracker_config
+from gcs.engine.tracker_factory import observer_sensor_model, scenario_planner, subset_config, tracker_config
 from protocols.keys import parse_key
 from protocols.messages import NavReport, SensorReport, TargetTruth, TrackEstimate
 

@@ -11,7 +11,7 @@ import urllib.request
 
 import pytest
 
-from gcs.engine.tracking import horizon_steps, scenario_planner
+from gcs.engine.tracker_factory import horizon_steps, scenario_planner
 from gcs.adapters.web.server import LiveMapServer
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.daemon.app import Daemon, DaemonOptions

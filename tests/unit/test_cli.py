@@ -70,7 +70,7 @@ def test_help_and_version_load_no_heavy_module(argv: list[str]) -> None:
 def test_gcs_status_loads_neither_scipy_nor_the_daemon() -> None:
     # it is Docker's healthcheck, run every few seconds: it should start in a fraction of a second
     code = ("import sys; from gcs import cli; cli.build_parser(cli.requested_command(['status'])); "
-            "print(sorted(m for m in ('scipy', 'gcs.daemon.app', 'gcs.engine.tracking', 'pymavlink') if m in sys.modules))")
+            "print(sorted(m for m in ('scipy', 'gcs.daemon.app', 'gcs.engine.tracker_factory', 'pymavlink') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=60)
     assert out.stdout.strip() == "[]"
 

@@ -18,7 +18,7 @@ from gcs.engine.fusion import step_detections
 from gcs.engine.navigation import MAX_EXTRAPOLATION_S, FleetNavigator
 from gcs.engine.steps import ReadyStep, StepAssembler
 from gcs.scenarios import load_scenario
-from gcs.engine.tracking import tracker_config
+from gcs.engine.tracker_factory import tracker_config
 from protocols.messages import GpsFix, InsIncrement, Measurement, NavReport, SensorReport
 
 S = 1_000_000_000

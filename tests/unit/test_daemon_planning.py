@@ -16,7 +16,7 @@ from gcs.daemon.plan_runners import PLAN_RUNNERS
 from gcs.engine.plan_jobs import PlanJob
 from gcs.daemon.plan_runner_start import start_plan_runner
 from gcs.scenarios import load_scenario
-from gcs.engine.tracking import subset_config, tracker_config
+from gcs.engine.tracker_factory import subset_config, tracker_config
 
 SCENARIO = load_scenario("wang2012_urban")
 WORLD = build_world(SCENARIO)

@@ -14,7 +14,7 @@ import numpy as np
 from gcs.core.filters.uif import GaussianEstimate
 from gcs.engine.fusion import fuse_step, step_detections
 from gcs.engine.steps import ReadyStep
-from gcs.engine.tracking import tracker_config
+from gcs.engine.tracker_factory import tracker_config
 from gcs.scenarios import load_scenario
 from protocols.messages import Measurement, SensorReport
 
