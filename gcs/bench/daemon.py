@@ -50,7 +50,7 @@ from collections import Counter
 from collections.abc import Callable, Generator, Sequence
 from dataclasses import asdict
 
-from gcs.adapters.ports import LOCALHOST
+from gcs.adapters.loopback import LOCALHOST
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.daemon.app import Daemon, DaemonOptions
 from gcs.engine.records import PlanRecord, StepRecord

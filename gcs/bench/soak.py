@@ -48,7 +48,7 @@ from pathlib import Path
 import numpy as np
 import zenoh
 
-from gcs.adapters.ports import LOCALHOST
+from gcs.adapters.loopback import LOCALHOST
 from gcs.adapters.zenoh_session import ZenohSettings, open_session, query
 from gcs.bench.daemon import _load_average, machine_note
 from gcs.bench.faults import Injector, UdpRelay, every_kind

@@ -34,6 +34,7 @@ from gcs.core.multitarget.coverage import clutter_volume, coverage
 from gcs.core.multitarget.gating import gate_threshold
 from gcs.core.multitarget.lost import LostTargets
 from gcs.core.multitarget.planning import TargetsToPlan, targets_to_plan
+from gcs.core.target_tracker import TargetTracker
 from gcs.core.tracker import TrackerConfig
 from gcs.core.world import World
 from gcs.engine.fusion import scan_detections, track_message
@@ -79,7 +80,7 @@ class TrackKeeper:
         self.config, self.world, self.tracker_config = config, world, tracker
         self.motion = constant_velocity(config.accel_psd_m2_s3)
         clutter = max(scenario.sensor.clutter_rate, MIN_CLUTTER_PER_SCAN) / clutter_volume(tracker.max_range_m)
-        self.tracker = MultiTargetTracker(
+        self.tracker: TargetTracker[MultiTargetState, ScanDiagnostics] = MultiTargetTracker(
             association=config.association, motion=self.motion,
             detection_probability=scenario.sensor.detection_probability, gate_probability=config.gate_probability,
             clutter_density=clutter, confirm_m=config.confirm_m, confirm_n=config.confirm_n,

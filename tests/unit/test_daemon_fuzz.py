@@ -209,7 +209,7 @@ def test_reports_from_outside_the_roster_are_rejected_unless_accepted_on_request
 
 
 def test_a_step_whose_fusion_diverges_is_counted_and_the_previous_estimate_stands(monkeypatch) -> None:
-    import gcs.engine.fusion as fusion
+    import gcs.core.single_target as single_target
     from gcs.core.filters.uif import NotPositiveDefinite
 
     daemon = _daemon()
@@ -221,7 +221,7 @@ def test_a_step_whose_fusion_diverges_is_counted_and_the_previous_estimate_stand
         def diverging(*args, **kwargs):
             raise NotPositiveDefinite("made to fail")
 
-        monkeypatch.setattr(fusion, "fuse", diverging)
+        monkeypatch.setattr(single_target, "fuse", diverging)
         _run(daemon, [(0.1, [_seen_from("uav1", EPOCH_NS + S)])])
     finally:
         daemon.plan_runner.close()
