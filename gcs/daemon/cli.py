@@ -13,7 +13,8 @@ from gcs.adapters.foxglove_out import FoxgloveMissing, add_foxglove_arguments, f
 from gcs.adapters.mavlink_cli import add_mavlink_arguments, connections_from_arguments, signing_key_from_arguments
 from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, required_settings
-from gcs.adapters.mavlink_commands import DEFAULT_STREAM_RATE_HZ, HANDBACK_MODES, Takeover
+from gcs.adapters.mavlink_commands import DEFAULT_STREAM_RATE_HZ
+from gcs.adapters.mavlink_takeover import HANDBACK_MODES, Takeover
 from gcs.cli_errors import UsageError, one_line, positive, set_command, stop_on_signals, writable_file
 from gcs.config.world import build_world
 from gcs.daemon.app import Daemon

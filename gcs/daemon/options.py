@@ -11,7 +11,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from gcs.adapters.foxglove_out import FoxgloveOptions
-from gcs.adapters.mavlink_commands import DEFAULT_STREAM_RATE_HZ, Takeover
+from gcs.adapters.mavlink_commands import DEFAULT_STREAM_RATE_HZ
+from gcs.adapters.mavlink_takeover import Takeover
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.daemon.plan_runners import PLAN_PROCESS_NICENESS
 
@@ -62,7 +63,7 @@ class DaemonOptions:
         :mod:`gcs.adapters.mavlink_commands`).
     takeover : Takeover
         The guard on switching a vehicle to GUIDED (armed, above an altitude) and the mode it is
-        given back in (:class:`~gcs.adapters.mavlink_commands.Takeover`).
+        given back in (:class:`~gcs.adapters.mavlink_takeover.Takeover`).
     handback_after_lost_s : float
         After this many seconds (stamp time) with no vehicle seeing the target, every vehicle the
         daemon took over is given back; it takes them again when the target is seen again. The

@@ -11,7 +11,7 @@ from contextlib import ExitStack
 
 import msgspec
 
-from gcs.adapters.mavlink_commands import Takeover
+from gcs.adapters.mavlink_takeover import Takeover
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODES
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.daemon.app import Daemon, DaemonOptions
