@@ -3,7 +3,7 @@
 The daemon (:mod:`gcs.daemon.app`), ``gcs replay --process/--plan`` (:mod:`gcs.recordings.replay`) and the
 in-process closed loop of ``gcs bench autopilots`` (:mod:`gcs.bench.autopilots`) all drive an
 :class:`Engine`; only where the inputs come from (Zenoh and MAVLink, a recording, a simulated
-scene) and where the actions go differ (design.md section 2: "one engine"). Everything that
+scene) and where the actions go differ (docs/design.md, the layers: "one engine"). Everything that
 decides lives here, so that live and replayed runs cannot drift apart:
 
 * **acceptance** (:meth:`Engine.feed` of an :class:`~gcs.engine.events.Arrived`,

@@ -1,4 +1,4 @@
-"""Validation of everything the daemon receives over Zenoh: accept, or reject with a counted reason.
+"""Validation of everything the ground station receives over Zenoh: accept, or reject with a counted reason.
 
 Every sample goes through :meth:`Ingest.accept`, which returns the decoded
 message or ``None``. Rejections are counted under ``rejected.<reason>`` and

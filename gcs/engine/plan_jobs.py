@@ -47,9 +47,9 @@ class PlanJob:
     clock_scale : float
         The planner's clock is ``time.monotonic`` times this (data time per wall
         second over the share of the step the planner may use; see
-        ``Daemon._clock_scale``): its deadline is in data time.
+        :meth:`LoopMemory.clock_scale <gcs.engine.memory.LoopMemory.clock_scale>`): its deadline is in data time.
     submitted_s : float
-        ``time.monotonic`` when its step was fused (the daemon keeps the newest step's
+        ``time.monotonic`` when its step was fused (the engine keeps the newest step's
         planning until the planner is free, then builds the job).
     targets : TargetsToPlan or None
         With ``[multitarget]``: the tracks the vehicles are shared between
