@@ -12,7 +12,7 @@ scene's liveliness, reports, nav reports and truth as the daemon receives them (
 on the wire), releases and fuses the steps, hands over the plans and gives each vehicle
 the path to steer along. Every MAVLink message is packed and parsed as on the wire. What
 is not the daemon's: no sockets, no planner process (each job is planned at once, without
-deadline: :func:`gcs.engine.inline.plan_at_once`), no clock (simulation time is the
+deadline: :func:`gcs.engine.plan_at_once.plan_at_once`), no clock (simulation time is the
 engine's). Who saw the target at each step and the fused position's error against the
 truth are the engine's step records.
 
@@ -48,7 +48,7 @@ from gcs.engine.records import step_error_m
 from gcs.engine.steps import HOLD_WAITS
 from gcs.engine.engine import Engine, EngineOptions
 from gcs.engine.events import Arrived, PlannerFree, SubmitPlan, Tick
-from gcs.engine.inline import plan_at_once
+from gcs.engine.plan_at_once import plan_at_once
 from protocols.codec import encode
 from protocols.keys import alive_key, nav_key, report_key, truth_key
 from sim_vehicles.personalities import make_autopilot

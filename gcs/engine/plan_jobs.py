@@ -6,7 +6,7 @@ The engine builds a job from the newest fused step when the planner is free
 (:class:`~gcs.engine.events.PlanDone`); it never plans itself. Who plans, and with
 which clock for the deadline, is the shell's: the daemon's plan runners
 (:mod:`gcs.daemon.plan_runners`: a process, a thread or inline), or
-:func:`gcs.engine.inline.plan_at_once` with no deadline for replay and the benches.
+:func:`gcs.engine.plan_at_once.plan_at_once` with no deadline for replay and the benches.
 """
 
 from __future__ import annotations

@@ -43,7 +43,7 @@ from gcs.engine.records import GOSPA_CUTOFF_M
 from gcs.engine.steps import HOLD_WAITS
 from gcs.engine.engine import Engine, EngineOptions
 from gcs.engine.events import Arrived, Heartbeat, PlannerFree, PublishPlan, PublishTrack, SubmitPlan, Tick
-from gcs.engine.inline import plan_at_once
+from gcs.engine.plan_at_once import plan_at_once
 from gcs.recordings.keys import INPUT_KINDS, VEHICLE_KINDS, key_kind, prefix_of
 from gcs.recordings.recorded_scenario import ScenarioFinder
 from protocols.codec import decode, encode
