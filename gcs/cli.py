@@ -16,6 +16,7 @@ from collections.abc import Callable, Sequence
 import msgspec
 
 from gcs import __version__
+from gcs.adapters.osm.command import add_from_osm
 from gcs.cli_commands import CommandLine, Subcommand
 from gcs.cli_errors import set_command
 from gcs.config import ScenarioError
@@ -42,8 +43,9 @@ def _cmd_scenario(args: argparse.Namespace) -> int:
 def _add_scenario(sub: argparse._SubParsersAction) -> None:
     parser = sub.add_parser(
         "scenario",
-        help="list, show or check scenario files",
-        description="List the shipped scenarios, show one fully resolved, or check a TOML file.",
+        help="list, show, check or build scenario files (from OpenStreetMap)",
+        description="List the shipped scenarios, show one fully resolved, check a TOML file, or build one from "
+                    "an OpenStreetMap extract.",
     )
     actions = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
     actions.add_parser("list", help="names and descriptions of the shipped scenarios")
@@ -53,6 +55,7 @@ def _add_scenario(sub: argparse._SubParsersAction) -> None:
         p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO,
                        help=f"shipped name or path to a .toml file (default: {DEFAULT_SCENARIO})")
     set_command(parser, _cmd_scenario)
+    add_from_osm(actions)
 
 
 SUBCOMMANDS: tuple[Subcommand, ...] = (
@@ -64,7 +67,7 @@ SUBCOMMANDS: tuple[Subcommand, ...] = (
     Subcommand("record", "gcs.recordings.record:add_record", "record the Zenoh traffic under a prefix to MCAP"),
     Subcommand("replay", "gcs.recordings.replay_cli:add_replay", "summarise, republish or process a recording"),
     Subcommand("router", "gcs.daemon.router:add_router", "a Zenoh router for clients (no zenohd needed)"),
-    Subcommand("scenario", "gcs.cli:_add_scenario", "list, show or check scenario files"),
+    Subcommand("scenario", "gcs.cli:_add_scenario", "list, show, check or build scenario files (from OpenStreetMap)"),
     Subcommand("bench", "gcs.bench.cli:add_bench", "reproduce the papers' experiments and measure speed"),
 )
 """Each subcommand, in the order ``--help`` lists them; only the one named is imported (:mod:`gcs.cli_commands`):

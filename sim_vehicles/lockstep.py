@@ -19,10 +19,17 @@ report far from its vehicle's clock (:data:`MAX_JUMP_NS`) is taken for a stray
 sample, unless the next agrees with it.
 Nothing here runs on Zenoh's threads: the subscriptions deliver into FIFO
 channels that :meth:`PeerClock.poll` drains.
+
+Processes started at once start their clocks together with
+:func:`wait_for_vehicles` (``sim-vehicles run --start-with``): each holds its
+clock at zero until the other processes' vehicles have their tokens up, however
+long the machine takes to start them, and the last one up starts them all
+within a token's trip through the router.
 """
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Callable, Iterable
 
@@ -32,7 +39,9 @@ import zenoh
 from protocols.errors import ProtocolError
 from protocols.keys import alive_selector, parse_key, reports_selector
 
-__all__ = ["PeerClock", "STALE_AFTER_S", "CHANNEL_CAPACITY", "MAX_JUMP_NS"]
+__all__ = ["PeerClock", "wait_for_vehicles", "STALE_AFTER_S", "CHANNEL_CAPACITY", "MAX_JUMP_NS", "NOTE_EVERY_S"]
+
+log = logging.getLogger(__name__)
 
 STALE_AFTER_S = 2.0
 """Wall seconds without a report after which a vehicle whose token is up is no longer waited for (at least;
@@ -43,6 +52,8 @@ MAX_JUMP_NS = 20 * 1_000_000_000
 """A report stamped further than this from its vehicle's clock is a stray (a replayed or spoofed sample: the
 soak injects some, a minute ahead or half a minute back) and is not taken for the vehicle's time, unless the
 vehicle's next report agrees with it (then the clock was the stray, and moves there)."""
+NOTE_EVERY_S = 10.0
+"""Wall seconds between two log lines naming the vehicles :func:`wait_for_vehicles` still waits for."""
 
 
 class _Stamped(msgspec.Struct):
@@ -146,3 +157,38 @@ class PeerClock:
         """Withdraw both subscriptions."""
         self._reports.undeclare()
         self._tokens.undeclare()
+
+
+def wait_for_vehicles(session: zenoh.Session, prefix: str, vehicles: Iterable[str],
+                      keep_waiting: Callable[[], bool], clock: Callable[[], float] = time.monotonic,
+                      poll_s: float = 0.01) -> set[str]:
+    """Wait until each of ``vehicles`` has its liveliness token up under ``prefix``, while ``keep_waiting()``.
+
+    Tokens already up count (the subscription asks for their history); one withdrawn while waiting is
+    waited for again. Every :data:`NOTE_EVERY_S` the vehicles still missing are logged. Returns those
+    missing when it stopped: empty once every one is up.
+    """
+    wanted = set(vehicles)
+    if not wanted:
+        return set()
+    tokens = session.liveliness().declare_subscriber(alive_selector(prefix), zenoh.handlers.FifoChannel(
+        CHANNEL_CAPACITY), history=True)
+    up: set[str] = set()
+    next_note = clock() + NOTE_EVERY_S
+    try:
+        while True:
+            while (sample := tokens.try_recv()) is not None:
+                try:
+                    vehicle = parse_key(str(sample.key_expr), prefix).ident
+                except ProtocolError:
+                    continue
+                (up.add if sample.kind == zenoh.SampleKind.PUT else up.discard)(vehicle)
+            missing = wanted - up
+            if not missing or not keep_waiting():
+                return missing
+            if clock() >= next_note:
+                log.info("waiting for %s to come up", ", ".join(sorted(missing)))
+                next_note += NOTE_EVERY_S
+            time.sleep(poll_s)
+    finally:
+        tokens.undeclare()

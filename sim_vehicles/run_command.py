@@ -50,6 +50,11 @@ def add_run(sub: argparse._SubParsersAction) -> None:
                         help="start the simulation clock at this Unix time (seconds), e.g. to keep vehicles flown "
                              "by several processes on one clock; a time already past joins that clock (a restarted "
                              "vehicle process: the scene is advanced to it first, --duration counts from zero)")
+    parser.add_argument("--start-with", action="append", default=[], metavar="ID",
+                        help="start the simulation clock once vehicle ID, flown by another process started the same "
+                             "way, has come up on zenoh (repeatable), however long the machine takes to start them: "
+                             "e.g. --only uav1 --start-with uav2 --start-with uav3 (needs Zenoh on which the processes hear "
+                             "each other, e.g. clients of one router; not with --start-at)")
     parser.add_argument("--lockstep", action="store_true",
                         help="keep one clock with the other simulated vehicles under the prefix (other processes): "
                              "hold while more than one report ahead of the slowest, so that a machine that cannot "
@@ -85,6 +90,10 @@ def _options(args: argparse.Namespace, vehicle_ids: list[str]) -> RunOptions:
         raise UsageError("--wait-for-plans hears the plans over zenoh: not with --zenoh-mode none")
     if args.lockstep and zenoh is None:
         raise UsageError("--lockstep keeps the clock with the other vehicles over zenoh: not with --zenoh-mode none")
+    if args.start_with and zenoh is None:
+        raise UsageError("--start-with hears the other vehicles over zenoh: not with --zenoh-mode none")
+    if args.start_with and args.start_at is not None:
+        raise UsageError("--start-with and --start-at both say when the clock starts: give one")
     if args.start_at is not None and not abs(args.start_at) < 1e11:
         raise UsageError(f"--start-at is a Unix time in seconds, got {args.start_at:g}")
     epoch = args.epoch_ns if args.epoch_ns is not None else (time.time_ns() // 1_000_000_000) * 1_000_000_000
@@ -92,7 +101,7 @@ def _options(args: argparse.Namespace, vehicle_ids: list[str]) -> RunOptions:
                       signing_key=key, zenoh=zenoh, prefix=args.prefix,
                       only=None if args.only is None else tuple(args.only), wait_for_subscriber_s=args.wait_for_gcs,
                       start_at_ns=None if args.start_at is None else round(args.start_at * 1e9),
-                      lockstep=args.lockstep, wait_for_plans=args.wait_for_plans)
+                      start_with=tuple(args.start_with), lockstep=args.lockstep, wait_for_plans=args.wait_for_plans)
 
 
 def check_run(args: argparse.Namespace) -> Runner:
@@ -108,6 +117,10 @@ def check_run(args: argparse.Namespace) -> Runner:
     if unknown:
         raise UsageError(f"--only {', '.join(unknown)}: not in the scenario, whose vehicles are {', '.join(known)}")
     flown = [v for v in known if args.only is None or v in args.only]
+    for vehicle in args.start_with:
+        if vehicle not in known or vehicle in flown:
+            raise UsageError(f"--start-with {vehicle}: not a vehicle of the scenario flown by another process "
+                             f"({', '.join(v for v in known if v not in flown) or 'none: this process flies all'})")
     options = _options(args, flown)
     base_dir = scenario_base_dir(args.scenario)
     return Runner(scenario, build_world(scenario, base_dir), options, base_dir=base_dir)

@@ -43,6 +43,13 @@ class RunOptions:
         is where the other processes have it; the vehicles start afresh from their
         start points, and their liveliness tokens are declared once the scene has
         joined. ``duration_s`` still counts from zero.
+    start_with : tuple of vehicle ids
+        Instead of ``start_at_ns``: start the simulation clock once each of these
+        vehicles (flown by other processes, started the same way) has its liveliness
+        token up, however long the machine takes to start them
+        (:func:`sim_vehicles.lockstep.wait_for_vehicles`). The processes must hear
+        each other's tokens (clients of one router, say: peers connected only to a
+        third peer do not).
     wait_for_subscriber_s : float
         Before the clock starts, wait up to this long (wall time) for subscribers
         to every key (a ground station), so that the first reports are not
@@ -65,6 +72,7 @@ class RunOptions:
     only: tuple[str, ...] | None = None
     wait_for_subscriber_s: float = 0.0
     start_at_ns: int | None = None
+    start_with: tuple[str, ...] = ()
     lockstep: bool = False
     wait_for_plans: bool = False
 

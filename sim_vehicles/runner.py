@@ -48,7 +48,7 @@ from protocols.errors import ProtocolError
 from protocols.keys import alive_key
 from sim_vehicles.autopilot import SimAutopilot
 from sim_vehicles.personalities import make_autopilot
-from sim_vehicles.lockstep import PeerClock
+from sim_vehicles.lockstep import PeerClock, wait_for_vehicles
 from sim_vehicles.plan_clock import STALE_AFTER_S as PLAN_STALE_AFTER_S
 from sim_vehicles.plan_clock import PlanClock
 from sim_vehicles.run_options import RunOptions, RunSummary
@@ -82,15 +82,22 @@ class _Timer:
 
 
 class Runner:
-    """Runs a :class:`Scene` with its vehicles' MAVLink peers and Zenoh publishers."""
+    """Runs a :class:`Scene` with its vehicles' MAVLink peers and Zenoh publishers.
+
+    ``clock`` and ``sleep`` are the monotonic wall clock (seconds) the run is paced against and its sleep;
+    ``unix_ns`` is the Unix time (ns) that ``options.start_at_ns`` is read against (tests give fake ones).
+    """
 
     def __init__(self, scenario: Scenario, world: World, options: RunOptions, base_dir: Path | None = None,
-                 clock: Callable[[], float] = time.monotonic, sleep: Callable[[float], None] = time.sleep) -> None:
+                 clock: Callable[[], float] = time.monotonic, sleep: Callable[[float], None] = time.sleep,
+                 unix_ns: Callable[[], int] = time.time_ns) -> None:
         if not options.rate > 0:
             raise ValueError(f"--rate must be > 0, got {options.rate}")
+        if options.start_with and options.zenoh is None:
+            raise ValueError("start_with hears the other vehicles over zenoh: it needs a zenoh session")
         self.scenario = scenario
         self.options = options
-        self.clock, self.sleep = clock, sleep
+        self.clock, self.sleep, self.unix_ns = clock, sleep, unix_ns
         self.scene = Scene(scenario, world, options.seed, options.epoch_ns, base_dir, options.only)
         self.vehicles = [v for v in scenario.vehicles if v.id in self.scene.vehicles]
         self.publishes_truth = scenario.vehicles[0].id in self.scene.vehicles
@@ -196,14 +203,16 @@ class Runner:
         reports, navs = _Timer(sim.report_rate_hz), _Timer(sim.nav_rate_hz)
         progress = _Timer(1.0 / 30.0)
         skipped = 0
-        ahead_s = None if self.options.start_at_ns is None else (self.options.start_at_ns - time.time_ns()) / 1e9
+        ahead_s = None if self.options.start_at_ns is None else (self.options.start_at_ns - self.unix_ns()) / 1e9
         if ahead_s is not None and ahead_s <= 0:  # the clock started already: join it where it is now
             skipped = self._join(dt, (heartbeat, reports, navs, progress))
-            wall_start = self.clock() - (time.time_ns() - self.options.start_at_ns) / 1e9
+            wall_start = self.clock() - (self.unix_ns() - self.options.start_at_ns) / 1e9
             self._declare_tokens()
         else:
             self._declare_tokens()
-            if ahead_s is not None:
+            if self.options.start_with:
+                self._wait_for_fleet()
+            elif ahead_s is not None:
                 self.stop_event.wait(ahead_s)
             wall_start = self.clock()
         steps_total = None if self.options.duration_s is None else round(self.options.duration_s / dt) - skipped
@@ -270,7 +279,7 @@ class Runner:
             middle = self.peers.middle_ns() if self.peers is not None else None
             if middle is not None:
                 return middle - self.scene.epoch_ns + dt_ns
-            return round((time.time_ns() - self.options.start_at_ns) * self.options.rate)
+            return round((self.unix_ns() - self.options.start_at_ns) * self.options.rate)
 
         steps = 0
         while self.scene.elapsed_ns + dt_ns <= (goal := goal_ns()):
@@ -290,6 +299,14 @@ class Runner:
             autopilot.schedule.skip_to(elapsed)
         log.info("joined the run at t = %.1f s (the target moved %d steps without publishing)", elapsed, steps)
         return steps
+
+    def _wait_for_fleet(self) -> None:
+        """``start_with``: hold the clock at zero until each of those vehicles has its liveliness token up (or the
+        run is stopped)."""
+        others = self.options.start_with
+        if not wait_for_vehicles(self.session, self.options.prefix, others, lambda: not self.stop_event.is_set(),
+                                 self.clock):
+            log.info("%s up: the clock starts", ", ".join(others))
 
     def _wait_for_peers(self) -> None:
         """Before joining: up to two report periods (at least 0.5 s) of wall time for the report of every

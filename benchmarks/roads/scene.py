@@ -68,8 +68,9 @@ def load_scene(name: str) -> Scene:
 
 def orbits(scene: Scene, steps: int, step_s: float) -> NDArray[np.float64]:
     """Vehicle positions (K, V, 3): circles about the city centre (module docstring)."""
-    width, depth = scene.world.size_m
-    centre = np.array([0.5 * width, 0.5 * depth])
+    west, south, east, north = scene.world.bounds_m
+    width, depth = east - west, north - south
+    centre = np.array([0.5 * (west + east), 0.5 * (south + north)])
     half_diagonal = 0.5 * np.hypot(width, depth)
     vehicles = scene.scenario.vehicles[:3]
     t = np.arange(steps) * step_s

@@ -32,11 +32,11 @@ def received(counters: dict[str, int]) -> int:
 def build_report(options, soak, status: DaemonStatus, injected: dict[str, int], memory, baseline, end,
                  exit_codes: dict, command: str, note: str, load_start: str, wall_s: float, workdir: Path) -> dict:
     """The report's dict: ``options`` a :class:`~gcs.bench.soak.SoakOptions`, ``soak`` the run's
-    :class:`~gcs.bench.soak._Soak` (what it observed, the crashes and faults), ``status`` the daemon's final
+    :class:`~gcs.bench.soak_fleet.SoakFleet` (what it observed, the crashes and faults), ``status`` the daemon's final
     one, ``injected`` the count of each kind of bad sample put on the wire, ``memory`` the
     ``(wall s, daemon MB, planner MB)`` samples, ``baseline`` and ``end`` two of them."""
     counters = dict(status.counters)
-    published = dict(soak.observed)
+    published = {"report": 0, "nav": 0, "truth": 0, **soak.observed}  # every kind, seen or not
     total = sum(published.values())
     taken_in = received(counters)
     dropped = {k.removeprefix("rejected."): v for k, v in sorted(counters.items()) if k.startswith("rejected.")}

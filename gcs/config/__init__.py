@@ -19,6 +19,7 @@ import msgspec
 
 from gcs.config.base import Config as _Config
 from gcs.config.base import Identifier, Metres, NonNegative, Point2, Positive, Radians
+from gcs.config.city import CityConfig, SourceConfig
 from gcs.config.multitarget import MultiTargetConfig, check_multitarget
 from gcs.config.planner import PlannerConfig, SightConfig, check_planner
 from gcs.config.simulation import (AUTOPILOT_PERSONALITIES, AirframeConfig, GpsConfig, GpsDeniedZone, InsConfig,
@@ -29,6 +30,7 @@ __all__ = [
     "Origin",
     "TimeConfig",
     "CityConfig",
+    "SourceConfig",
     "RestrictedAirspace",
     "SensorConfig",
     "VehicleConfig",
@@ -58,33 +60,6 @@ class TimeConfig(_Config):
 
     step_s: Positive = 1.0
     duration_s: Positive = 300.0
-
-
-class CityConfig(_Config):
-    """Box buildings: generated from a seed, or read from a GeoJSON file of footprints.
-
-    ``kind = "generated"``: ``buildings`` boxes in a ``size_m`` rectangle whose
-    south-west corner is ``(0, 0)`` in ENU, streets of ``street_width_m`` between
-    blocks, heights uniform in [``min_height_m``, ``max_height_m``].
-    ``kind = "geojson"``: polygons from ``geojson`` (a path relative to the
-    scenario file) with a ``height_property`` in metres.
-    ``roads_geojson``: the drivable roads as GeoJSON LineStrings (any kind).
-    """
-
-    kind: Literal["generated", "geojson", "empty"] = "generated"
-    size_m: tuple[Positive, Positive] = (3000.0, 3000.0)
-    buildings: Annotated[int, msgspec.Meta(ge=0, le=100_000)] = 400
-    seed: Annotated[int, msgspec.Meta(ge=0)] = 0
-    street_width_m: NonNegative = 20.0
-    min_height_m: NonNegative = 10.0
-    max_height_m: NonNegative = 100.0
-    geojson: str | None = None
-    height_property: str = "height"
-    roads_geojson: str | None = None
-    """The road network: a GeoJSON file of LineStrings (relative to the scenario file), any ``kind``;
-    a generated city without it drives its street grid."""
-    roads_oneway_property: str = "oneway"
-    """The ``roads_geojson`` property that marks a one-way road (true, "yes", or "-1" against the drawing)."""
 
 
 class RestrictedAirspace(_Config):
@@ -163,8 +138,9 @@ class TargetConfig(_Config):
     spectral density ``accel_psd_m2_s3`` (the per-step velocity noise standard
     deviation is ``sqrt(accel_psd_m2_s3 * step_s)``; wang2012 section 5 gives
     1.4 m/s, i.e. 1.96 m^2/s^3 at 1 s), speed capped at ``max_speed_mps``.
-    ``streets``: drives the street grid at ``street_speed_mps``, turning at an
-    intersection with ``turn_probability``.
+    ``streets``: drives the roads at ``street_speed_mps``, turning at an
+    intersection with ``turn_probability``: a generated city's street grid, or the
+    road graph of any other city that has one (``[city] roads_geojson``).
     ``scripted``: follows the time-stamped path of ``path_file`` or ``path``.
     """
 
@@ -178,7 +154,7 @@ class TargetConfig(_Config):
     path: list[tuple[NonNegative, float, float]] = []
     """``scripted``: the path inline, rows ``[t_s, x_m, y_m]`` (instead of ``path_file``)."""
     street_speed_mps: Positive = 10.0
-    """``streets``: cruising speed along the street grid (capped by ``max_speed_mps``)."""
+    """``streets``: cruising speed along the roads (capped by ``max_speed_mps``)."""
     turn_probability: Annotated[float, msgspec.Meta(ge=0.0, le=1.0)] = 0.5
     """``streets``: probability of leaving the straight road at an intersection."""
 
@@ -211,6 +187,8 @@ class Scenario(_Config, kw_only=True):
 
     name: Identifier
     description: str = ""
+    source: SourceConfig | None = None
+    """``[source]``: where the city's data came from and its licence notice (a city built from OpenStreetMap)."""
     origin: Origin
     time: TimeConfig = TimeConfig()
     city: CityConfig = CityConfig()
@@ -255,10 +233,15 @@ def _check_autopilot(name: str | None, path: str) -> list[str]:
     return [f"{path}: unknown autopilot {name!r}; expected one of: {', '.join(AUTOPILOT_PERSONALITIES)}"]
 
 
-def _check_target(target: TargetConfig, path: str, width: float, height: float) -> list[str]:
+def _outside(point: tuple[float, float], size: tuple[float, float] | None) -> bool:
+    """Whether ``point`` lies outside the city rectangle ``[0, width] x [0, depth]`` (never, without one)."""
+    return size is not None and not (0.0 <= point[0] <= size[0] and 0.0 <= point[1] <= size[1])
+
+
+def _check_target(target: TargetConfig, path: str, size: tuple[float, float] | None) -> list[str]:
     problems = []
-    tx, ty = target.start_enu_m
-    if not (0.0 <= tx <= width and 0.0 <= ty <= height):
+    if _outside(target.start_enu_m, size):
+        width, height = size
         problems.append(f"{path}.start_enu_m: {target.start_enu_m} is outside the city [0, {width}] x [0, {height}]")
     if target.motion == "scripted" and not target.path_file and not target.path:
         problems.append(f"{path}.path_file: required when motion = 'scripted' (or give path)")
@@ -274,13 +257,14 @@ def validate_scenario(scenario: Scenario) -> Scenario:
     """Check the rules a schema cannot express; raise ScenarioError naming every bad key.
 
     Rules: vehicle ids, target ids and MAVLink system ids are unique; every start point lies
-    inside the city rectangle; a scripted target has one path; building heights are ordered; airspace bands
+    inside the city rectangle (of a city that has one: a city read from files is framed on its
+    content and its start points, :attr:`CityConfig.framed_on_content`); a scripted target has one path; building heights are ordered; airspace bands
     are ordered; a GeoJSON city names its file; sensors that measure range have
     a range standard deviation; autopilot personalities and the planner are known names; ``[multitarget]``'s rules
     (:func:`gcs.config.multitarget.check_multitarget`).
     """
     problems: list[str] = []
-    width, height = scenario.city.size_m
+    size = None if scenario.city.framed_on_content else scenario.city.size_m
     seen_ids: dict[str, int] = {}
     seen_sysids: dict[int, int] = {}
     for index, vehicle in enumerate(scenario.vehicles):
@@ -291,9 +275,9 @@ def validate_scenario(scenario: Scenario) -> Scenario:
         if vehicle.sysid in seen_sysids:
             problems.append(f"{path}.sysid: duplicate MAVLink system id {vehicle.sysid} (also $.vehicles[{seen_sysids[vehicle.sysid]}])")
         seen_sysids.setdefault(vehicle.sysid, index)
-        x, y = vehicle.start_enu_m
-        if not (0.0 <= x <= width and 0.0 <= y <= height):
-            problems.append(f"{path}.start_enu_m: {vehicle.start_enu_m} is outside the city [0, {width}] x [0, {height}]")
+        if _outside(vehicle.start_enu_m, size):
+            problems.append(f"{path}.start_enu_m: {vehicle.start_enu_m} is outside the city "
+                            f"[0, {size[0]}] x [0, {size[1]}]")
         if vehicle.sensor is not None:
             problems += _check_sensor(vehicle.sensor, f"{path}.sensor")
         problems += _check_autopilot(vehicle.autopilot, f"{path}.autopilot")
@@ -302,7 +286,7 @@ def validate_scenario(scenario: Scenario) -> Scenario:
     target_paths = ["$.target"] + [f"$.targets[{k}]" for k in range(len(scenario.targets))]
     seen_targets: dict[str, str] = {}
     for path, target in zip(target_paths, scenario.all_targets):
-        problems += _check_target(target, path, width, height)
+        problems += _check_target(target, path, size)
         if target.id in seen_targets:
             problems.append(f"{path}.id: duplicate target id {target.id!r} (also {seen_targets[target.id]})")
         seen_targets.setdefault(target.id, path)

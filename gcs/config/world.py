@@ -24,6 +24,19 @@ GeoJSON coordinates
     street grid is its road graph (:func:`gcs.core.roads.roads_from_street_grid`);
     other cities have none.
 
+The world's extent
+    A generated city (and an empty one without roads) is its ``city.size_m``
+    rectangle from the ENU origin. A GeoJSON city, or an empty city with roads, is
+    framed on its content: the bounding box of its footprints, its road nodes and
+    the scenario's start points (vehicles and targets), with
+    :data:`gcs.core.world.FRAME_MARGIN_M` around it (:mod:`gcs.core.world.extent`).
+
+File names
+    A relative path resolves against ``base_dir`` (the scenario file's folder).
+    Without one it resolves against the current directory, and failing that
+    against the shipped scenarios' folder (:mod:`gcs.scenarios`), where a
+    shipped scenario's GeoJSON files sit beside it.
+
 ``[[restricted]]``
     Each zone becomes one polygon prism of :class:`gcs.core.world.RestrictedAirspace`.
 
@@ -34,6 +47,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable, Sequence
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -43,9 +57,9 @@ from numpy.typing import NDArray
 from gcs.config import CityConfig, Origin, RestrictedAirspace as AirspaceConfig, Scenario, ScenarioError
 from gcs.core.geometry import LocalFrame
 from gcs.core.roads import RoadGraph, roads_from_geojson, roads_from_street_grid
-from gcs.core.world import Buildings, RestrictedAirspace, World, buildings_from_geojson, generate_city
+from gcs.core.world import Buildings, RestrictedAirspace, World, buildings_from_geojson, content_bounds, generate_city
 
-__all__ = ["build_world", "load_city_geojson", "load_roads_geojson", "airspace_from_config"]
+__all__ = ["build_world", "load_city_geojson", "load_roads_geojson", "airspace_from_config", "resolve_path"]
 
 ToEnu = Callable[[NDArray[np.float64], NDArray[np.float64]], tuple[NDArray[np.float64], NDArray[np.float64]]]
 """``to_enu(lon_deg, lat_deg) -> (x_m, y_m)`` on arrays."""
@@ -88,7 +102,11 @@ def build_world(scenario: Scenario, base_dir: Path | None = None) -> World:
         roads = load_roads_geojson(city, scenario.origin, base_dir)
     else:
         roads = roads_from_street_grid(streets) if streets is not None else None
-    return World(buildings, airspace, streets, (float(city.size_m[0]), float(city.size_m[1])), roads)
+    bounds = None
+    if city.framed_on_content:
+        starts = [v.start_enu_m for v in scenario.vehicles] + [t.start_enu_m for t in scenario.all_targets]
+        bounds = content_bounds(buildings, roads, starts)
+    return World(buildings, airspace, streets, (float(city.size_m[0]), float(city.size_m[1])), roads, bounds)
 
 
 def load_city_geojson(city: CityConfig, origin: Origin, base_dir: Path | None = None) -> Buildings:
@@ -115,9 +133,7 @@ def load_roads_geojson(city: CityConfig, origin: Origin, base_dir: Path | None =
 
 def _read_geojson(name: str, base_dir: Path | None, what: str) -> tuple[Path, Any]:
     """The path (relative to ``base_dir``) and parsed contents of a GeoJSON file; ScenarioError naming it."""
-    path = Path(name)
-    if not path.is_absolute():
-        path = (base_dir if base_dir is not None else Path.cwd()) / path
+    path = resolve_path(name, base_dir)
     try:
         with path.open("rb") as handle:
             return path, json.load(handle)
@@ -125,6 +141,21 @@ def _read_geojson(name: str, base_dir: Path | None, what: str) -> tuple[Path, An
         raise ScenarioError(f"{path}: cannot read {what}: {exc.strerror or exc}") from None
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise ScenarioError(f"{path}: not valid JSON: {exc}") from None
+
+
+def resolve_path(name: str, base_dir: Path | None) -> Path:
+    """Where a file a scenario names is: absolute as given; else under ``base_dir``; without one, under the
+    current directory, or failing that under the shipped scenarios' folder (module docstring)."""
+    path = Path(name)
+    if path.is_absolute():
+        return path
+    if base_dir is not None:
+        return base_dir / path
+    here = Path.cwd() / path
+    if here.exists():
+        return here
+    shipped = Path(str(resources.files("gcs.scenarios"))) / path
+    return shipped if shipped.exists() else here
 
 
 def _converter(document: Any, origin: Origin) -> ToEnu | None:

@@ -22,6 +22,7 @@ COUNTERS: dict[str, str] = {
     # what came in over Zenoh
     "accepted.report": "sensor reports (SensorReport) accepted from the scenario's vehicles",
     "accepted.nav": "navigation reports (NavReport: GPS and inertial) accepted",
+    "accepted.scenario": "scenario announcements (VehicleScenario) accepted; one naming another scenario is warned of once",
     "accepted.truth": "the simulator's target truth accepted (to score the tracks; never fused)",
     # decision steps and plans
     "decisions": "plans made and applied: their commands were published and the vehicles steered along them",

@@ -57,10 +57,14 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
 
 
 def scenario_base_dir(name_or_path: str | Path) -> Path | None:
-    """Folder that a scenario file's relative paths are resolved against (None for a shipped name)."""
+    """Folder that a scenario file's relative paths are resolved against: the file's own, or for a shipped
+    name the shipped scenarios' folder (where its GeoJSON files are); None for a name that is neither."""
     candidate = Path(str(name_or_path))
     if candidate.suffix == ".toml" or candidate.exists():
         return candidate.resolve().parent
+    shipped = resources.files(__name__)
+    if (shipped / f"{candidate}.toml").is_file():
+        return Path(str(shipped))
     return None
 
 

@@ -9,6 +9,8 @@
 * :class:`StreetTarget`: drives along the street grid's centre lines at a
   cruising speed and picks a new direction at each intersection (straight on,
   left or right; never a U-turn unless it is a dead end at the city's edge).
+* :class:`~sim_vehicles.truth.road_target.RoadTarget`: drives a road graph (a
+  real city's streets, GeoJSON roads) the same way.
 
 * :class:`ScriptedTarget`: follows a time-stamped path (``t_s,x_m,y_m`` CSV),
   linearly interpolated, holding the last point after the end.
@@ -31,29 +33,19 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from gcs.config.world import resolve_path
+from sim_vehicles.truth.road_target import RoadTarget
+from sim_vehicles.truth.target_state import TargetState
+
 if TYPE_CHECKING:
     from gcs.config import Scenario, TargetConfig
     from gcs.core.world import World
 
-__all__ = ["TargetState", "WhiteNoiseTarget", "StreetTarget", "ScriptedTarget", "TargetModel",
+__all__ = ["TargetState", "WhiteNoiseTarget", "StreetTarget", "RoadTarget", "ScriptedTarget", "TargetModel",
            "target_model", "start_state", "CSV_HEADER"]
 
 CSV_HEADER = ("t_s", "x_m", "y_m")
 """Columns of a scripted target's path file: time (s), ENU east and north (m)."""
-
-
-@dataclass(frozen=True)
-class TargetState:
-    """Ground-truth target: ENU position (2,), velocity (2,) and the time since the start, seconds."""
-
-    position: NDArray[np.float64]
-    velocity: NDArray[np.float64]
-    elapsed_s: float = 0.0
-
-    @property
-    def vector(self) -> NDArray[np.float64]:
-        """``[x, y, vx, vy]``."""
-        return np.concatenate([self.position, self.velocity])
 
 
 @dataclass(frozen=True)
@@ -248,7 +240,7 @@ def _csv_row(cells: list[str], where: str) -> tuple[float, float, float]:
     return values[0], values[1], values[2]
 
 
-TargetModel = WhiteNoiseTarget | StreetTarget | ScriptedTarget
+TargetModel = WhiteNoiseTarget | StreetTarget | RoadTarget | ScriptedTarget
 """Any ground-target truth model: ``step(state, dt, rng) -> TargetState``."""
 
 
@@ -257,9 +249,10 @@ def target_model(scenario: Scenario, world: World, motion: str | None = None,
     """The truth model of ``target`` (default ``scenario.target``; ``motion`` overrides its ``motion``).
 
     * ``white_noise_acceleration``: :class:`WhiteNoiseTarget`, blocked outside the
-      city rectangle ``[0, width] x [0, depth]`` and inside buildings;
-    * ``streets``: :class:`StreetTarget` on the world's street grid (a generated
-      city), at ``min(street_speed_mps, max_speed_mps)``, turning with ``turn_probability``;
+      world's extent (``world.bounds_m``) and inside buildings;
+    * ``streets``: at ``min(street_speed_mps, max_speed_mps)``, turning with ``turn_probability``:
+      :class:`StreetTarget` on a generated city's street grid, or :class:`RoadTarget` on the world's
+      road graph when the city declares its roads (``[city] roads_geojson``) or has no grid;
     * ``scripted``: :class:`ScriptedTarget` from the inline ``target.path``, or from
       ``target.path_file``, relative to ``base_dir`` (the current directory when None)
       unless absolute.
@@ -267,33 +260,30 @@ def target_model(scenario: Scenario, world: World, motion: str | None = None,
     Raises
     ------
     ValueError
-        Unknown motion, no street grid, no ``path_file``, or a bad path file.
+        Unknown motion, no roads to drive, no ``path_file``, or a bad path file.
     """
     cfg = scenario.target if target is None else target
     motion = motion or cfg.motion
     if motion == "white_noise_acceleration":
-        width, height = world.size_m
-
         def blocked(xy: NDArray[np.float64]) -> NDArray[np.bool_]:
-            outside = (xy[..., 0] < 0) | (xy[..., 0] > width) | (xy[..., 1] < 0) | (xy[..., 1] > height)
-            return outside | world.buildings.contains_xy(xy)
+            return ~world.inside(xy) | world.buildings.contains_xy(xy)
 
         return WhiteNoiseTarget(cfg.accel_psd_m2_s3, cfg.max_speed_mps, blocked)
     if motion == "streets":
-        if world.streets is None:
-            raise ValueError("a street-following target needs a generated city with streets")
-        return StreetTarget(world.streets.xs, world.streets.ys, speed_mps=min(cfg.street_speed_mps, cfg.max_speed_mps),
-                            turn_probability=cfg.turn_probability)
+        speed = min(cfg.street_speed_mps, cfg.max_speed_mps)
+        if world.streets is not None and not scenario.city.roads_geojson:
+            return StreetTarget(world.streets.xs, world.streets.ys, speed_mps=speed,
+                                turn_probability=cfg.turn_probability)
+        if world.roads is None:
+            raise ValueError("motion = 'streets' needs roads to drive: a generated city or [city] roads_geojson")
+        return RoadTarget(world.roads, speed_mps=speed, turn_probability=cfg.turn_probability)
     if motion == "scripted":
         if cfg.path:
             rows = np.array(cfg.path, dtype=np.float64)
             return ScriptedTarget(rows[:, 0], rows[:, 1:3])
         if not cfg.path_file:
             raise ValueError("$.target.path_file: required when motion = 'scripted'")
-        path = Path(cfg.path_file)
-        if not path.is_absolute():
-            path = (base_dir if base_dir is not None else Path.cwd()) / path
-        return ScriptedTarget.from_csv(path)
+        return ScriptedTarget.from_csv(resolve_path(cfg.path_file, base_dir))
     raise ValueError(f"unknown target motion {motion!r}; expected white_noise_acceleration, streets or scripted")
 
 
@@ -302,12 +292,13 @@ def start_state(model: TargetModel, scenario: Scenario, rng: np.random.Generator
     """The state at time 0 of ``target`` (default ``scenario.target``).
 
     :class:`StreetTarget`: the street crossing nearest ``target.start_enu_m``, on a
-    random street (draws from ``rng``); :class:`ScriptedTarget`: the path at time
+    random street (draws from ``rng``); :class:`RoadTarget`: the road point nearest it,
+    either way along a two-way road (draws from ``rng``); :class:`ScriptedTarget`: the path at time
     0; otherwise ``target.start_enu_m`` moving at ``target.start_velocity_mps``.
     """
     cfg = scenario.target if target is None else target
     start = np.asarray(cfg.start_enu_m, dtype=np.float64)
-    if isinstance(model, StreetTarget):
+    if isinstance(model, (StreetTarget, RoadTarget)):
         return model.start(start, rng)
     if isinstance(model, ScriptedTarget):
         return model.start()

@@ -12,7 +12,6 @@ import json
 import math
 import queue
 import subprocess
-import time
 
 import numpy as np
 
@@ -32,6 +31,7 @@ RATE = 1.0
 """Real time, as vehicles fly. At 2x the GA's deadline is 0.3 s of wall time, and on a slowed machine, beside
 three simulators, the plans were cut short: a CI run saw the target in 107 of 120 steps (2026-11-23)."""
 SEED = 0
+VEHICLES = ("uav1", "uav2", "uav3")
 
 
 def test_daemon_with_three_vehicle_processes_tracks_like_the_in_process_loop(tmp_path) -> None:
@@ -44,18 +44,19 @@ def test_daemon_with_three_vehicle_processes_tracks_like_the_in_process_loop(tmp
     try:
         endpoint, ports = daemon_up(daemon_log)  # where the system let it listen
         mavlink = ports["uav1"]
-        # peers do not forward: the vehicles connect to the observer too
-        with open_session(ZenohSettings(listen=(ANY_PORT_ENDPOINT,), connect=(endpoint,))) as session:
+        # the observer is a router the vehicles are clients of: it forwards their traffic to the daemon and their
+        # liveliness tokens to each other, so that the three start one clock once all are up (--start-with)
+        with open_session(ZenohSettings(mode="router", listen=(ANY_PORT_ENDPOINT,), connect=(endpoint,))) as session:
             (observer,) = listening_endpoints(session)
             for selector in (reports_selector(), truth_selector(), tracks_selector()):
                 session.declare_subscriber(selector, lambda s: inbox.put((s.payload.to_bytes(), str(s.encoding))))
-            assert query_status(ZenohSettings(connect=(endpoint,)), "gcs", 30.0) is not None  # daemon up first
-            start_at = time.time() + 10.0  # one clock for the three processes, once they are all connected
-            for vehicle in ("uav1", "uav2", "uav3"):
+            assert query_status(ZenohSettings(connect=(endpoint,)), "gcs", 60.0) is not None  # daemon up first
+            for vehicle in VEHICLES:
+                others = [arg for other in VEHICLES if other != vehicle for arg in ("--start-with", other)]
                 vehicles.append(subprocess.Popen(
                     [script("sim-vehicles"), "run", "--only", vehicle, "--seed", str(SEED), "--rate", str(RATE),
                      "--duration", str(DURATION_S), "--epoch-ns", "0", "--mavlink", f"udpout:127.0.0.1:{mavlink}",
-                     "--zenoh-connect", endpoint, "--zenoh-connect", observer, "--start-at", str(start_at),
+                     "--zenoh-mode", "client", "--zenoh-connect", observer, *others,
                      "--json", str(tmp_path / f"{vehicle}.json")],
                     stdout=subprocess.DEVNULL, stderr=open(tmp_path / f"{vehicle}.log", "w")))
             for process in vehicles:

@@ -37,9 +37,9 @@ def daemon_through_a_flight(scenario, world, recording: Path, *, seed: int, dura
     vehicles = threading.Thread(target=runner.run, name="sim-vehicles", daemon=True)
     try:
         vehicles.start()
-        vehicles.join(timeout=duration_s / rate * 4 + 30)
+        vehicles.join(timeout=duration_s / rate * 10 + 60)  # a backstop for a stalled simulation
         assert not vehicles.is_alive(), "the simulated vehicles did not finish"
-        wait_until(lambda: len(daemon.records) >= duration_s - 2, 10, "the last steps to be fused")
+        wait_until(lambda: len(daemon.records) >= duration_s - 2, 60, "the last steps to be fused")
         yield daemon, endpoint
     finally:
         runner.stop()

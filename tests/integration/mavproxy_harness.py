@@ -132,7 +132,7 @@ class MavProxy:
 
     def __init__(self, master_port: int | None = None, *, outs: Sequence[str] = (),
                  modules: Sequence[str] = DEFAULT_MODULES, extra_args: Sequence[str] = (),
-                 workdir: str | Path | None = None, timeout: float = 10.0) -> None:
+                 workdir: str | Path | None = None, timeout: float = 60.0) -> None:
         self.master_port = 0 if master_port is None else master_port
         """The port MAVProxy listens on for the vehicle: 0 until :meth:`start` has read back the one the system
         chose, when none was given."""

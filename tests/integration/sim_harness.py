@@ -62,7 +62,7 @@ class GroundStation:
     def close(self) -> None:
         self.conn.close()
 
-    def wait(self, msg_type: str, sysid: int | None = None, timeout: float = 10.0,
+    def wait(self, msg_type: str, sysid: int | None = None, timeout: float = 30.0,
              condition: Callable[[object], bool] | None = None):
         """The next message of a type (from a sysid, meeting a condition); AssertionError on timeout."""
         deadline = time.monotonic() + timeout
@@ -85,7 +85,7 @@ class GroundStation:
         p = list(params) + [0.0] * (4 - len(params))
         self.conn.mav.command_int_send(sysid, 1, frame, command, 0, 0, *p, x, y, z)
 
-    def ack(self, sysid: int, command: int, timeout: float = 5.0) -> int:
+    def ack(self, sysid: int, command: int, timeout: float = 30.0) -> int:
         """Result of the COMMAND_ACK for ``command`` from ``sysid``."""
         return self.wait("COMMAND_ACK", sysid, timeout, lambda m: m.command == command).result
 
@@ -93,7 +93,7 @@ class GroundStation:
         self.command_long(sysid, mavlink.MAV_CMD_DO_SET_MODE, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, custom_mode)
         return self.ack(sysid, mavlink.MAV_CMD_DO_SET_MODE)
 
-    def course_deg(self, sysid: int, timeout: float = 5.0) -> float:
+    def course_deg(self, sysid: int, timeout: float = 30.0) -> float:
         """Course over the ground from GLOBAL_POSITION_INT's NED velocity, degrees in [0, 360)."""
         message = self.wait("GLOBAL_POSITION_INT", sysid, timeout)
         return math.degrees(math.atan2(message.vy, message.vx)) % 360.0

@@ -38,7 +38,7 @@ def test_daemon_tracks_answers_rejects_bad_input_and_replans_around_a_lost_vehic
             third = ExitStack()
             third.enter_context(running_vehicles(options(
                 port, rate=RATE, zenoh=vehicles, epoch_ns=EPOCH_NS, only=("uav3",), wait_for_subscriber_s=5)))
-            wait_until(lambda: len(daemon.records) >= 20, 30, "20 decision steps")
+            wait_until(lambda: len(daemon.records) >= 20, 60, "20 decision steps")
             assert {r.vehicles for r in daemon.records[-5:]} == {("uav1", "uav2", "uav3")}
             assert all(pair.autopilots[v].mode == ARDUPLANE_MODES["GUIDED"] for v in ("uav1", "uav2"))
 
@@ -54,18 +54,18 @@ def test_daemon_tracks_answers_rejects_bad_input_and_replans_around_a_lost_vehic
                 session.put(key, payload, encoding=zenoh.Encoding(encoding))
             wait_until(lambda: daemon.ingest.counters["rejected.malformed"] >= 1
                   and daemon.ingest.counters["rejected.unknown_vehicle"] >= 1
-                  and daemon.ingest.counters["rejected.encoding"] >= 1, 10, "the bad input to be counted")
+                  and daemon.ingest.counters["rejected.encoding"] >= 1, 60, "the bad input to be counted")
 
             third.close()  # uav3 goes away: liveliness withdrawn, heartbeats stop
-            wait_until(lambda: daemon.records[-1].vehicles == ("uav1", "uav2"), 15, "a plan without uav3")
-            wait_until(lambda: daemon.registry.link_state("uav3", time.monotonic()) == "lost", 10, "uav3 lost")
+            wait_until(lambda: daemon.records[-1].vehicles == ("uav1", "uav2"), 60, "a plan without uav3")
+            wait_until(lambda: daemon.registry.link_state("uav3", time.monotonic()) == "lost", 60, "uav3 lost")
             decisions = daemon.counters["decisions"]
-            wait_until(lambda: daemon.counters["decisions"] >= decisions + 5, 15, "planning to go on with two")
+            wait_until(lambda: daemon.counters["decisions"] >= decisions + 5, 60, "planning to go on with two")
 
             resume = (pair.scene.stamp_ns // 1_000_000_000 + 2) * 1_000_000_000
             stack.enter_context(running_vehicles(options(
                 port, rate=RATE, zenoh=vehicles, epoch_ns=resume, only=("uav3",), wait_for_subscriber_s=5)))
-            wait_until(lambda: daemon.records[-1].vehicles == ("uav1", "uav2", "uav3"), 20, "uav3 re-admitted")
+            wait_until(lambda: daemon.records[-1].vehicles == ("uav1", "uav2", "uav3"), 60, "uav3 re-admitted")
             status = query_status(ZenohSettings(connect=(endpoint,)), "gcs", 5.0)
     finally:
         daemon.stop()

@@ -66,7 +66,7 @@ def test_the_daemon_tracks_every_car_publishes_each_track_and_replay_reproduces_
                                  epoch_ns=EPOCH_NS) as (daemon, endpoint):
         with open_session(ZenohSettings(connect=(endpoint,))) as session:
             seen: list = []
-            wait_until(lambda: seen.append(_answers(daemon, session, endpoint)) or seen[-1] is not None, 10,
+            wait_until(lambda: seen.append(_answers(daemon, session, endpoint)) or seen[-1] is not None, 60,
                        "a query and a status between two fused steps")
         current, answered, status = seen[-1]
     counters = status.counters

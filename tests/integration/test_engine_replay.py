@@ -68,7 +68,7 @@ def _live(folder: Path, inputs: Path, scenario=SCENARIO, rate: float = RATE, **o
     try:
         counts = republish(inputs, ZenohSettings(connect=(endpoint,)), "gcs", rate, threading.Event())
         assert counts["report"] > 0
-        wait_until(lambda: daemon.steps.open_steps == 0 and daemon.engine.released == 0, 15, "every step fused")
+        wait_until(lambda: daemon.steps.open_steps == 0 and daemon.engine.released == 0, 60, "every step fused")
         counters = daemon.status(0.0).counters
     finally:
         daemon.stop()

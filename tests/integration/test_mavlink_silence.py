@@ -61,19 +61,20 @@ def test_commands_stop_while_the_link_is_silent_and_resume_when_it_returns() -> 
         _wait(lambda: commands() >= 5 and daemon.counters["decisions"] >= 3, 60, "commands before the silence")
         relay.muted = True
         muted_at = time.monotonic()
-        _wait(lambda: daemon.commander.counters()["link_lost"] >= len(ROSTER), 15, "the daemon to see the links lost")
+        _wait(lambda: daemon.commander.counters()["link_lost"] >= len(ROSTER), 60, "the daemon to see the links lost")
         at_mute = commands()  # seconds after the mute: a datagram the relay was forwarding as it muted has landed
         decisions = daemon.counters["decisions"]
         sent_after_loss = to_vehicles(daemon.commander.counters())
-        time.sleep(max(0.0, muted_at + SILENCE_S - time.monotonic()))  # the rest of the 10 s of silence
+        # the rest of the 10 s of silence, and however long a slow machine takes to plan two more steps
+        _wait(lambda: time.monotonic() >= muted_at + SILENCE_S and daemon.counters["decisions"] >= decisions + 2,
+              120, "planning to go on from the Zenoh reports through the silence")
         assert commands() == at_mute  # nothing got through
         assert to_vehicles(daemon.commander.counters()) == sent_after_loss  # nor was sent to a lost link
-        assert daemon.counters["decisions"] > decisions  # planning went on from the Zenoh reports
         assert daemon.registry.alive("uav1", time.monotonic())  # still alive on Zenoh: planned for
 
         relay.muted = False
-        _wait(lambda: daemon.commander.counters()["link_up"] >= 2 * len(ROSTER), 15, "the links to come back")
-        _wait(lambda: commands() >= at_mute + 5, 15, "commands to resume")
+        _wait(lambda: daemon.commander.counters()["link_up"] >= 2 * len(ROSTER), 60, "the links to come back")
+        _wait(lambda: commands() >= at_mute + 5, 60, "commands to resume")
         counters = daemon.commander.counters()
     assert relay.dropped > 0 and not thread.is_alive()
     assert counters["link_lost"] == len(ROSTER) and counters["link_up"] == 2 * len(ROSTER)

@@ -31,8 +31,9 @@ from tests.loopback import LOCALHOST
 SYSID = 7
 LAT_DEG, LON_DEG = -35.3632621, 149.1652374
 ALT_MSL_M, REL_ALT_M = 684.0, 100.0
-WAIT_S = 5.0
-"""Every wait; the fake's heartbeat is 1 Hz, so a mode change shows within about 1 s."""
+WAIT_S = 30.0
+"""Every wait's deadline; the fake's heartbeat is 1 Hz, so a mode change shows within about 1 s on an idle
+machine, and a loaded one gets the rest."""
 
 
 class FakeFixedWing:

@@ -24,7 +24,7 @@ from tests.integration.sim_harness import GroundStation, options, running_vehicl
 PASSPHRASE = "correct-horse-battery"  # MAVProxy's `signing key` takes one word
 KEY = signing_key_from_passphrase(PASSPHRASE)
 GUIDED, LOITER, CIRCLE = ARDUPLANE_MODES["GUIDED"], ARDUPLANE_MODES["LOITER"], ARDUPLANE_MODES["CIRCLE"]
-WAIT_S = 10.0
+WAIT_S = 30.0
 
 
 def _record_mode_commands(runner: Runner, vehicle: str) -> list[int]:

@@ -19,7 +19,7 @@ import pytest
 import zenoh
 
 from gcs.adapters.zenoh_session import ZenohSettings, listening_endpoints, open_session
-from protocols.keys import reports_selector
+from protocols.keys import alive_selector, parse_key, reports_selector
 from protocols.messages import SensorReport
 from sim_vehicles.run_options import RunOptions
 from sim_vehicles.runner import Runner
@@ -78,13 +78,22 @@ def router():
 
 
 class _Observer:
-    """A client of the router recording every report's (vehicle, stamp) in order of arrival; closed on exit."""
+    """A client of the router recording every report's (vehicle, stamp) in order of arrival, and for each vehicle
+    whose liveliness token came up how many reports had arrived before it; closed on exit."""
 
     def __init__(self, endpoint: str) -> None:
         self.arrivals: list[tuple[str, int]] = []
+        self.reports_before_token: dict[str, int] = {}
         self._changed = threading.Condition()
         self._session = open_session(ZenohSettings(mode="client", connect=(endpoint,)))
         self._session.declare_subscriber(reports_selector(), self._on_sample)
+        self._session.liveliness().declare_subscriber(alive_selector(), self._on_token)
+
+    def _on_token(self, sample: zenoh.Sample) -> None:
+        if sample.kind == zenoh.SampleKind.PUT:
+            with self._changed:
+                self.reports_before_token[parse_key(str(sample.key_expr)).ident] = len(self.arrivals)
+                self._changed.notify_all()
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         report = msgspec.json.decode(sample.payload.to_bytes(), type=SensorReport)
@@ -92,11 +101,15 @@ class _Observer:
             self.arrivals.append((report.vehicle_id, report.stamp_ns))
             self._changed.notify_all()
 
-    def wait(self, condition, what: str, timeout_s: float = 30.0) -> list[tuple[str, int]]:
+    def wait(self, condition, what: str, timeout_s: float = 60.0) -> list[tuple[str, int]]:
         """The arrivals once ``condition(arrivals)`` holds; AssertionError naming ``what`` after ``timeout_s``."""
         with self._changed:
             assert self._changed.wait_for(lambda: condition(self.arrivals), timeout=timeout_s), (what, self.arrivals)
             return list(self.arrivals)
+
+    def wait_for_token(self, vehicle: str, timeout_s: float = 60.0) -> None:
+        with self._changed:
+            assert self._changed.wait_for(lambda: vehicle in self.reports_before_token, timeout=timeout_s), vehicle
 
     def __enter__(self) -> _Observer:
         return self
@@ -105,18 +118,18 @@ class _Observer:
         self._session.close()
 
 
-def _options(endpoint: str, lockstep: bool, duration_s: float, start_in_s: float) -> RunOptions:
+def _options(endpoint: str, lockstep: bool, duration_s: float) -> RunOptions:
     return RunOptions(rate=RATE, duration_s=duration_s, seed=2, epoch_ns=0, lockstep=lockstep,
-                      zenoh=ZenohSettings(mode="client", connect=(endpoint,)),
-                      start_at_ns=time.time_ns() + round(start_in_s * 1e9))
+                      zenoh=ZenohSettings(mode="client", connect=(endpoint,)))
 
 
 def _fly(endpoint: str, lockstep: bool, reports: int = 8) -> list[tuple[str, int]]:
     """uav1 at full speed and uav2 slowed, on one clock, for ``reports`` report periods; every report in its
     order of arrival at an observer on the router."""
     with _Observer(endpoint) as observer:
-        base = _options(endpoint, lockstep, float(reports), 1.5)  # one clock, once both are connected
-        runs = [_Run(replace(base, only=("uav1",))), _Run(replace(base, only=("uav2",)), slow=True)]
+        base = _options(endpoint, lockstep, float(reports))  # one clock, started once both are connected
+        runs = [_Run(replace(base, only=("uav1",), start_with=("uav2",))),
+                _Run(replace(base, only=("uav2",), start_with=("uav1",)), slow=True)]
         for run in runs:
             run.join()
         return observer.wait(lambda seen: len(seen) >= 2 * reports, "the last reports")  # on their way
@@ -151,10 +164,10 @@ def test_a_restarted_process_joins_the_running_vehicles_not_the_wall_clock(route
     is (here far behind the wall schedule, which is past the run's end), and it flies from the report after
     that vehicle's newest: a step nobody has reported for yet."""
     with _Observer(router) as observer:
-        base = _options(router, True, 8.0, 1.0)
-        slow = _Run(replace(base, only=("uav2",)), slow=True)
+        base, clock_start_ns = _options(router, True, 8.0), time.time_ns()
+        slow = _Run(replace(base, only=("uav2",)), slow=True)  # starts its clock once up, after clock_start_ns
         observer.wait(lambda seen: len(seen) >= 2, "uav2 under way, behind its schedule (a tenth of the rate)")
-        restarted = _Run(replace(base, only=("uav3",)))
+        restarted = _Run(replace(base, only=("uav3",), start_at_ns=clock_start_ns))
         restarted.join()
         slow.join()
         seen = observer.wait(lambda seen: ("uav2", 7 * PERIOD_NS) in seen, "uav2's last report")
@@ -165,3 +178,20 @@ def test_a_restarted_process_joins_the_running_vehicles_not_the_wall_clock(route
     # that one too before uav3's first arrived)
     assert newest_uav2 <= stamps[0] <= newest_uav2 + PERIOD_NS and stamps[0] > 0, (stamps, newest_uav2)
     assert stamps == list(range(stamps[0], 8 * PERIOD_NS, PERIOD_NS))  # then every report to the run's end
+
+
+def test_a_runner_started_with_another_holds_its_clock_at_zero_until_that_one_is_up(router: str) -> None:
+    """``start_with``: uav1, up first, publishes nothing before uav2's token is up (uav2 is built only once
+    uav1's token is seen; unheld, uav1 would have flown its whole 0.2 s of wall time by then); then both fly
+    every report from t = 0."""
+    with _Observer(router) as observer:
+        base = _options(router, True, 4.0)
+        first = _Run(replace(base, only=("uav1",), start_with=("uav2",)))
+        observer.wait_for_token("uav1")
+        second = _Run(replace(base, only=("uav2",), start_with=("uav1",)))
+        first.join()
+        second.join()
+        seen = observer.wait(lambda seen: len(seen) >= 8, "every report")
+        assert observer.reports_before_token["uav2"] == 0, seen
+    for vehicle in ("uav1", "uav2"):
+        assert sorted(s for v, s in seen if v == vehicle) == [k * PERIOD_NS for k in range(4)]

@@ -31,8 +31,9 @@ from tests.loopback import LOCALHOST
 GUIDED, LOITER, CIRCLE = ARDUPLANE_MODES["GUIDED"], ARDUPLANE_MODES["LOITER"], ARDUPLANE_MODES["CIRCLE"]
 RATE = 10.0
 """Simulated seconds per wall-clock second."""
-WAIT_S = 5.0
-"""Every wait on MAVProxy's output (wall time): heartbeats come at 10 Hz at this rate."""
+WAIT_S = 30.0
+"""Every wait on MAVProxy's output (wall time): heartbeats come at 10 Hz at this rate, so a wait ends within a
+fraction of a second on an idle machine; the deadline is for a loaded one, where MAVProxy prints late."""
 VEHICLE_IDS = {v.sysid: v.id for v in SCENARIO.vehicles}
 """uav1, uav2, uav3 by sysid."""
 SYSIDS = tuple(VEHICLE_IDS)

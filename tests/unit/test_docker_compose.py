@@ -1,10 +1,10 @@
-"""The Docker deployment (docker/compose.yaml, docker/Dockerfile, README's Docker section), no engine needed.
+"""The Docker deployment (docker/compose.yaml, docker/Dockerfile, docs/operations.md's Docker section), no engine needed.
 
 Every command a container runs, every health check that runs one of our programs and
-every ``gcs``/``sim-vehicles`` command the README's Docker section shows is parsed by the
+every ``gcs``/``sim-vehicles`` command the docs/operations.md's Docker section shows is parsed by the
 project's own argparse parsers, so an option renamed in the CLI fails here instead of in
 a field deployment. Compose's variable substitution is applied with the defaults the
-file gives (and with the overrides the README shows).
+file gives (and with the overrides docs/operations.md shows).
 """
 
 from __future__ import annotations
@@ -134,7 +134,7 @@ def test_the_router_listens_where_the_clients_connect_and_serves_rest():
 def test_every_published_port_binds_loopback():
     for name, service in compose()["services"].items():
         for host_ip, *_ in published(service):
-            assert host_ip == "127.0.0.1", f"services.{name}.ports: bind 127.0.0.1 (README says how to open a LAN)"
+            assert host_ip == "127.0.0.1", f"services.{name}.ports: bind 127.0.0.1 (docs/operations.md says how to open a LAN)"
 
 
 def test_health_checks_and_start_order():
@@ -202,9 +202,9 @@ def test_dockerignore_keeps_the_context_small():
     assert {".git", ".venv", "**/*.mcap", "**/__pycache__"} <= patterns
 
 
-def readme_docker_commands() -> list[tuple[str, dict[str, str], list[str] | None]]:
-    """(line, VAR=value prefixes, argv of our program or None) for each command line of the README's Docker section."""
-    section = (ROOT / "README.md").read_text().split("\n## Docker\n", 1)[1].split("\n## ", 1)[0]
+def documented_docker_commands() -> list[tuple[str, dict[str, str], list[str] | None]]:
+    """(line, VAR=value prefixes, argv of our program or None) for each command line of the docs/operations.md's Docker section."""
+    section = (ROOT / "docs" / "operations.md").read_text().split("\n## Docker\n", 1)[1].split("\n## ", 1)[0]
     found = []
     for block in re.findall(r"```(?:sh|bash|console)?\n(.*?)```", section, re.S):
         for line in block.replace("\\\n", " ").splitlines():
@@ -231,16 +231,16 @@ def program_argv(words: list[str]) -> list[str] | None:
     return rest if rest and rest[0] in PROGRAMS else None
 
 
-def test_readme_docker_commands_parse():
-    commands = readme_docker_commands()
+def test_documented_docker_commands_parse():
+    commands = documented_docker_commands()
     ours = [(line, argv) for line, _, argv in commands if argv is not None]
-    assert len(ours) >= 2, "the README's Docker section shows gcs commands"
+    assert len(ours) >= 2, "the docs/operations.md's Docker section shows gcs commands"
     for line, argv in ours:
-        parse(argv, f"README.md Docker section, `{line.strip()}`")
+        parse(argv, f"docs/operations.md Docker section, `{line.strip()}`")
 
 
-def test_readme_overrides_give_commands_that_parse_and_are_reachable():
-    overrides = [env for _, env, _ in readme_docker_commands() if env]
+def test_documented_overrides_give_commands_that_parse_and_are_reachable():
+    overrides = [env for _, env, _ in documented_docker_commands() if env]
     assert any("GCS_MAVLINK" in env for env in overrides) and any("GCS_SCENARIO" in env for env in overrides)
     services = compose()["services"]
     for env in overrides:

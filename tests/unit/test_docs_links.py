@@ -1,7 +1,7 @@
-"""Links into the docs' sections point at headings that exist.
+"""Links in the docs lead to files and headings that exist, inside the repository.
 
-README.md and docs/*.md link to sections of docs/benchmarks.md and docs/planning.md by
-anchor (`[benchmarks](docs/benchmarks.md#soak-gcs-bench-soak)`), and the pages link to
+README.md and docs/*.md link to each other, to sections by anchor
+(`[benchmarks](docs/benchmarks.md#soak-gcs-bench-soak)`), and the pages link to
 their own sections (`(#replay-gcs-bench-replay)`). A renamed heading breaks such a link
 silently on GitHub; here every one is resolved against the target's headings, with
 GitHub's anchor rules: lowercase, punctuation dropped (letters, digits, spaces, hyphens
@@ -17,7 +17,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 SOURCES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
-TARGETS = ("benchmarks.md", "planning.md")
+README_MAX_LINES = 300
+"""A newcomer reads the README through; the reference lives in docs/."""
 
 _LINK = re.compile(r"\]\(([^)\s]*)\)")
 _HEADING = re.compile(r"^#{1,6}\s+(.*?)\s*#*\s*$")
@@ -47,18 +48,23 @@ def anchors(markdown: str) -> set[str]:
     return found
 
 
+def links(source: Path) -> list[str]:
+    """Every link target written in a markdown file."""
+    return _LINK.findall(source.read_text(encoding="utf-8"))
+
+
 def section_links(source: Path) -> list[tuple[Path, str]]:
-    """(target file, anchor) of each link with an anchor into a target page, or into the source itself."""
-    links = []
-    for target in _LINK.findall(source.read_text(encoding="utf-8")):
+    """(target file, anchor) of each link to a section of a markdown page, or of the source itself."""
+    found = []
+    for target in links(source):
         path, sep, anchor = target.partition("#")
-        if not sep or not anchor:
+        if not sep or not anchor or "://" in path:
             continue
-        if path == "" and source.name in TARGETS:
-            links.append((source, anchor))
-        elif Path(path).name in TARGETS and "://" not in path:
-            links.append(((source.parent / path).resolve(), anchor))
-    return links
+        if path == "":
+            found.append((source, anchor))
+        elif path.endswith(".md"):
+            found.append(((source.parent / path).resolve(), anchor))
+    return found
 
 
 @pytest.mark.parametrize(
@@ -90,3 +96,26 @@ def test_the_docs_link_to_sections_that_exist() -> None:
         if not target.is_file() or anchor not in anchors(target.read_text(encoding="utf-8"))
     ]
     assert broken == []
+
+
+def test_every_link_stays_inside_the_repository_and_finds_its_file() -> None:
+    outside, missing = [], []
+    for source in SOURCES:
+        for target in links(source):
+            path = target.partition("#")[0]
+            if "://" in target or target.startswith("mailto:"):
+                outside.append(f"{source.relative_to(ROOT)} -> {target}")
+            elif path:
+                resolved = (source.parent / path).resolve()
+                if ROOT not in resolved.parents:
+                    outside.append(f"{source.relative_to(ROOT)} -> {target}")
+                elif not resolved.exists():
+                    missing.append(f"{source.relative_to(ROOT)} -> {target}")
+    assert outside == [] and missing == []
+
+
+def test_the_readme_is_short_and_names_nothing_outside_the_repository() -> None:
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert len(readme.splitlines()) <= README_MAX_LINES
+    for source in SOURCES:
+        assert "../shared" not in source.read_text(encoding="utf-8"), source.name

@@ -87,7 +87,7 @@ def test_processing_a_many_target_recording_takes_its_scenario_from_the_file(tmp
     with caplog.at_level(logging.WARNING):
         assert main(["replay", str(path), "--process"]) == 0
     out = capsys.readouterr().out
-    assert "GOSPA against every recorded truth" in out  # the many-target scenario's scoring, not one target's RMSE
+    assert "GOSPA mean" in out and "against every recorded truth" in out  # the many-target scenario's scoring, not one target's RMSE
     assert "not kept: --out TRACKS.csv or .mcap writes them" in out
     assert [r.getMessage() for r in caplog.records if r.levelno >= logging.WARNING] == []
     with caplog.at_level(logging.WARNING):

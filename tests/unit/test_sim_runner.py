@@ -14,14 +14,21 @@ SCENARIO = load_scenario("wang2012_urban")
 WORLD = build_world(SCENARIO)
 
 
+UNIX_NOW_NS = 1_800_000_000 * 1_000_000_000
+"""The Unix time of a :class:`FakeClock` at zero."""
+
+
 class FakeClock:
-    """Wall time that passes only when the runner sleeps."""
+    """Wall time that passes only when the runner sleeps (monotonic seconds, and Unix ns from UNIX_NOW_NS)."""
 
     def __init__(self) -> None:
         self.now = 0.0
 
     def __call__(self) -> float:
         return self.now
+
+    def unix_ns(self) -> int:
+        return UNIX_NOW_NS + round(self.now * 1e9)
 
     def sleep(self, seconds: float) -> None:
         self.now += seconds
@@ -100,15 +107,14 @@ def test_a_scene_of_one_vehicle_draws_what_that_vehicle_draws_among_all() -> Non
 
 def test_a_process_joining_a_clock_already_running_sees_the_same_target_and_ends_with_the_others() -> None:
     """--start-at in the past (a restarted vehicle process): the scene is advanced to the shared clock first."""
-    import time
-
     clock = FakeClock()
-    start_at_ns = time.time_ns() - 3_000_000_000  # the others started 3 s (6 simulated s at 2x) ago
+    start_at_ns = UNIX_NOW_NS - 3_000_000_000  # the others started 3 s (6 simulated s at 2x) ago
     runner = Runner(SCENARIO, WORLD, RunOptions(rate=2.0, duration_s=10.0, seed=1, start_at_ns=start_at_ns,
-                                                only=("uav2",)), clock=clock, sleep=clock.sleep)
+                                                only=("uav2",)), clock=clock, sleep=clock.sleep,
+                    unix_ns=clock.unix_ns)
     summary = runner.run()
     assert summary.simulated_s == pytest.approx(10.0)  # ends with the others, not 10 s after joining
-    assert 3 <= summary.reports["uav2"] <= 4  # the reports of t = 6 (or 7) .. 9 s only: none before joining
+    assert summary.reports["uav2"] == 4  # the reports of t = 6, 7, 8 and 9 s only: none before joining
     reference = Scene(SCENARIO, WORLD, seed=1)
     for _ in range(200):
         reference.advance(0.05, {})
@@ -116,11 +122,9 @@ def test_a_process_joining_a_clock_already_running_sees_the_same_target_and_ends
 
 
 def test_a_start_time_still_ahead_is_waited_for_and_nothing_is_skipped() -> None:
-    import time
-
     clock = FakeClock()
     runner = Runner(SCENARIO, WORLD, RunOptions(rate=40.0, duration_s=3.0, seed=1, only=("uav1",),
-                                                start_at_ns=time.time_ns() + 200_000_000), clock=clock,
-                    sleep=clock.sleep)
+                                                start_at_ns=UNIX_NOW_NS + 200_000_000), clock=clock,
+                    sleep=clock.sleep, unix_ns=clock.unix_ns)
     summary = runner.run()
     assert summary.reports["uav1"] == 3 and summary.steps == 60  # the reports of t = 0, 1 and 2 s

@@ -160,15 +160,15 @@ def test_the_daemons_filter_is_the_documented_default_the_second_order_form() ->
     assert config.uif.second_order is True
 
 
-def test_the_readme_example_runs_and_narrows_the_estimate() -> None:
+def test_the_documented_example_runs_and_narrows_the_estimate() -> None:
     import re
     from pathlib import Path
 
-    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
-    blocks = re.findall(r"```python\n(.*?)```", readme, re.S)
+    page = (Path(__file__).resolve().parents[2] / "docs" / "estimation.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", page, re.S)
     (code,) = [block for block in blocks if "UnscentedInformationFilter" in block]
     scope: dict = {}
-    exec(compile(code, "README.md", "exec"), scope)  # noqa: S102 - the documentation's own example
+    exec(compile(code, "docs/estimation.md", "exec"), scope)  # noqa: S102 - the documentation's own example
     prior, posterior = scope["prior"], scope["posterior"]
     assert prior.stamp_ns == 1_000_000_000 and posterior.layout is CV2D
     assert np.linalg.det(posterior.cov[:2, :2]) < 0.5 * np.linalg.det(prior.cov[:2, :2])

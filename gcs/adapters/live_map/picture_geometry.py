@@ -60,12 +60,14 @@ def ellipse(cov_xy: np.ndarray | tuple[float, ...], sigmas: float = SIGMAS) -> d
 
 
 def world_geometry(scenario: Scenario, world: World) -> dict:
-    """The static part of the page (``/api/world``): the city rectangle, buildings and no-fly zones (ENU m)."""
+    """The static part of the page (``/api/world``): the world's extent (``bounds_m``: west, south, east, north), buildings
+    and no-fly zones (ENU m)."""
     return {
         "scenario": scenario.name,
         "origin": {"lat_deg": scenario.origin.lat_deg, "lon_deg": scenario.origin.lon_deg,
                    "height_m": scenario.origin.height_m},
         "size_m": [float(world.size_m[0]), float(world.size_m[1])],
+        "bounds_m": [rounded(v) for v in world.bounds_m],
         "buildings": [{"footprint": [[rounded(x), rounded(y)] for x, y in footprint], "height_m": rounded(height)}
                       for footprint, height in zip(world.buildings.footprints, world.buildings.heights)],
         "no_fly": [{"name": name, "polygon": [[rounded(x), rounded(y)] for x, y in polygon], "floor_m": float(floor),

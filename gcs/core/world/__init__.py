@@ -13,6 +13,8 @@ ground at z = 0, a generated city's south-west corner at (0, 0).
   for the sight planner) -- :mod:`gcs.core.world.sight_table`
 * :class:`RestrictedAirspace` (eq. 5) -- :mod:`gcs.core.world.airspace`
 * the road network (:class:`gcs.core.roads.RoadGraph`), when the city has one;
+* the world's extent (:data:`Bounds`: a generated city's rectangle, or a real
+  city's content with a margin) -- :mod:`gcs.core.world.extent`;
 * :class:`World` bundles them; ``gcs.config.world.build_world`` makes one
   from a scenario.
 """
@@ -28,6 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 from gcs.core.world.airspace import RestrictedAirspace
 from gcs.core.world.sight_table import HeightField, SightTable
 from gcs.core.world.buildings import Buildings, StreetGrid, buildings_from_geojson, generate_city
+from gcs.core.world.extent import FRAME_MARGIN_M, Bounds, content_bounds, rectangle_bounds
 from gcs.core.world.los import (
     DEFAULT_BINS,
     SightLines,
@@ -43,6 +46,10 @@ if TYPE_CHECKING:
 
 __all__ = [
     "World",
+    "Bounds",
+    "FRAME_MARGIN_M",
+    "content_bounds",
+    "rectangle_bounds",
     "Buildings",
     "StreetGrid",
     "RestrictedAirspace",
@@ -71,10 +78,15 @@ class World:
     streets : StreetGrid or None
         The street grid of a generated city; None for GeoJSON or empty cities.
     size_m : tuple of float
-        Width (east) and depth (north) of the city rectangle, metres, from (0, 0).
+        Width (east) and depth (north) of the world's extent, metres: a generated city's
+        rectangle from (0, 0); for a world given ``bounds_m``, their width and depth.
     roads : RoadGraph or None
         The drivable roads (:mod:`gcs.core.roads`): a generated city's street grid, or
         the scenario's declared roads; None where the world has none.
+    bounds_m : tuple of float
+        The extent, ``x_min, y_min, x_max, y_max`` metres (:mod:`gcs.core.world.extent`): what
+        the maps draw and frame, and the ground a free-driving target keeps to. Default: the
+        ``size_m`` rectangle from (0, 0).
     """
 
     buildings: Buildings
@@ -82,7 +94,24 @@ class World:
     streets: StreetGrid | None
     size_m: tuple[float, float]
     roads: RoadGraph | None = None
+    bounds_m: Bounds | None = None
     _sight_tables: dict = field(default_factory=dict, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.bounds_m is None:
+            object.__setattr__(self, "bounds_m", rectangle_bounds(self.size_m))
+        else:
+            x0, y0, x1, y1 = (float(v) for v in self.bounds_m)
+            if not (x0 < x1 and y0 < y1):
+                raise ValueError(f"bounds_m must be x_min < x_max, y_min < y_max, got {self.bounds_m!r}")
+            object.__setattr__(self, "bounds_m", (x0, y0, x1, y1))
+            object.__setattr__(self, "size_m", (x1 - x0, y1 - y0))
+
+    def inside(self, xy: ArrayLike) -> NDArray[np.bool_]:
+        """Whether ground points (..., 2) lie within :attr:`bounds_m` (edges included)."""
+        p = np.asarray(xy, dtype=np.float64)
+        x0, y0, x1, y1 = self.bounds_m
+        return (p[..., 0] >= x0) & (p[..., 0] <= x1) & (p[..., 1] >= y0) & (p[..., 1] <= y1)
 
     @classmethod
     def empty(cls, size_m: tuple[float, float] = (3000.0, 3000.0)) -> World:

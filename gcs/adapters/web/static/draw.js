@@ -32,10 +32,16 @@ function vehicleColour(id) {
   return VEHICLE_COLOURS[colourIndex.get(id) % VEHICLE_COLOURS.length];
 }
 
+// The world's extent [west, south, east, north] in ENU metres: a real city's content with a margin, a generated
+// city's rectangle from the origin (a page from a server that sends only size_m: that rectangle).
+function worldBounds(world) {
+  return world.bounds_m || [0, 0, world.size_m[0], world.size_m[1]];
+}
+
 function drawWorld(world) {
-  const [w, h] = world.size_m;
+  const [x0, y0, x1, y1] = worldBounds(world);
   const top = Math.max(1, ...world.buildings.map((b) => b.height_m));
-  const parts = [`<rect class="city" x="0" y="${-h}" width="${w}" height="${h}"/>`];
+  const parts = [`<rect class="city" x="${x0}" y="${-y1}" width="${x1 - x0}" height="${y1 - y0}"/>`];
   for (const b of world.buildings) {
     const shade = Math.round(200 - 90 * (b.height_m / top));
     parts.push(`<polygon class="building" points="${pts(b.footprint)}" fill="rgb(${shade},${shade - 4},${shade - 12})"><title>${fmt(b.height_m, 0)} m</title></polygon>`);

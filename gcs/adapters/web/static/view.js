@@ -68,9 +68,9 @@ function showCity() {
   if (!state.world) return;
   stopGlide();
   setLook("city");
-  const [w, h] = state.world.size_m;
-  const margin = 0.04 * Math.max(w, h, 1);
-  setView({ x: -margin, y: -h - margin, w: w + 2 * margin, h: h + 2 * margin });
+  const [x0, y0, x1, y1] = worldBounds(state.world);
+  const w = x1 - x0, h = y1 - y0, margin = 0.04 * Math.max(w, h, 1);
+  setView({ x: x0 - margin, y: -y1 - margin, w: w + 2 * margin, h: h + 2 * margin });
 }
 
 // What follow keeps in view (SVG coordinates): every placed vehicle, track and truth; before the first snapshot,
