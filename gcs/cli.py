@@ -1,7 +1,7 @@
 """The ``gcs`` command line: the composition root for users.
 
 This module parses arguments, sets up logging and loads the frozen scenario;
-the work itself lives in ``gcs.app`` (the daemon) and ``gcs.bench``. Only
+the work itself lives in ``gcs.daemon.app`` (the daemon) and ``gcs.bench``. Only
 subcommands that exist are registered, so ``gcs --help`` lists exactly what
 works.
 """
@@ -66,7 +66,7 @@ SUBCOMMANDS: tuple[Subcommand, ...] = (
                "print a running daemon's status (vehicles, links, tracks, counters)"),
     Subcommand("record", "gcs.recordings.record:add_record", "record the Zenoh traffic under a prefix to MCAP"),
     Subcommand("replay", "gcs.recordings.replay_cli:add_replay", "summarise, republish or process a recording"),
-    Subcommand("router", "gcs.adapters.zenoh_router:add_router", "a Zenoh router for clients (no zenohd needed)"),
+    Subcommand("router", "gcs.daemon.router:add_router", "a Zenoh router for clients (no zenohd needed)"),
     Subcommand("scenario", "gcs.cli:_add_scenario", "list, show, check or build scenario files (from OpenStreetMap)"),
     Subcommand("bench", "gcs.bench.cli:add_bench", "reproduce the papers' experiments and measure speed"),
 )

@@ -18,7 +18,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import IO
 
-from gcs.adapters.ports import LOCALHOST
+from gcs.adapters.loopback import LOCALHOST
 
 __all__ = ["LOCALHOST", "ANY_PORT_ENDPOINT", "ANY_UDP", "silent_port", "daemon_ports", "Lines", "daemon_up",
            "DAEMON_UP"]

@@ -24,7 +24,7 @@ from gcs.core.roads.mixture import RoadMixtureFilter
 from gcs.core.roads.particle import RoadParticleFilter
 from gcs.core.roads.sensing import Looks, table_sees
 from gcs.core.tracker import Detection, fuse, initial_estimate, prediction
-from gcs.engine.tracking import filter_sensor_models, scenario_planner, tracker_config
+from gcs.engine.tracker_factory import filter_sensor_models, scenario_planner, tracker_config
 from benchmarks.roads.scene import Run, Scene
 
 __all__ = ["Trace", "ESTIMATORS", "run_estimator"]

@@ -2,7 +2,7 @@
 
 Optional (the ``foxglove`` extra: ``pip install 'uav-tracking-gcs[foxglove]'``,
 the official ``foxglove-sdk``). Each snapshot of the
-:class:`~gcs.daemon.picture.Picture` is logged, with a context of its own (no
+:class:`~gcs.adapters.live_map.picture.Picture` is logged, with a context of its own (no
 global state), on these channels:
 
 ==============================  =====================  ==========================================

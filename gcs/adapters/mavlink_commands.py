@@ -11,7 +11,7 @@ from the autopilot the vehicle's HEARTBEAT names:
 
   - ``MAV_CMD_DO_SET_MODE`` to GUIDED (ArduPilot numbering, custom mode 15;
     OFFBOARD for a PX4 peer) at most once per second until the HEARTBEAT
-    shows it, and only while the takeover guard allows (:class:`Takeover`:
+    shows it, and only while the takeover guard allows (:class:`~gcs.adapters.mavlink_takeover.Takeover`:
     armed, and at least ``min_altitude_m`` above home); with ``takeoff``, a
     vehicle held back by the guard is armed (``MAV_CMD_COMPONENT_ARM_DISARM``)
     and switched to its own take-off mode (ArduPlane TAKEOFF, PX4
@@ -39,22 +39,21 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import ClassVar
 
 import numpy as np
 
 from gcs.adapters.mavlink_link import (GUIDED, PX4_OFFBOARD_MAIN_MODE, STREAMED_TELEMETRY, HeadingCommand,
                                        VehicleLink, in_guided_mode)
-from gcs.adapters.mavlink_wire import ARDUPLANE_MODES, mavlink, ned_yaw_from_enu_heading
+from gcs.adapters.mavlink_messages import (Action, Carrot, ChangeAltitude, ChangeHeading, ChangeSpeed, MessageInterval,
+                                           ModeRequest, course_param_deg)
+from gcs.adapters.mavlink_takeover import (MODE_REQUEST_PERIOD_S, Takeover, handback_request, takeoff_action,
+                                           takeover_blocked)
+from gcs.adapters.mavlink_wire import mavlink, ned_yaw_from_enu_heading
 from gcs.core.geometry import LocalFrame, wrap_angle
 
-__all__ = [
-    "Arm", "CARROT_TYPE_MASK", "Carrot", "ChangeAltitude", "ChangeHeading", "ChangeSpeed", "HANDBACK_MODES", "MessageInterval",
-    "ModeRequest", "SendMemory", "Takeover", "handback_request", "takeoff_actions", "takeover_blocked", "carrot_distance_m", "next_due", "stream_requests", "carrot_for", "course_param_deg", "due_actions",
-]
+__all__ = ["SendMemory", "carrot_distance_m", "next_due", "stream_requests", "carrot_for", "due_actions",
+           "DEFAULT_STREAM_RATE_HZ", "DEFAULT_MAX_TURN_RATE_RAD_S"]
 
-CARROT_TYPE_MASK = 0x09F8
-"""Use x, y, z and yaw; ignore velocity, acceleration and yaw rate."""
 CARROT_LOOKAHEAD_S = 15.0
 CARROT_TURN_RADII = 3.0
 DEFAULT_MAX_TURN_RATE_RAD_S = 0.2
@@ -63,7 +62,6 @@ LATERAL_ACCEL_MARGIN = 1.25
 """GUIDED_CHANGE_HEADING's acceleration limit over ``V omega_max``: ArduPlane's bank limit is
 ``atan(a / g)``, so at exactly ``V omega_max`` a plan at full turn rate would leave no bank to
 correct with; the turn rate asked is bounded by the steering itself (:mod:`gcs.core.steering`)."""
-MODE_REQUEST_PERIOD_S = 1.0
 HEADING_RESEND_RAD = math.radians(0.5)
 AIRSPEED_RESEND_MPS = 0.1
 ALTITUDE_RESEND_M = 0.5
@@ -82,186 +80,6 @@ def carrot_distance_m(speed_mps: float, max_turn_rate_rad_s: float) -> float:
     so that a vehicle never reaches (and loiters about) a carrot between sends.
     """
     return max(CARROT_TURN_RADII * speed_mps / max_turn_rate_rad_s, CARROT_LOOKAHEAD_S * speed_mps)
-
-
-def course_param_deg(heading_enu_rad: float) -> float:
-    """GUIDED_CHANGE_HEADING param2: the NED course in degrees, in [0, 360) even after rounding to float32."""
-    degrees = math.degrees(ned_yaw_from_enu_heading(heading_enu_rad)) % 360.0
-    return 0.0 if np.float32(degrees) >= 360.0 else degrees
-
-
-@dataclass(frozen=True)
-class Carrot:
-    """SET_POSITION_TARGET_GLOBAL_INT: a point ahead on the commanded course."""
-
-    lat_e7: int
-    lon_e7: int
-    altitude_m: float
-    yaw_ned_rad: float
-    time_boot_ms: int
-    counter: ClassVar[str] = "carrots"
-
-    def encode(self, mav: mavlink.MAVLink, sysid: int):
-        return mav.set_position_target_global_int_encode(
-            self.time_boot_ms, sysid, 1, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, CARROT_TYPE_MASK,
-            self.lat_e7, self.lon_e7, self.altitude_m, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, self.yaw_ned_rad, 0.0)
-
-
-@dataclass(frozen=True)
-class ModeRequest:
-    """COMMAND_LONG MAV_CMD_DO_SET_MODE with a custom mode (param2; PX4's main mode) and PX4's sub mode (param3)."""
-
-    custom_mode: int
-    sub_mode: int = 0
-    counter: ClassVar[str] = "mode_requests"
-
-    def encode(self, mav: mavlink.MAVLink, sysid: int):
-        return mav.command_long_encode(sysid, 1, mavlink.MAV_CMD_DO_SET_MODE, 0,
-                                       mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, self.custom_mode, self.sub_mode,
-                                       0, 0, 0, 0)
-
-
-HANDBACK_MODES = ("LOITER", "RTL")
-_HANDBACK_ARDUPILOT = {"LOITER": ModeRequest(ARDUPLANE_MODES["LOITER"]), "RTL": ModeRequest(ARDUPLANE_MODES["RTL"])}
-_HANDBACK_PX4 = {"LOITER": ModeRequest(4, 3), "RTL": ModeRequest(4, 5)}
-"""PX4's AUTO (main mode 4) with sub mode LOITER (3) or RTL (5)."""
-
-
-@dataclass(frozen=True)
-class Arm:
-    """COMMAND_LONG MAV_CMD_COMPONENT_ARM_DISARM, param1 1: arm."""
-
-    counter: ClassVar[str] = "arm_requests"
-
-    def encode(self, mav: mavlink.MAVLink, sysid: int):
-        return mav.command_long_encode(sysid, 1, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
-
-
-_TAKEOFF_ARDUPILOT = ModeRequest(ARDUPLANE_MODES["TAKEOFF"])
-_TAKEOFF_PX4 = ModeRequest(4, 2)
-"""PX4's AUTO (main mode 4) with sub mode TAKEOFF (2)."""
-
-
-@dataclass(frozen=True)
-class Takeover:
-    """When the daemon may switch a vehicle to GUIDED/OFFBOARD, and the mode it gives it back in.
-
-    A vehicle is taken over only when its HEARTBEAT says armed and its telemetry puts it at least
-    ``min_altitude_m`` above home: the daemon never switches a plane on the ground, or one taking off.
-    With ``takeoff`` it arms such a vehicle and puts it in its own take-off mode first (whose
-    altitude, ArduPlane's TKOFF_ALT, must be above ``min_altitude_m``).
-    """
-
-    min_altitude_m: float = 30.0
-    handback: str = "LOITER"
-    takeoff: bool = False
-
-    def __post_init__(self) -> None:
-        if self.handback not in HANDBACK_MODES:
-            raise ValueError(f"hand-back mode {self.handback!r}; expected one of {', '.join(HANDBACK_MODES)}")
-        if not math.isfinite(self.min_altitude_m):
-            raise ValueError(f"takeover altitude must be finite, got {self.min_altitude_m}")
-
-
-def takeover_blocked(link: VehicleLink, takeover: Takeover) -> str | None:
-    """Why the vehicle may not be switched to GUIDED now (``disarmed``, ``no position``, ``below N m``), or None."""
-    if not link.armed:
-        return "disarmed"
-    if link.position_enu_m is None:
-        return "no position"
-    if link.position_enu_m[2] < takeover.min_altitude_m:
-        return f"below {takeover.min_altitude_m:g} m"
-    return None
-
-
-def _in_takeoff_mode(link: VehicleLink) -> bool:
-    """The HEARTBEAT shows the take-off mode (PX4: main mode in bits 16-23, sub mode in bits 24-31)."""
-    if link.autopilot == mavlink.MAV_AUTOPILOT_PX4:
-        return link.custom_mode == (_TAKEOFF_PX4.custom_mode << 16 | _TAKEOFF_PX4.sub_mode << 24)
-    return link.custom_mode == _TAKEOFF_ARDUPILOT.custom_mode
-
-
-def takeoff_actions(link: VehicleLink, memory: SendMemory, now_s: float) -> tuple[list[Action], SendMemory, str]:
-    """Arm a disarmed vehicle, then ask for its take-off mode, each at most once per
-    :data:`MODE_REQUEST_PERIOD_S`; and what the vehicle is waiting for (``arming``, ``taking off``)."""
-    if link.armed and _in_takeoff_mode(link):
-        return [], memory, "taking off"
-    waiting = "taking off" if link.armed else "arming"
-    if now_s - memory.mode_request_s < MODE_REQUEST_PERIOD_S:
-        return [], memory, waiting
-    if not link.armed:
-        action: Action = Arm()
-    else:
-        action = _TAKEOFF_PX4 if link.autopilot == mavlink.MAV_AUTOPILOT_PX4 else _TAKEOFF_ARDUPILOT
-    return [action], replace(memory, mode_request_s=now_s), waiting
-
-
-def handback_request(autopilot: int | None, mode: str) -> ModeRequest:
-    """The DO_SET_MODE that gives a vehicle back in ``mode`` (one of :data:`HANDBACK_MODES`)."""
-    table = _HANDBACK_PX4 if autopilot == mavlink.MAV_AUTOPILOT_PX4 else _HANDBACK_ARDUPILOT
-    return table[mode]
-
-
-@dataclass(frozen=True)
-class MessageInterval:
-    """COMMAND_LONG MAV_CMD_SET_MESSAGE_INTERVAL: message id (param1), interval in microseconds (param2)."""
-
-    message_id: int
-    interval_us: float
-    counter: ClassVar[str] = "stream_requests"
-
-    def encode(self, mav: mavlink.MAVLink, sysid: int):
-        return mav.command_long_encode(sysid, 1, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
-                                       self.message_id, self.interval_us, 0, 0, 0, 0, 0)
-
-
-def _command_int(mav: mavlink.MAVLink, sysid: int, command: int, frame: int, p1: float, p2: float, p3: float,
-                 z: float = 0.0):
-    return mav.command_int_encode(sysid, 1, frame, command, 0, 0, p1, p2, p3, 0.0, 0, 0, z)
-
-
-@dataclass(frozen=True)
-class ChangeHeading:
-    """COMMAND_INT MAV_CMD_GUIDED_CHANGE_HEADING: course over ground (param1 0), degrees NED, accel limit."""
-
-    course_deg: float
-    lateral_accel_mps2: float
-    counter: ClassVar[str] = "heading_commands"
-
-    def encode(self, mav: mavlink.MAVLink, sysid: int):
-        return _command_int(mav, sysid, mavlink.MAV_CMD_GUIDED_CHANGE_HEADING, mavlink.MAV_FRAME_GLOBAL,
-                            mavlink.HEADING_TYPE_COURSE_OVER_GROUND, self.course_deg, self.lateral_accel_mps2)
-
-
-@dataclass(frozen=True)
-class ChangeSpeed:
-    """COMMAND_INT MAV_CMD_GUIDED_CHANGE_SPEED: airspeed (param1 0), m/s, fastest slew (param3 0)."""
-
-    airspeed_mps: float
-    counter: ClassVar[str] = "speed_commands"
-
-    def encode(self, mav: mavlink.MAVLink, sysid: int):
-        return _command_int(mav, sysid, mavlink.MAV_CMD_GUIDED_CHANGE_SPEED, mavlink.MAV_FRAME_GLOBAL,
-                            mavlink.SPEED_TYPE_AIRSPEED, self.airspeed_mps, 0.0)
-
-
-@dataclass(frozen=True)
-class ChangeAltitude:
-    """COMMAND_INT MAV_CMD_GUIDED_CHANGE_ALTITUDE relative to home.
-
-    Frame ``MAV_FRAME_GLOBAL_RELATIVE_ALT`` (3), the one relative frame every
-    ArduPlane with this command accepts (older releases refuse the ``_INT`` 6).
-    """
-
-    altitude_m: float
-    counter: ClassVar[str] = "altitude_commands"
-
-    def encode(self, mav: mavlink.MAVLink, sysid: int):
-        return _command_int(mav, sysid, mavlink.MAV_CMD_GUIDED_CHANGE_ALTITUDE, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
-                            0.0, 0.0, 0.0, z=self.altitude_m)
-
-
-Action = Carrot | ModeRequest | MessageInterval | Arm | ChangeHeading | ChangeSpeed | ChangeAltitude
 
 
 @dataclass(frozen=True)
@@ -373,8 +191,10 @@ def due_actions(frame: LocalFrame, link: VehicleLink, memory: SendMemory, now_s:
     if not in_guided_mode(link.autopilot, link.custom_mode):
         blocked = takeover_blocked(link, takeover)
         if blocked is not None and takeover.takeoff and blocked != "no position":
-            more, memory, blocked = takeoff_actions(link, memory, now_s)
-            actions += more
+            request, blocked = takeoff_action(link, memory.mode_request_s, now_s)
+            if request is not None:
+                actions.append(request)
+                memory = replace(memory, mode_request_s=now_s)
         if blocked is not None:
             return actions, replace(memory, blocked=blocked)
         if now_s - memory.mode_request_s >= MODE_REQUEST_PERIOD_S:

@@ -32,7 +32,8 @@ import sys
 from collections import Counter
 
 from gcs.adapters.mavlink_commands import (DEFAULT_MAX_TURN_RATE_RAD_S, DEFAULT_STREAM_RATE_HZ,
-                                           STREAM_ARRIVAL_FRACTION, SendMemory, Takeover, due_actions, next_due)
+                                           STREAM_ARRIVAL_FRACTION, SendMemory, due_actions, next_due)
+from gcs.adapters.mavlink_takeover import Takeover
 from gcs.adapters.mavlink_link import STREAMED_TELEMETRY, HeadingCommand, VehicleLink, in_guided_mode, update_from_message
 from gcs.adapters.mavlink_wire import GCS_SYSID, mavlink, open_connection
 from gcs.core.geometry import LocalFrame

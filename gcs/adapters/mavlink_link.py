@@ -1,6 +1,6 @@
 """What the daemon knows of one vehicle from MAVLink, and how each message changes it (pure).
 
-Telemetry is converted at this edge (design.md section 3): GLOBAL_POSITION_INT
+Telemetry is converted at this edge (docs/design.md, frames, units and time): GLOBAL_POSITION_INT
 lat/lon -> ENU x, y through the scenario frame (origin = home), relative_alt ->
 ENU z; NED velocity (cm/s) -> ENU m/s; ``hdg`` (or ATTITUDE.yaw) NED -> ENU heading.
 Arrivals of the streamed messages the daemon asks rates for

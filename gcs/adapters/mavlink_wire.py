@@ -7,7 +7,7 @@ dialect, a superset of ``ardupilotmega`` with the GUIDED_CHANGE_* commands;
 reference/mavlink.md). Connections parse with ``ardupilotmega``; the message
 ids and enums are the same, but each module has its own ``MAVError`` class.
 
-Conventions at this edge (design.md section 3): latitude and longitude are
+Conventions at this edge (docs/design.md, frames, units and time): latitude and longitude are
 ``1e7``-scaled integers, altitudes in metres relative to home, and yaw is NED
 (from north, clockwise); inside the project headings are ENU (from east,
 counter-clockwise). :func:`ned_yaw_from_enu_heading` is the one conversion.

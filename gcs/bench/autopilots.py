@@ -12,7 +12,7 @@ scene's liveliness, reports, nav reports and truth as the daemon receives them (
 on the wire), releases and fuses the steps, hands over the plans and gives each vehicle
 the path to steer along. Every MAVLink message is packed and parsed as on the wire. What
 is not the daemon's: no sockets, no planner process (each job is planned at once, without
-deadline: :func:`gcs.engine.inline.plan_at_once`), no clock (simulation time is the
+deadline: :func:`gcs.engine.plan_at_once.plan_at_once`), no clock (simulation time is the
 engine's). Who saw the target at each step and the fused position's error against the
 truth are the engine's step records.
 
@@ -44,11 +44,11 @@ from gcs.config.simulation import AirframeConfig
 from gcs.core.geometry import LocalFrame, wrap_angle
 from gcs.core.steering import SAMPLES_PER_STEP, CourseLoop, PlannedPath, course_loop
 from gcs.core.world import World
-from gcs.daemon.records import step_error_m
-from gcs.daemon.steps import HOLD_WAITS
+from gcs.engine.records import step_error_m
+from gcs.engine.steps import HOLD_WAITS
 from gcs.engine.engine import Engine, EngineOptions
 from gcs.engine.events import Arrived, PlannerFree, SubmitPlan, Tick
-from gcs.engine.inline import plan_at_once
+from gcs.engine.plan_at_once import plan_at_once
 from protocols.codec import encode
 from protocols.keys import alive_key, nav_key, report_key, truth_key
 from sim_vehicles.personalities import make_autopilot
@@ -79,7 +79,7 @@ def with_autopilot(scenario: Scenario, personality: str) -> Scenario:
 @dataclass
 class FlightRecord:
     """One flight: who saw the target at each decision step (steps, V), the fused position error (steps,; with
-    ``[multitarget]`` the step's GOSPA against every target, :func:`gcs.daemon.records.step_error_m`), and
+    ``[multitarget]`` the step's GOSPA against every target, :func:`gcs.engine.records.step_error_m`), and
     each vehicle's course errors against its planned path at each steering instant after :data:`SETTLE_S`."""
 
     personality: str
@@ -132,7 +132,7 @@ def _steer(vehicle: _Vehicle, steering: str, now: float) -> HeadingCommand | Non
     """The command the daemon's steering (``lead``) or the pursuit of a point on the plan gives at ``now``.
 
     ``lead`` follows the path from the latest telemetry, aged as the daemon ages it (``now`` less the
-    time the position was heard, :meth:`gcs.app.Daemon._steer`)."""
+    time the position was heard, :meth:`gcs.daemon.app.Daemon._steer`)."""
     path, link = vehicle.path, vehicle.link
     if path is None:
         return None

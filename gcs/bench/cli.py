@@ -15,7 +15,7 @@ from gcs.cli_errors import UsageError, writable_file
 from gcs.daemon.niceness import niceness_argument
 
 DAEMON_NAVIGATION = ("auto", "skf", "reported")
-"""The daemon's ``--navigation`` choices (:data:`gcs.daemon.navigation.NAVIGATION_MODES`, not imported: the
+"""The daemon's ``--navigation`` choices (:data:`gcs.engine.navigation.NAVIGATION_MODES`, not imported: the
 parser stays light)."""
 
 LOAD_NICENESS = 5

@@ -3,8 +3,8 @@
 Two processes on 127.0.0.1, joined by a Zenoh TCP link (peers, multicast off,
 a free port; no MAVLink): the **load** (:mod:`gcs.bench.daemon_load`, a spawned
 process, ``load_niceness`` below this one's priority: the vehicles' own computers
-in use) plays N vehicles; the **daemon** (:class:`gcs.app.Daemon`, in this
-process, running its own loop :meth:`~gcs.app.Daemon.run`) consumes their
+in use) plays N vehicles; the **daemon** (:class:`gcs.daemon.app.Daemon`, in this
+process, running its own loop :meth:`~gcs.daemon.app.Daemon.run`) consumes their
 reports. The daemon's ``on_step`` hook notes the wall time at which each
 decision step was fused (its ``TrackEstimate`` put); its ``on_plan`` hook, the
 time each plan's ``PlanCommand`` messages were put and the planner thread's
@@ -50,12 +50,12 @@ from collections import Counter
 from collections.abc import Callable, Generator, Sequence
 from dataclasses import asdict
 
-from gcs.adapters.ports import LOCALHOST
+from gcs.adapters.loopback import LOCALHOST
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions
-from gcs.daemon.records import PlanRecord, StepRecord
-from gcs.daemon.navigation import runs_skf
-from gcs.daemon.planning import START_TIMEOUT_S
+from gcs.daemon.app import Daemon, DaemonOptions
+from gcs.engine.records import PlanRecord, StepRecord
+from gcs.engine.navigation import runs_skf
+from gcs.daemon.plan_runners import START_TIMEOUT_S
 from gcs.bench.daemon_load import LOAD_NICENESS, Fleet, publisher_main
 from gcs.bench.daemon_report import fmt, format_report, write_json
 from gcs.bench.daemon_timing import PlanTiming, StepTiming, Trial, percentiles, step_latencies_ms, track_latencies_ms
@@ -63,7 +63,7 @@ from gcs.bench.urban import with_vehicles
 from gcs.config import Scenario
 from gcs.core.world import World
 from gcs.daemon.niceness import check_niceness
-from gcs.engine.tracking import scenario_planner
+from gcs.engine.tracker_factory import scenario_planner
 
 __all__ = ["GOAL_REPORTS_PER_S", "GOAL_LATENCY_MS_P99", "GRACE_S", "Trial", "StepTiming", "PlanTiming",
            "step_latencies_ms", "track_latencies_ms",
@@ -197,7 +197,7 @@ class _Run:
         wall = time.perf_counter() - started
         sent = dict(zip(reply["stamps"], reply["last_sent_ns"]))
         # the newest step's planning may still wait in the loop (plan_interval_s) before its plan
-        yield from self._wait(lambda: not self.daemon.planner.busy and self.daemon.loop.waiting is None, 10.0,
+        yield from self._wait(lambda: not self.daemon.plan_runner.busy and self.daemon.loop.waiting is None, 10.0,
                               "the last plan")
         yield False  # one more pass applies it
         log = [step for step in self.log[first_step:] if step.stamp_ns >= reply["stamps"][0]]

@@ -33,7 +33,7 @@ from gcs.bench.autopilots import fly
 from gcs.bench.urban_report import paired_p
 from gcs.cli import build_parser
 from gcs.config.world import build_world
-from gcs.daemon.records import step_error_m
+from gcs.engine.records import step_error_m
 from gcs.scenarios import load_scenario
 
 __all__ = ["run_benchmark", "format_report", "write_json"]

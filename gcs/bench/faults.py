@@ -27,7 +27,7 @@ import msgspec
 import numpy as np
 import zenoh
 
-from gcs.adapters.ports import LOCALHOST
+from gcs.adapters.loopback import LOCALHOST
 from protocols.codec import decode, encode
 from protocols.errors import ProtocolError
 from protocols.keys import report_key

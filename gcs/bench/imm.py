@@ -35,7 +35,7 @@ from gcs.config import Scenario
 from gcs.core.filters.uif import NS_PER_S
 from gcs.core.tracker import Detection, fuse
 from gcs.core.world import World
-from gcs.engine.tracking import tracker_config
+from gcs.engine.tracker_factory import tracker_config
 from sim_vehicles.truth.sensor import TargetSensor
 from sim_vehicles.truth.target import start_state, target_model
 

@@ -1,6 +1,6 @@
 """``gcs bench livemap``: what the live map costs the daemon's loop.
 
-The daemon hands its :class:`~gcs.daemon.picture.Picture` every message it
+The daemon hands its :class:`~gcs.adapters.live_map.picture.Picture` every message it
 receives or publishes, and five times a second builds a snapshot, encodes it and
 gives it to the server. Both run on the daemon's loop thread, so both are
 measured here, without a network, for teams of several sizes: each vehicle
@@ -34,8 +34,8 @@ from gcs.bench.urban import with_vehicles
 from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
 from gcs.core.world import World
-from gcs.daemon.picture import Picture
-from gcs.daemon.picture_geometry import encode_json
+from gcs.adapters.live_map.picture import Picture
+from gcs.adapters.live_map.picture_geometry import encode_json
 from protocols.codec import decode, encode
 from protocols.messages import (GpsFix, Message, NavReport, PlanCommand, PredictedPoint, SensorReport, TargetTruth,
                                 TrackEstimate)

@@ -28,7 +28,7 @@ def run_benchmark(config: mt.BenchConfig, runs: int, seed: int, peers: bool,
                   progress: Callable[[str], None] = lambda _: None) -> dict:
     """Run every method on the seeds ``seed .. seed + runs - 1`` and summarise; the report as a dict."""
     from gcs.config.world import build_world
-    from gcs.engine.tracking import filter_sensor_models
+    from gcs.engine.tracker_factory import filter_sensor_models
     from gcs.scenarios import load_scenario
 
     scenario = load_scenario("wang2012_urban")

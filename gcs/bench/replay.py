@@ -26,7 +26,7 @@ from gcs.adapters.recording import Recorder
 from gcs.bench.plots import pyplot, save, write_markdown
 from gcs.config import Scenario
 from gcs.core.world import World
-from gcs.daemon.navigation import runs_skf
+from gcs.engine.navigation import runs_skf
 from gcs.recordings.replay import process
 from protocols.codec import encode
 from protocols.keys import alive_key, nav_key, report_key, truth_key

@@ -40,7 +40,7 @@ MODE = "assign"
 def _cell(world, scenario, targets: int, uavs: int, scene: BenchConfig, seed: int) -> dict:
     """One (targets, UAVs) run, timed, then once more under ``tracemalloc``."""
     from gcs.bench.urban import with_vehicles
-    from gcs.engine.tracking import tracker_config
+    from gcs.engine.tracker_factory import tracker_config
 
     team = with_vehicles(scenario, uavs)
     config = tracker_config(team, world, "sight")

@@ -16,9 +16,9 @@ and the team plan is made by one of the **modes**:
 
 * ``sum``: the sight objective summed over the tracks with priority weights that grow with the
   time a track has gone without a detection
-  (:meth:`~gcs.core.planners.sequential.SequentialPlanner.solve_shared`);
+  (:meth:`~gcs.core.planners.sequential.SightPlanner.solve_shared`);
 * ``assign``: each UAV assigned one track, then each track planned for with its own UAVs
-  (:meth:`~gcs.core.planners.sequential.SequentialPlanner.solve_assigned`);
+  (:meth:`~gcs.core.planners.sequential.SightPlanner.solve_assigned`);
 * ``orbit``: no planner, each UAV keeps its fixed orbit (the baseline of ``gcs bench multitarget``).
 
 The planned modes plan for the confirmed tracks and for the lost targets

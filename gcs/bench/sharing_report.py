@@ -30,7 +30,7 @@ def run_benchmark(config: sharing.SharingConfig, runs: int, seed: int, modes: Se
                   progress: Callable[[str], None] = lambda _: None) -> dict:
     """Every mode on the seeds ``seed .. seed + runs - 1``; the report as a dict."""
     from gcs.config.world import build_world
-    from gcs.engine.tracking import tracker_config
+    from gcs.engine.tracker_factory import tracker_config
     from gcs.scenarios import load_scenario
 
     scenario = load_scenario("wang2012_urban")

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import zenoh
 
-from gcs.adapters.ports import LOCALHOST
+from gcs.adapters.loopback import LOCALHOST
 from gcs.adapters.zenoh_session import query
 from gcs.bench.faults import Injector, UdpRelay, every_kind
 from gcs.bench.soak_report import EPOCH_NS

@@ -8,7 +8,7 @@ a building blocks the line of sight or it is out of range
 (:func:`gcs.core.tracker.plan`) the next commands.
 
 Planners compared over paired runs (same seed: same city, same target path,
-same sensor noise draws): any of :data:`gcs.engine.tracking.URBAN_PLANNERS`, e.g.
+same sensor noise draws): any of :data:`gcs.core.planner_names.URBAN_PLANNERS`, e.g.
 
 * ``sight``: the sight objective on the k+1..k+n predictions (the default planner);
 * ``sight_k0``: the same on the current estimate held over the horizon;
@@ -50,8 +50,8 @@ from gcs.core.kinematics import VehicleState, rollout, step_vehicles
 from gcs.core.models.sensor import SensorModel
 from gcs.core.tracker import Detection, TrackerState, fuse, plan
 from gcs.core.world import World
-from gcs.engine.tracking import FROM_SCENARIO, filter_sensor_models, tracker_config
-from gcs.engine.tracking import URBAN_PLANNERS as PLANNERS
+from gcs.engine.tracker_factory import FROM_SCENARIO, filter_sensor_models, tracker_config
+from gcs.core.planner_names import URBAN_PLANNERS as PLANNERS
 from sim_vehicles.truth.sensor import TargetSensor
 from sim_vehicles.truth.target import start_state, target_model
 

@@ -21,6 +21,7 @@ from gcs.config.base import Config as _Config
 from gcs.config.base import Identifier, Metres, NonNegative, Point2, Positive, Radians
 from gcs.config.city import CityConfig, SourceConfig
 from gcs.config.multitarget import MultiTargetConfig, check_multitarget
+from gcs.config.planner import PlannerConfig, SightConfig, check_planner
 from gcs.config.simulation import (AUTOPILOT_PERSONALITIES, AirframeConfig, GpsConfig, GpsDeniedZone, InsConfig,
                                    SimulationConfig)
 
@@ -181,71 +182,6 @@ class EstimatorConfig(_Config):
     """``imm``: probability per step of leaving constant velocity (twice that of leaving the turn)."""
 
 
-class SightConfig(_Config):
-    """The sight planner (``[planner.sight]``): objective weights and search budget.
-
-    The objective (:mod:`gcs.core.planners.sight`) counts, in seen steps, the
-    probability that at least one UAV sees the target at each of ``horizon_steps``
-    steps over ``samples`` samples of the prediction (widened by
-    ``manoeuvre_spread`` times the target's speed per second ahead), from at most
-    ``reach_m`` away; plus ``per_uav_weight`` for each UAV's own sight (shared
-    among the UAVs), ``information_weight`` for the share of the position variance
-    removed, a stand-off pull worth at most ``standoff_weight`` (< 1 seen step)
-    toward ``standoff_m`` from the target (half-strength ``standoff_scale_m``
-    beyond it), and ``turn_change_weight`` per full-rate change of turn. The
-    search (:mod:`gcs.core.planners.sequential`) runs ``sweeps`` rounds of the
-    manoeuvre library and ``refine_sweeps`` of ``refine_candidates``
-    perturbations per vehicle, stopping at ``deadline_s`` of data time in the
-    daemon.
-    """
-
-    horizon_steps: Annotated[int, msgspec.Meta(ge=1, le=100)] = 10
-    samples: Annotated[int, msgspec.Meta(ge=1, le=256)] = 16
-    per_uav_weight: NonNegative = 0.5
-    information_weight: NonNegative = 0.5
-    standoff_weight: Annotated[float, msgspec.Meta(ge=0.0, lt=1.0)] = 0.9
-    standoff_m: NonNegative = 100.0
-    standoff_scale_m: Positive = 150.0
-    turn_change_weight: NonNegative = 0.002
-    manoeuvre_spread: NonNegative = 0.6
-    reach_m: Positive = 450.0
-    sweeps: Annotated[int, msgspec.Meta(ge=1, le=100)] = 2
-    refine_sweeps: Annotated[int, msgspec.Meta(ge=0, le=100)] = 1
-    refine_candidates: Annotated[int, msgspec.Meta(ge=1, le=10_000)] = 24
-    deadline_s: Positive = 0.5
-
-
-class PlannerConfig(_Config):
-    """Heading planner. ``sight`` (the default): the probability that at least one UAV sees the
-    target over the predicted distribution, searched vehicle by vehicle (``[planner.sight]``);
-    ``sight_k0``: the same on the current estimate. ``ga_rhc``: wang2012 section 4 (RHC cost
-    eq. 20-26, GA eq. 27-29, with the fields below); ``k0``: the same on the current estimate;
-    ``gcrlb_lm``: zuo2021 section 4 (tr GCRLB, penalty + Levenberg-Marquardt); ``crlb_lm``
-    (Dogancay's constant-noise CRLB) and ``straight`` are zuo2021's baselines.
-
-    ``airspace_margin_m``: every planner's plan keeps this far from restricted airspace
-    (:mod:`gcs.core.planners.airspace_guard`)."""
-
-    kind: Literal["sight", "sight_k0", "ga_rhc", "k0", "orbit", "pursuit", "gcrlb_lm", "crlb_lm", "straight"] = "sight"
-    sight: SightConfig = SightConfig()
-    airspace_margin_m: NonNegative = 25.0
-    horizon_steps: Annotated[int, msgspec.Meta(ge=1, le=100)] = 5
-    population: Annotated[int, msgspec.Meta(ge=2, le=10_000)] = 50
-    generations: Annotated[int, msgspec.Meta(ge=1, le=100_000)] = 200
-    stall_generations: Annotated[int, msgspec.Meta(ge=1, le=100_000)] | None = None
-    """Stop the GA after this many generations without improvement (None: run them all)."""
-    deadline_s: Positive = 1.0
-    standoff_m: Positive = 300.0
-    w_vis: NonNegative = 0.0
-    u_max_rad_s: Positive = 0.1
-    w_u: NonNegative = 10.0
-    w_res: NonNegative = 1e6
-    control_weight: NonNegative = 0.01
-    """Scale of J_u against J_in (ours: the paper adds them unscaled)."""
-    standoff_weight: NonNegative = 10.0
-    """Numerator of the stand-off fitness f_dis of eq. (29) (ours)."""
-
-
 class Scenario(_Config, kw_only=True):
     """A whole experiment; the default is wang2012 section 5."""
 
@@ -324,7 +260,7 @@ def validate_scenario(scenario: Scenario) -> Scenario:
     inside the city rectangle (of a city that has one: a city read from files is framed on its
     content and its start points, :attr:`CityConfig.framed_on_content`); a scripted target has one path; building heights are ordered; airspace bands
     are ordered; a GeoJSON city names its file; sensors that measure range have
-    a range standard deviation; autopilot personalities are known names; ``[multitarget]``'s rules
+    a range standard deviation; autopilot personalities and the planner are known names; ``[multitarget]``'s rules
     (:func:`gcs.config.multitarget.check_multitarget`).
     """
     problems: list[str] = []
@@ -370,6 +306,7 @@ def validate_scenario(scenario: Scenario) -> Scenario:
     for index, zone in enumerate(scenario.restricted):
         if zone.floor_m >= zone.ceiling_m:
             problems.append(f"$.restricted[{index}].floor_m: must be below ceiling_m")
+    problems += check_planner(scenario.planner)
     problems += check_multitarget(scenario.multitarget, [scenario.sensor_for(v) for v in scenario.vehicles],
                                   scenario.planner.kind)
     if problems:

@@ -17,10 +17,9 @@ from typing import Annotated, Literal
 import msgspec
 
 from gcs.config.base import Config, NonNegative, Positive
+from gcs.core.planner_names import MULTITARGET_PLANNERS
 
-__all__ = ["MULTITARGET_PLANNERS", "MultiTargetConfig", "check_multitarget"]
-
-MULTITARGET_PLANNERS = ("sight", "sight_k0")
+__all__ = ["MultiTargetConfig", "check_multitarget"]
 """The planners that share the UAVs between targets (the sequential sight search's ``solve_assigned``)."""
 
 Window = Annotated[int, msgspec.Meta(ge=1, le=62)]

@@ -1,7 +1,7 @@
 """Angles and frames: the one ``wrap_angle``, and WGS84 <-> local ENU about an origin.
 
-Frames (design.md section 3)
-----------------------------
+Frames (docs/design.md, frames, units and time)
+-----------------------------------------------
 * Inside the core every position is metres in a local **ENU** frame (x east,
   y north, z up) whose origin is the scenario's geodetic origin.
 * Azimuths are ``atan2(dy, dx)`` in that frame: from east, counter-clockwise.

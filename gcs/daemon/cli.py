@@ -8,26 +8,28 @@ import logging
 import sys
 from pathlib import Path
 
+from gcs.adapters.engine_cli import add_acceptance_arguments, add_navigation_argument
 from gcs.adapters.foxglove_out import FoxgloveMissing, add_foxglove_arguments, foxglove_options
 from gcs.adapters.mavlink_cli import add_mavlink_arguments, connections_from_arguments, signing_key_from_arguments
 from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, add_zenoh_arguments, required_settings
-from gcs.adapters.mavlink_commands import DEFAULT_STREAM_RATE_HZ, HANDBACK_MODES, Takeover
+from gcs.adapters.mavlink_commands import DEFAULT_STREAM_RATE_HZ
+from gcs.adapters.mavlink_takeover import HANDBACK_MODES, Takeover
 from gcs.cli_errors import UsageError, one_line, positive, set_command, stop_on_signals, writable_file
-from gcs.config.multitarget import MULTITARGET_PLANNERS
 from gcs.config.world import build_world
+from gcs.daemon.app import Daemon
+from gcs.daemon.options import DaemonOptions
 from gcs.daemon.flight_report import FlightReport
-from gcs.daemon.navigation import NAVIGATION_MODES
 from gcs.daemon.status_cli import add_status, format_status, query_status
-from gcs.daemon.planning import PLANNER_MODES, PLANNER_NICENESS
+from gcs.daemon.plan_runners import PLAN_RUNNERS, PLAN_PROCESS_NICENESS
 from gcs.daemon.niceness import niceness_argument
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
-from gcs.engine.tracking import PLANNERS
+from gcs.core.planner_names import MULTITARGET_PLANNERS, PLANNERS
 from protocols.errors import ProtocolError
 from protocols.keys import validate_prefix
 
 __all__ = ["add_run", "add_status", "query_status", "format_status", "DEFAULT_GCS_MAVLINK", "build_daemon",
-           "add_navigation_argument", "add_acceptance_arguments", "check_run", "run_daemon"]
+           "check_run", "run_daemon"]
 
 log = logging.getLogger(__name__)
 
@@ -44,30 +46,19 @@ def add_daemon_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of the planner's random generator (default 0)")
     parser.add_argument("--record", type=Path, metavar="FILE.mcap",
                         help="record everything received and published (MCAP), finished on exit")
-    parser.add_argument("--plan-in", choices=PLANNER_MODES, default="process", dest="planner_mode",
+    parser.add_argument("--plan-in", choices=PLAN_RUNNERS, default="process", dest="plan_runner",
                         help="where plans are made: a child process (default), a thread of the daemon, or inline "
                              "in its loop (deterministic; the loop waits for each plan)")
-    parser.add_argument("--planner-nice", type=niceness_argument, default=PLANNER_NICENESS, dest="planner_niceness",
+    parser.add_argument("--planner-nice", type=niceness_argument, default=PLAN_PROCESS_NICENESS,
+                        dest="plan_process_niceness",
                         metavar="N", help=f"how much lower the planner process's priority is, 0-19 (default "
-                                          f"{PLANNER_NICENESS}; 19: the loop first when reports flood in, at the "
+                                          f"{PLAN_PROCESS_NICENESS}; 19: the loop first when reports flood in, at the "
                                           "price of plans cut short on a busy machine)")
     add_http_argument(parser, "the live map (vehicles, track, plans, status)")
     add_foxglove_arguments(parser)
     add_acceptance_arguments(parser)
     add_navigation_argument(parser)
     add_control_arguments(parser)
-
-
-def add_acceptance_arguments(parser: argparse.ArgumentParser, scope: str = "") -> None:
-    """``--accept-unlisted`` and ``--max-wait``, what the engine accepts and how long a step waits, shared by
-    ``gcs run``, ``gcs demo`` and ``gcs replay --process`` (``scope`` prefixes their help)."""
-    parser.add_argument("--accept-unlisted", action="store_true",
-                        help=scope + "also accept and fuse reports from vehicles outside the scenario's roster "
-                                     "(default: rejected and counted as rejected.unknown_vehicle); they are never "
-                                     "commanded")
-    parser.add_argument("--max-wait", type=float, default=0.5, metavar="S",
-                        help=scope + "how long a decision step waits for missing vehicles' reports once half "
-                                     "have reported, in seconds of receive time (default 0.5)")
 
 
 def add_control_arguments(parser: argparse.ArgumentParser) -> None:
@@ -103,15 +94,6 @@ def _control_options(args: argparse.Namespace) -> dict:
                                  takeoff=args.takeoff)}
 
 
-def add_navigation_argument(parser: argparse.ArgumentParser) -> None:
-    """``--navigation``, shared by ``gcs run``, ``gcs demo`` and ``gcs replay --process``."""
-    parser.add_argument("--navigation", choices=NAVIGATION_MODES, default="auto",
-                        help="vehicle positions for fusion: skf runs feng2019's switching Kalman filter on each "
-                             "vehicle's NavReports (GPS + INS) and fuses with its covariance; reported takes each "
-                             "SensorReport's own position as exact; auto (default): skf when the scenario declares "
-                             "GPS-denied zones, else reported")
-
-
 def add_run(sub: argparse._SubParsersAction) -> None:
     """Register ``gcs run``."""
     parser = sub.add_parser(
@@ -125,11 +107,9 @@ def add_run(sub: argparse._SubParsersAction) -> None:
     set_command(parser, _cmd_run, check_run)
 
 
-def build_daemon(args: argparse.Namespace, **kwargs):
+def build_daemon(args: argparse.Namespace, **kwargs) -> Daemon:
     """The daemon the parsed options describe, built but not opened: :class:`UsageError` naming the option for
     bad input (:class:`~gcs.config.ScenarioError` for a scenario that does not load)."""
-    from gcs.app import Daemon, DaemonOptions
-
     scenario = load_scenario(args.scenario)
     if scenario.multitarget is not None and args.planner is not None and args.planner not in MULTITARGET_PLANNERS:
         raise UsageError(f"--planner: {args.planner} cannot share the UAVs between the targets of {scenario.name} "
@@ -144,8 +124,8 @@ def build_daemon(args: argparse.Namespace, **kwargs):
         mavlink = connections_from_arguments(args, [v.id for v in scenario.vehicles])
         options = DaemonOptions(zenoh=zenoh, prefix=args.prefix, mavlink=mavlink,
                                 signing_key=signing_key_from_arguments(args), seed=args.seed, planner=args.planner,
-                                record=args.record, planner_mode=args.planner_mode,
-                                planner_niceness=args.planner_niceness, http=args.http,
+                                record=args.record, plan_runner=args.plan_runner,
+                                plan_process_niceness=args.plan_process_niceness, http=args.http,
                                 foxglove=foxglove_options(args), accept_unlisted=args.accept_unlisted,
                                 max_wait_s=positive(args.max_wait, "--max-wait"),
                                 navigation=args.navigation, **_control_options(args))

@@ -24,7 +24,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from gcs.app import Daemon
+from gcs.daemon.app import Daemon
 from gcs.cli_errors import one_line, positive, set_command, stop_on_signals, stopped_by
 from gcs.daemon.cli import add_daemon_arguments, build_daemon
 from gcs.daemon.demo_summary import Progress, print_summary, summarise
@@ -33,7 +33,7 @@ DEFAULT_RATE = 10.0
 """Simulation speed-up of ``gcs demo`` (and of ``make demo`` and ``gcs bench demo``).
 
 At R times real time a decision step of 1 s lasts 1/R s of wall time, and the
-planner's deadline is a share of it (``gcs.daemon.planning``): at 10x its search is
+planner's deadline is a share of it (``gcs.daemon.plan_runners``): at 10x its search is
 cut at 30 ms, at 5x it runs to its end. Over seeds 0-9 the demo at 5x and at 10x is
 as close to the in-process loop either way (docs/benchmarks.md, the ``gcs demo``
 section), so the demo keeps the shorter run. Real vehicles fly at 1x, where the

@@ -3,7 +3,7 @@
 Every count is given with what it counts out of (``seen in 297/300 steps``). With one target
 the track's error is the fused position RMSE against the simulator's truth; with many
 (``[multitarget]``) it is the GOSPA mean: each decision step's GOSPA of the confirmed
-tracks against every target's truth (cut-off :data:`~gcs.daemon.records.GOSPA_CUTOFF_M`,
+tracks against every target's truth (cut-off :data:`~gcs.engine.records.GOSPA_CUTOFF_M`,
 p = 2, alpha = 2), averaged over the scored steps, the figure ``gcs replay --process`` and
 ``gcs bench multitarget`` give under the same name. The steering commands' age is judged
 against the decision period (:func:`gcs.daemon.status_text.keeps_up`).
@@ -16,7 +16,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from gcs.daemon.records import PlanRecord, StepRecord, step_error_m
+from gcs.engine.records import PlanRecord, StepRecord, step_error_m
 from gcs.daemon.status_text import command_age_text
 
 __all__ = ["summarise", "Progress", "print_summary", "error_name"]

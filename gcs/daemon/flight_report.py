@@ -13,7 +13,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 
-from gcs.daemon.records import StepRecord
+from gcs.engine.records import StepRecord
 from gcs.daemon.status_text import flight_line
 from protocols.messages import DaemonStatus
 

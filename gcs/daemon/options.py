@@ -1,4 +1,4 @@
-"""How to run the daemon (:class:`DaemonOptions`): the composition root's frozen configuration of :mod:`gcs.app`.
+"""How to run the daemon (:class:`DaemonOptions`): the composition root's frozen configuration of :mod:`gcs.daemon.app`.
 
 The options that change what the engine decides (``accept_unlisted``, ``navigation``,
 ``max_wait_s``, ``planner``, ``plan_fraction``, ``handback_after_lost_s``) go to its
@@ -11,9 +11,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from gcs.adapters.foxglove_out import FoxgloveOptions
-from gcs.adapters.mavlink_commands import DEFAULT_STREAM_RATE_HZ, Takeover
+from gcs.adapters.mavlink_commands import DEFAULT_STREAM_RATE_HZ
+from gcs.adapters.mavlink_takeover import Takeover
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.daemon.planning import PLANNER_NICENESS
+from gcs.daemon.plan_runners import PLAN_PROCESS_NICENESS
 
 __all__ = ["DaemonOptions"]
 
@@ -31,7 +32,7 @@ class DaemonOptions:
     seed : int
         Seed of the planner's random generator.
     planner : str or None
-        One of :data:`gcs.engine.tracking.PLANNERS`; None takes the scenario's.
+        One of :data:`gcs.core.planner_names.PLANNERS`; None takes the scenario's.
     max_wait_s : float
         Wall time a decision step waits for missing vehicles' reports.
     plan_fraction : float
@@ -40,15 +41,15 @@ class DaemonOptions:
     record : Path or None
         Record everything received and published to this MCAP file
         (:mod:`gcs.adapters.recording`), finished when the daemon stops.
-    planner_mode : str
-        Where plans are made (:mod:`gcs.daemon.planning`): ``process`` (the
+    plan_runner : str
+        Where the planner runs (:mod:`gcs.daemon.plan_runners`): ``process`` (the
         default: a child process, so that planning never takes the interpreter
         from the loop), ``thread``, or ``inline`` (in the loop, each plan made when
         it is handed over; deterministic).
-    planner_niceness : int
-        How much lower the planner process's priority is (0-19; :data:`gcs.daemon.planning.PLANNER_NICENESS`).
+    plan_process_niceness : int
+        How much lower the plan process's priority is (0-19; :data:`gcs.daemon.plan_runners.PLAN_PROCESS_NICENESS`).
     http : (host, port) or None
-        Serve the live map there (:mod:`gcs.daemon.live`; port 0 picks a free
+        Serve the live map there (:mod:`gcs.adapters.live_map.outputs`; port 0 picks a free
         one); None: no page.
     foxglove : FoxgloveOptions or None
         Also send the map to a Foxglove WebSocket server and/or MCAP file.
@@ -62,18 +63,18 @@ class DaemonOptions:
         :mod:`gcs.adapters.mavlink_commands`).
     takeover : Takeover
         The guard on switching a vehicle to GUIDED (armed, above an altitude) and the mode it is
-        given back in (:class:`~gcs.adapters.mavlink_commands.Takeover`).
+        given back in (:class:`~gcs.adapters.mavlink_takeover.Takeover`).
     handback_after_lost_s : float
         After this many seconds (stamp time) with no vehicle seeing the target, every vehicle the
         daemon took over is given back; it takes them again when the target is seen again. The
         daemon gives them back when it stops, too.
     navigation : str
-        Where a detection's vehicle position comes from (:data:`gcs.daemon.navigation.NAVIGATION_MODES`):
+        Where a detection's vehicle position comes from (:data:`gcs.engine.navigation.NAVIGATION_MODES`):
         ``skf`` runs feng2019's SKF on each roster vehicle's ``NavReport``s and fuses with its
-        estimate and covariance (steps then wait for the nav reports, :mod:`gcs.daemon.steps`);
+        estimate and covariance (steps then wait for the nav reports, :mod:`gcs.engine.steps`);
         ``reported`` takes the ``SensorReport``'s own position as exact; ``auto`` (the default) is
         ``skf`` for a scenario with GPS-denied zones, else ``reported``
-        (:func:`gcs.daemon.navigation.navigator_for`).
+        (:func:`gcs.engine.navigation.navigator_for`).
     """
 
     zenoh: ZenohSettings
@@ -85,8 +86,8 @@ class DaemonOptions:
     max_wait_s: float = 0.5
     plan_fraction: float = 0.6
     record: Path | None = None
-    planner_mode: str = "process"
-    planner_niceness: int = PLANNER_NICENESS
+    plan_runner: str = "process"
+    plan_process_niceness: int = PLAN_PROCESS_NICENESS
     http: tuple[str, int] | None = None
     foxglove: FoxgloveOptions | None = None
     accept_unlisted: bool = False

@@ -8,7 +8,7 @@ plan over) is decided by these stamps, so that a recording fed back with its rec
 times gives the decisions the live run made.
 
 Actions are what the engine asks its shell to do: publish, plan, give vehicles back,
-show a message on the live map. The daemon (:mod:`gcs.app`) carries them out on Zenoh
+show a message on the live map. The daemon (:mod:`gcs.daemon.app`) carries them out on Zenoh
 and MAVLink; ``gcs replay --process`` (:mod:`gcs.recordings.replay`) collects them; the benches
 (:mod:`gcs.bench.autopilots`) fly them.
 """
@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from gcs.daemon.planning import PlanJob, PlanOutcome
+from gcs.engine.plan_jobs import PlanJob, PlanOutcome
 from protocols.messages import NavReport, PlanCommand, SensorReport, TargetTruth, TrackEstimate
 
 __all__ = ["Arrived", "Heartbeat", "Tick", "PlanDone", "PlannerFree", "Observed", "PublishTrack", "PublishPlan",
@@ -43,7 +43,7 @@ class Arrived:
 @dataclass(frozen=True)
 class Heartbeat:
     """A MAVLink HEARTBEAT from a roster vehicle, heard at loop time ``heard_s`` (a vehicle is alive
-    while its token is declared or its heartbeat is recent: :mod:`gcs.daemon.registry`)."""
+    while its token is declared or its heartbeat is recent: :mod:`gcs.engine.registry`)."""
 
     vehicle_id: str
     heard_s: float

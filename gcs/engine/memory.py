@@ -19,9 +19,9 @@ from gcs.core.filters.prediction import HorizonPrediction
 from gcs.core.filters.uif import GaussianEstimate
 from gcs.core.multitarget.planning import TargetsToPlan
 from gcs.core.steering import PlannedPath
-from gcs.daemon.fusion import PlanMemory
-from gcs.daemon.registry import VehicleSnapshot
-from gcs.daemon.steps import ReadyStep
+from gcs.engine.fusion import PlanMemory
+from gcs.engine.registry import VehicleSnapshot
+from gcs.engine.steps import ReadyStep
 
 __all__ = ["STEER_RATE_HZ", "MIN_PLAN_INTERVAL_S", "PLAN_INTERVAL_PER_VEHICLE_S", "COMMAND_AGES_KEPT",
            "plan_interval_s", "Planning", "LoopMemory", "CommandAges"]

@@ -2,7 +2,7 @@
 
 :class:`TrackKeeper` holds the multi-target tracker's state between decision steps. Each
 released step's detections, every vehicle's and none with an identity
-(:func:`gcs.daemon.fusion.scan_detections`), are one scan of
+(:func:`gcs.engine.fusion.scan_detections`), are one scan of
 :class:`gcs.core.multitarget.MultiTargetTracker`, with the coverage of the vehicles that
 reported in it (in range, the smallest of the vehicles' sensor ranges, and in sight
 past the buildings, :func:`gcs.core.multitarget.coverage.coverage`; with no world, every
@@ -34,11 +34,12 @@ from gcs.core.multitarget.coverage import clutter_volume, coverage
 from gcs.core.multitarget.gating import gate_threshold
 from gcs.core.multitarget.lost import LostTargets
 from gcs.core.multitarget.planning import TargetsToPlan, targets_to_plan
+from gcs.core.target_tracker import TargetTracker
 from gcs.core.tracker import TrackerConfig
 from gcs.core.world import World
-from gcs.daemon.fusion import scan_detections, track_message
-from gcs.daemon.navigation import FleetNavigator
-from gcs.daemon.steps import ReadyStep
+from gcs.engine.fusion import scan_detections, track_message
+from gcs.engine.navigation import FleetNavigator
+from gcs.engine.steps import ReadyStep
 from protocols.messages import TrackEstimate
 
 __all__ = ["TrackKeeper", "Scanned", "MIN_CLUTTER_PER_SCAN", "FOUND_PROBABILITY", "track_name"]
@@ -79,7 +80,7 @@ class TrackKeeper:
         self.config, self.world, self.tracker_config = config, world, tracker
         self.motion = constant_velocity(config.accel_psd_m2_s3)
         clutter = max(scenario.sensor.clutter_rate, MIN_CLUTTER_PER_SCAN) / clutter_volume(tracker.max_range_m)
-        self.tracker = MultiTargetTracker(
+        self.tracker: TargetTracker[MultiTargetState, ScanDiagnostics] = MultiTargetTracker(
             association=config.association, motion=self.motion,
             detection_probability=scenario.sensor.detection_probability, gate_probability=config.gate_probability,
             clutter_density=clutter, confirm_m=config.confirm_m, confirm_n=config.confirm_n,

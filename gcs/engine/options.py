@@ -13,7 +13,7 @@ class EngineOptions:
     """What changes the engine's decisions (``gcs run`` and ``gcs replay --process`` take the same flags).
 
     ``prefix``: the key space's; ``accept_unlisted``: fuse vehicles outside the roster too;
-    ``navigation``: :data:`gcs.daemon.navigation.NAVIGATION_MODES`; ``max_wait_s``: a step's wait for
+    ``navigation``: :data:`gcs.engine.navigation.NAVIGATION_MODES`; ``max_wait_s``: a step's wait for
     missing reports (loop time); ``planner``: the planner's name (None: the scenario's);
     ``plan_fraction``: share of a step of data time the planner may use; ``handback_after_lost_s``:
     stamp time without the target before the vehicles are given back; ``plan_every_step``: hand every

@@ -39,11 +39,11 @@ from gcs.config import Scenario
 from gcs.config.world import build_world
 from gcs.core.metrics import gospa
 from gcs.core.world import World
-from gcs.daemon.records import GOSPA_CUTOFF_M
-from gcs.daemon.steps import HOLD_WAITS
+from gcs.engine.records import GOSPA_CUTOFF_M
+from gcs.engine.steps import HOLD_WAITS
 from gcs.engine.engine import Engine, EngineOptions
 from gcs.engine.events import Arrived, Heartbeat, PlannerFree, PublishPlan, PublishTrack, SubmitPlan, Tick
-from gcs.engine.inline import plan_at_once
+from gcs.engine.plan_at_once import plan_at_once
 from gcs.recordings.keys import INPUT_KINDS, VEHICLE_KINDS, key_kind, prefix_of
 from gcs.recordings.recorded_scenario import ScenarioFinder
 from protocols.codec import decode, encode
@@ -202,7 +202,7 @@ def truth_error(path: Path, tracks: list[TrackEstimate], step_ns: int, target_id
 
 
 def truth_gospa(path: Path, tracks: list[TrackEstimate], step_ns: int) -> tuple[float | None, int]:
-    """Mean GOSPA (m; c = :data:`~gcs.daemon.records.GOSPA_CUTOFF_M`, p = 2, alpha = 2) against every target's truth
+    """Mean GOSPA (m; c = :data:`~gcs.engine.records.GOSPA_CUTOFF_M`, p = 2, alpha = 2) against every target's truth
     recorded beside the tracks, over every stamp the simulator published truths at (the tracks within a tenth
     of a step of it; none: every target missed), and how many stamps were scored; (None, 0) without truth."""
     truths = _recorded_truths(path)

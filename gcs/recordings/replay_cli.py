@@ -16,7 +16,7 @@ from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, ZenohSettings, add_zenoh_arguments, required_settings
 from gcs.cli_errors import UsageError, existing_file, one_line, positive, set_command, stop_on_signals, writable_file
 from gcs.config.world import build_world
-from gcs.daemon.cli import add_acceptance_arguments, add_navigation_argument
+from gcs.adapters.engine_cli import add_acceptance_arguments, add_navigation_argument
 from gcs.recordings.recorded_scenario import recording_contents, replay_scenario
 from gcs.recordings.replay import NS_PER_S, process, republish, summarise, truth_error, truth_gospa, write_outputs
 from gcs.recordings.replay_view import cmd_view

@@ -3,7 +3,7 @@
 The server side keeps the clock (:class:`ReplayClock`): the replay position is
 recording time (receive time, ``log_time``, from the first message) that
 advances with wall time multiplied by the speed while playing. The loop feeds
-the :class:`~gcs.daemon.picture.Picture` every recorded message up to the
+the :class:`~gcs.adapters.live_map.picture.Picture` every recorded message up to the
 position, in file order, exactly as the daemon's map is fed live (the
 recorded inputs, the daemon's published tracks and plans, the simulator's
 truth, liveliness), and publishes a snapshot at most five times a second. The
@@ -32,8 +32,8 @@ from gcs.cli_errors import stop_on_signals
 from gcs.config import Scenario
 from gcs.config.world import build_world
 from gcs.core.world import World
-from gcs.daemon.live import LiveMap
-from gcs.daemon.picture import Picture
+from gcs.adapters.live_map.outputs import LiveMap
+from gcs.adapters.live_map.picture import Picture
 from gcs.recordings.replay import key_kind
 from gcs.scenarios import load_scenario, scenario_base_dir
 

@@ -12,5 +12,5 @@
 No I/O (except reading a scripted target's path file when asked), no clock;
 randomness only through a ``numpy.random.Generator`` argument. They generate
 measurements with this package's own formulas, never with the filters' models,
-so one bug cannot hide in both (design.md section 2).
+so one bug cannot hide in both (docs/design.md, the layers).
 """

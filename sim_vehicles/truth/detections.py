@@ -11,7 +11,7 @@ For the many-target trackers' tests and benches. One scan:
   horizontal radius ``sqrt(max_range_m^2 - dz^2)`` under the vehicle;
 * every detection is measured with this package's own formulas
   (:func:`~sim_vehicles.truth.sensor.exact_measurements`, never the filters'
-  ``h(x)``; design.md section 2), plus Gaussian noise of the ``SensorModel``'s
+  ``h(x)``; docs/design.md, the layers), plus Gaussian noise of the ``SensorModel``'s
   standard deviations (zuo2021 eq. 2 growth beyond ``reference_range_m`` at the true
   slant range when ``distance_dependent``); azimuth wrapped to (-pi, pi], elevation
   clipped to [-pi/2, pi/2], range floored at 0, as :class:`~sim_vehicles.truth.sensor.TargetSensor` does;

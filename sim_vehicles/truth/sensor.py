@@ -1,6 +1,6 @@
 """The vehicles' target sensor: range/azimuth/elevation with noise, range limit and occlusion.
 
-Measurement formulas are this module's own (design.md: the simulator never uses
+Measurement formulas are this module's own (docs/design.md: the simulator never uses
 the filters' ``h(x)``). A detection needs the target within ``max_range_m`` and
 an unobstructed line of sight (``line_of_sight`` is the world's exact test);
 otherwise ``detected`` is False and no values are produced, exactly like a real

@@ -21,7 +21,7 @@ from pathlib import Path
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODES
 from gcs.adapters.recording import read_recording
 from gcs.adapters.zenoh_session import ZenohSettings, declare_publisher, listening_endpoints, open_session, publish
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from protocols.keys import report_key
 from protocols.messages import SensorReport
 from tests.e2e.processes import script, stop
@@ -47,7 +47,7 @@ def _running_daemon(stack: ExitStack, zenoh: ZenohSettings, mavlink: dict[str, s
     """The daemon in a thread (a cheap planner, planned inline), opened first (its ports are known on return),
     stopped and joined when the stack closes."""
     daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=zenoh, mavlink=mavlink, planner="orbit",
-                                                   planner_mode="inline"))
+                                                   plan_runner="inline"))
     daemon.open()
     thread = threading.Thread(target=daemon.run, name="daemon", daemon=True)
     thread.start()

@@ -21,7 +21,7 @@ from pathlib import Path
 import pytest
 
 from gcs.config.world import build_world
-from gcs.engine.tracking import horizon_steps
+from gcs.engine.tracker_factory import horizon_steps
 from gcs.scenarios import load_scenario
 from tests.e2e.browser import (ARTIFACTS, Browser, assert_colours_as_the_legend, assert_labels_apart, chromium_binary,
                                followed, inside, settled)

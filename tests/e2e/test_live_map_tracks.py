@@ -19,7 +19,7 @@ import pytest
 
 from gcs.adapters.recording import read_recording
 from gcs.config.world import build_world
-from gcs.daemon.picture import TRACK_STALE_STEPS
+from gcs.adapters.live_map.picture import TRACK_STALE_STEPS
 from gcs.recordings.replay import key_kind
 from gcs.scenarios import load_scenario
 from protocols.codec import decode

@@ -8,7 +8,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from sim_vehicles.run_options import RunOptions
 from sim_vehicles.runner import Runner
 from tests.integration.sim_harness import wait_until

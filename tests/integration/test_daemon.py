@@ -8,10 +8,10 @@ from contextlib import ExitStack
 
 import zenoh
 
-from gcs.engine.tracking import horizon_steps, scenario_planner
+from gcs.engine.tracker_factory import horizon_steps, scenario_planner
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODES
 from gcs.adapters.zenoh_session import ZenohSettings, open_session, query
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from gcs.daemon.cli import query_status
 from protocols.codec import decode, encode
 from protocols.keys import report_key, track_key

@@ -11,10 +11,10 @@ import urllib.request
 
 import pytest
 
-from gcs.engine.tracking import horizon_steps, scenario_planner
+from gcs.engine.tracker_factory import horizon_steps, scenario_planner
 from gcs.adapters.web.server import LiveMapServer
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from tests.integration.sim_harness import SCENARIO, WORLD, options, running_vehicles, wait_until
 from tests.loopback import ANY_PORT_ENDPOINT, ANY_UDP, daemon_ports
 

@@ -6,7 +6,7 @@ import logging
 import threading
 
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from gcs.config.fingerprint import scenario_fingerprint
 from gcs.config.world import build_world
 from gcs.scenarios import load_scenario
@@ -25,7 +25,7 @@ def test_vehicles_of_another_scenario_are_named_once_beside_the_daemons_own(capl
     thread = threading.Thread(target=daemon.run, name="daemon", daemon=True)
     thread.start()
     try:
-        with caplog.at_level(logging.WARNING, logger="gcs.daemon.ingest"), running_vehicles(RunOptions(
+        with caplog.at_level(logging.WARNING, logger="gcs.engine.ingest"), running_vehicles(RunOptions(
                 rate=10.0, seed=1, zenoh=ZenohSettings(connect=(endpoint,)), wait_for_subscriber_s=30.0)):
             # every vehicle announces once a second of its time: wait for several rounds of all three
             wait_until(lambda: daemon.ingest.counters["accepted.scenario"] >= 9, 60, "three announcements each")

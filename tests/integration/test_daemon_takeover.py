@@ -11,10 +11,10 @@ from contextlib import ExitStack
 
 import msgspec
 
-from gcs.adapters.mavlink_commands import Takeover
+from gcs.adapters.mavlink_takeover import Takeover
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODES
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from gcs.daemon.cli import query_status
 from tests.integration.sim_harness import SCENARIO, WORLD, options, running_vehicles, wait_until
 from tests.loopback import ANY_PORT_ENDPOINT, ANY_UDP, daemon_ports
@@ -33,7 +33,7 @@ def modes(runner) -> dict[str, int | None]:
 def start_daemon(stack: ExitStack, takeover: Takeover) -> tuple[Daemon, str, int]:
     daemon = Daemon(SCENARIO, WORLD, DaemonOptions(
         zenoh=ZenohSettings(listen=(ANY_PORT_ENDPOINT,), connect=()), mavlink=dict.fromkeys(VEHICLES, ANY_UDP),
-        planner="orbit", planner_mode="inline", takeover=takeover))
+        planner="orbit", plan_runner="inline", takeover=takeover))
     daemon.open()
     endpoint, port = daemon_ports(daemon)
     thread = threading.Thread(target=daemon.run, name="daemon", daemon=True)

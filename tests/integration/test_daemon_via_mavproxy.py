@@ -32,7 +32,7 @@ import numpy as np
 from gcs.adapters.mavlink_io import MavlinkCommander
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODES, mavlink
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from gcs.config.world import build_world
 from sim_vehicles.runner import Runner
 from tests.integration.mavproxy_harness import MavProxy
@@ -220,7 +220,7 @@ def test_vehicle_behind_mavproxy_is_tracked_and_steered_like_a_direct_one(tmp_pa
     # Two links on ports the system chooses: equal connection strings would share one, so the direct vehicles'
     # is spelt "localhost" (the same 127.0.0.1).
     daemon = Daemon(SCENARIO, build_world(SCENARIO), DaemonOptions(
-        zenoh=ZenohSettings(mode="peer", listen=(ANY_PORT_ENDPOINT,), connect=()), planner_mode="thread",
+        zenoh=ZenohSettings(mode="peer", listen=(ANY_PORT_ENDPOINT,), connect=()), plan_runner="thread",
         mavlink={PROXIED: f"udpin:{LOCALHOST}:0", **{v: "udpin:localhost:0" for v in DIRECT}}))
     daemon.open()  # it listens before the vehicles connect (as `gcs demo` does)
     zenoh_endpoint, ports = daemon_ports(daemon)

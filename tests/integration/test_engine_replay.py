@@ -18,7 +18,7 @@ import pytest
 
 from gcs.adapters.recording import Recorder, read_recording
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from gcs.bench.replay import make_recording
 from gcs.bench.urban import with_vehicles
 from gcs.config.world import build_world
@@ -59,7 +59,7 @@ def _live(folder: Path, inputs: Path, scenario=SCENARIO, rate: float = RATE, **o
     """Republish ``inputs`` to a daemon run with ``options``; its recording, the tracks it published, its counters."""
     recording = folder / "live.mcap"
     daemon = Daemon(scenario, WORLD, DaemonOptions(zenoh=ZenohSettings(listen=(ANY_PORT_ENDPOINT,), connect=()),
-                                                   record=recording, planner="pursuit", planner_mode="thread",
+                                                   record=recording, planner="pursuit", plan_runner="thread",
                                                    **options))
     daemon.open()
     endpoint, _ = daemon_ports(daemon)

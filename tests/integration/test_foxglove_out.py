@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
-from gcs.engine.tracking import horizon_steps, scenario_planner
+from gcs.engine.tracker_factory import horizon_steps, scenario_planner
 from gcs.adapters.foxglove_out import FoxgloveMissing, FoxgloveOptions, FoxgloveOut, foxglove_options
 from gcs.adapters.recording import read_recording
 from gcs.config.world import build_world

@@ -18,7 +18,7 @@ from mcap.reader import make_reader
 from gcs.adapters.recording import HEARTBEAT_ENCODING, read_recording
 from gcs.config.world import build_world
 from gcs.core.geometry import LocalFrame
-from gcs.daemon.picture import Picture
+from gcs.adapters.live_map.picture import Picture
 from gcs.recordings.replay_view import _feed, to_foxglove
 from gcs.scenarios import load_scenario
 from tests.integration.test_foxglove_out import _geojson

@@ -13,7 +13,7 @@ import time
 from contextlib import ExitStack
 
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from gcs.bench.faults import UdpRelay
 from tests.integration.sim_harness import SCENARIO, WORLD, options, running_vehicles
 from tests.loopback import ANY_PORT_ENDPOINT
@@ -43,7 +43,7 @@ def test_commands_stop_while_the_link_is_silent_and_resume_when_it_returns() -> 
         daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=ZenohSettings(listen=(ANY_PORT_ENDPOINT,), connect=()),
                                                        mavlink={v: f"udpout:127.0.0.1:{relay.ground_port}"
                                                                 for v in ROSTER},
-                                                       planner="orbit", planner_mode="inline"))
+                                                       planner="orbit", plan_runner="inline"))
         daemon.open()
         (endpoint,) = daemon.zenoh_listening
         thread = threading.Thread(target=daemon.run, name="daemon", daemon=True)

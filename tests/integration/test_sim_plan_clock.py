@@ -6,7 +6,7 @@ import threading
 from contextlib import ExitStack
 
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from tests.integration.sim_harness import SCENARIO, WORLD, options, running_vehicles, wait_until
 from tests.loopback import ANY_PORT_ENDPOINT, ANY_UDP, daemon_ports
 
@@ -18,7 +18,7 @@ S = 1_000_000_000
 def test_with_wait_for_plans_every_step_is_planned_before_the_vehicles_fly_past_it() -> None:
     daemon = Daemon(SCENARIO, WORLD, DaemonOptions(
         zenoh=ZenohSettings(listen=(ANY_PORT_ENDPOINT,), connect=()),
-        mavlink=dict.fromkeys((v.id for v in SCENARIO.vehicles), ANY_UDP), planner_mode="thread"))
+        mavlink=dict.fromkeys((v.id for v in SCENARIO.vehicles), ANY_UDP), plan_runner="thread"))
     daemon.open()
     endpoint, port = daemon_ports(daemon)
     thread = threading.Thread(target=daemon.run, name="daemon", daemon=True)

@@ -20,7 +20,7 @@ from contextlib import ExitStack
 import pytest
 
 from gcs.adapters.zenoh_session import ZenohSettings, listening_endpoints, open_session
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from gcs.daemon.cli import query_status
 from tests.integration.sim_harness import SCENARIO, WORLD
 from tests.loopback import ANY_PORT_ENDPOINT
@@ -95,7 +95,7 @@ def test_a_daemon_behind_an_authenticated_router_answers_only_clients_with_crede
         (endpoint,) = listening_endpoints(router)
         daemon = Daemon(SCENARIO, WORLD, DaemonOptions(
             zenoh=ZenohSettings(mode="client", connect=(endpoint,), config_file=credentials["right"]),
-            planner="orbit", planner_mode="inline"))
+            planner="orbit", plan_runner="inline"))
         thread = threading.Thread(target=daemon.run, name="daemon", daemon=True)
         thread.start()
         stack.callback(thread.join, 15)

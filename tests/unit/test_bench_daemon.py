@@ -136,6 +136,6 @@ def test_the_bench_parsers_defaults_are_the_modules_own() -> None:
     # the parser does not import the benchmark's modules (it stays light), so their constants are repeated there
     from gcs.bench import cli
     from gcs.bench.daemon_load import LOAD_NICENESS
-    from gcs.daemon.navigation import NAVIGATION_MODES
+    from gcs.engine.navigation import NAVIGATION_MODES
 
     assert cli.LOAD_NICENESS == LOAD_NICENESS and cli.DAEMON_NAVIGATION == NAVIGATION_MODES

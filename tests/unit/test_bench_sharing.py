@@ -8,7 +8,7 @@ import pytest
 from gcs.bench import multitarget as mt
 from gcs.bench import sharing
 from gcs.config.world import build_world
-from gcs.engine.tracking import tracker_config
+from gcs.engine.tracker_factory import tracker_config
 from gcs.scenarios import load_scenario
 
 SCENARIO = load_scenario("wang2012_urban")

@@ -70,7 +70,7 @@ def test_help_and_version_load_no_heavy_module(argv: list[str]) -> None:
 def test_gcs_status_loads_neither_scipy_nor_the_daemon() -> None:
     # it is Docker's healthcheck, run every few seconds: it should start in a fraction of a second
     code = ("import sys; from gcs import cli; cli.build_parser(cli.requested_command(['status'])); "
-            "print(sorted(m for m in ('scipy', 'gcs.app', 'gcs.engine.tracking', 'pymavlink') if m in sys.modules))")
+            "print(sorted(m for m in ('scipy', 'gcs.daemon.app', 'gcs.engine.tracker_factory', 'pymavlink') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=60)
     assert out.stdout.strip() == "[]"
 
@@ -84,10 +84,10 @@ def test_an_unknown_subcommand_gets_the_full_list(capsys: pytest.CaptureFixture[
 
 
 def test_run_takes_the_planners_niceness_0_to_19(capsys: pytest.CaptureFixture[str]) -> None:
-    from gcs.daemon.planning import PLANNER_NICENESS
+    from gcs.daemon.plan_runners import PLAN_PROCESS_NICENESS
 
-    assert gcs_cli.build_parser().parse_args(["run"]).planner_niceness == PLANNER_NICENESS == 5
-    assert gcs_cli.build_parser().parse_args(["run", "--planner-nice", "19"]).planner_niceness == 19
+    assert gcs_cli.build_parser().parse_args(["run"]).plan_process_niceness == PLAN_PROCESS_NICENESS == 5
+    assert gcs_cli.build_parser().parse_args(["run", "--planner-nice", "19"]).plan_process_niceness == 19
     for bad in ("20", "-1", "x"):
         with pytest.raises(SystemExit):
             gcs_cli.build_parser().parse_args(["run", "--planner-nice", bad])
@@ -135,7 +135,7 @@ def test_gcs_run_chooses_where_plans_are_made(mode: str) -> None:
 
     args = gcs_cli.build_parser().parse_args(["run", "--plan-in", mode, "--mavlink", "none"])
     daemon = build_daemon(args)  # nothing is opened (or started) before Daemon.open
-    assert daemon.options.planner_mode == mode and daemon.planner is None
+    assert daemon.options.plan_runner == mode and daemon.plan_runner is None
 
 
 def test_gcs_run_rejects_an_unknown_planner_place(capsys: pytest.CaptureFixture[str]) -> None:

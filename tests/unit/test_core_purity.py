@@ -1,19 +1,33 @@
-"""gcs/core stays pure: no I/O modules, no clock, no global random state.
+"""gcs/core and gcs/engine stay pure: no I/O modules, no clock, no thread, no global random state.
 
-The rule (design.md section 2): ``gcs.core`` imports only numpy, scipy,
-filterpy, the standard library and ``protocols``; it never opens a socket,
-reads a clock or uses the global numpy RNG. Time and a
-``numpy.random.Generator`` are arguments.
+The rule (docs/design.md, the layers): ``gcs.core`` imports only numpy, scipy,
+filterpy, the standard library's pure modules and ``protocols``; the engine
+(``gcs.engine``) the same, plus ``gcs.core``, ``gcs.config`` and ``logging``.
+Neither opens a socket, reads a clock, starts a thread or uses the global numpy
+RNG: time and a ``numpy.random.Generator`` are arguments. Checked on the source
+(every import, anywhere in a module) and on a fresh interpreter: importing the
+engine loads nothing of the adapters, the shells or their I/O libraries.
 """
 
 from __future__ import annotations
 
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
-CORE = Path(__file__).resolve().parents[2] / "gcs" / "core"
+ROOT = Path(__file__).resolve().parents[2]
+CORE = ROOT / "gcs" / "core"
+ENGINE = ROOT / "gcs" / "engine"
+CORE_PACKAGES = ("gcs.core",)
+"""What ``gcs.core`` may import of ``gcs``."""
+ENGINE_PACKAGES = ("gcs.core", "gcs.config", "gcs.engine")
+"""What ``gcs.engine`` may import of ``gcs``."""
+ENGINE_STDLIB = {"logging"}
+"""What the engine may import of the standard library beyond the core's: it logs what it decides."""
+SHELL_LIBRARIES = ("zenoh", "pymavlink", "mcap", "foxglove", "matplotlib", "dask")
 
 ALLOWED_THIRD_PARTY = {"numpy", "scipy", "filterpy", "protocols"}
 FORBIDDEN_STDLIB = {
@@ -40,8 +54,10 @@ def _dotted(node: ast.AST) -> str | None:
     return None
 
 
-def violations(source: str, filename: str = "<source>") -> list[str]:
-    """Every breach of the core's import and randomness rules in one module's source."""
+def violations(source: str, filename: str = "<source>", packages: tuple[str, ...] = CORE_PACKAGES,
+               stdlib: frozenset[str] | set[str] = frozenset()) -> list[str]:
+    """Every breach of the import and randomness rules in one module's source: ``packages`` are what it may
+    import of ``gcs``, ``stdlib`` the standard library modules it may import beyond the core's."""
     tree = ast.parse(source, filename)
     found: list[str] = []
     numpy_aliases = {"numpy"}
@@ -66,8 +82,10 @@ def violations(source: str, filename: str = "<source>") -> list[str]:
             if name == "numpy.random":
                 random_aliases.add(alias or "numpy.random")
             if top == "gcs":
-                if not (name == "gcs.core" or name.startswith("gcs.core.")):
-                    found.append(f"{filename}:{node.lineno}: imports {name} (only gcs.core may be imported)")
+                if not any(name == package or name.startswith(package + ".") for package in packages):
+                    found.append(f"{filename}:{node.lineno}: imports {name} (only {', '.join(packages)} may be)")
+            elif top in stdlib:
+                continue
             elif top in FORBIDDEN_STDLIB or (top not in ALLOWED_THIRD_PARTY and top not in ALLOWED_STDLIB):
                 found.append(f"{filename}:{node.lineno}: imports {name}")
     for node in ast.walk(tree):
@@ -94,8 +112,64 @@ def test_core_modules_exist() -> None:
 def test_every_core_module_is_pure() -> None:
     problems = []
     for path in sorted(CORE.rglob("*.py")):
-        problems += violations(path.read_text(), str(path.relative_to(CORE.parent.parent)))
+        problems += violations(path.read_text(), str(path.relative_to(ROOT)))
     assert problems == []
+
+
+def test_every_engine_module_is_pure() -> None:
+    problems = []
+    for path in sorted(ENGINE.rglob("*.py")):
+        problems += violations(path.read_text(), str(path.relative_to(ROOT)), ENGINE_PACKAGES, ENGINE_STDLIB)
+    assert (ENGINE / "engine.py").is_file()
+    assert problems == []
+
+
+@pytest.mark.parametrize("source", ["from gcs.daemon.app import Daemon", "from gcs.adapters.zenoh_io import ZenohIO",
+                                    "from gcs.scenarios import load_scenario", "import threading", "import time",
+                                    "import socket"])
+def test_the_engine_checker_catches_an_import_of_a_shell_a_clock_or_a_thread(source: str) -> None:
+    assert violations(source, packages=ENGINE_PACKAGES, stdlib=ENGINE_STDLIB) != []
+
+
+def test_the_engine_checker_accepts_what_the_engine_uses() -> None:
+    source = ("import logging\nfrom gcs.config import Scenario\nfrom gcs.core.tracker import fuse\n"
+              "from gcs.engine.events import Tick\nfrom protocols.messages import SensorReport")
+    assert violations(source, packages=ENGINE_PACKAGES, stdlib=ENGINE_STDLIB) == []
+    assert violations(source) != []  # the core may import neither logging, gcs.config nor gcs.engine
+
+
+def modules_loaded_by(*modules: str) -> list[str]:
+    """Every module a fresh interpreter holds after importing ``modules`` (and, for a package, its modules)."""
+    code = ("import importlib, pkgutil, sys\n"
+            "for name in sys.argv[1:]:\n"
+            "    module = importlib.import_module(name)\n"
+            "    for info in pkgutil.walk_packages(getattr(module, '__path__', []), name + '.'):\n"
+            "        importlib.import_module(info.name)\n"
+            "print(' '.join(sorted(sys.modules)))\n")
+    result = subprocess.run([sys.executable, "-c", code, *modules], capture_output=True, text=True, check=True,
+                            cwd=ROOT, timeout=300)
+    return result.stdout.split()
+
+
+def shell_modules(loaded: list[str]) -> list[str]:
+    """The modules of ``loaded`` the engine must not load: ``gcs`` beyond the core, the scenario model and the
+    engine, and the I/O libraries of the adapters and the shells."""
+    return [name for name in loaded
+            if (name.startswith("gcs.") and not name.startswith(tuple(p + "." for p in ENGINE_PACKAGES))
+                and name not in ENGINE_PACKAGES)
+            or name.split(".")[0] in SHELL_LIBRARIES or name.split(".")[0] == "sim_vehicles"]
+
+
+def test_importing_the_engine_loads_no_adapter_shell_or_io_library() -> None:
+    loaded = modules_loaded_by("gcs.engine")
+    assert "gcs.engine.engine" in loaded and "gcs.core.tracker" in loaded
+    assert shell_modules(loaded) == []
+
+
+def test_importing_the_daemon_loads_the_adapters_and_zenoh() -> None:
+    """The check above sees what it looks for: the daemon's composition root loads both."""
+    found = shell_modules(modules_loaded_by("gcs.daemon.app"))
+    assert "gcs.adapters.zenoh_io" in found and "zenoh" in found and "gcs.daemon.app" in found
 
 
 @pytest.mark.parametrize(

@@ -1,6 +1,6 @@
 """The daemon's whole ingest path, fuzzed: whatever arrives, the loop goes on and counts what it rejects.
 
-A :class:`~gcs.app.Daemon` runs its real loop (:meth:`Daemon.turn`: ingest,
+A :class:`~gcs.daemon.app.Daemon` runs its real loop (:meth:`Daemon.turn`: ingest,
 registry, step assembly, fusion, planning, publication) on a fake Zenoh inbox
 fed by Hypothesis: valid reports from roster and unknown vehicles with absurd
 but valid values, duplicates, stale, future and out-of-order stamps, random
@@ -19,9 +19,9 @@ from hypothesis import strategies as st
 
 from gcs.adapters.zenoh_io import Received
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from gcs.config.world import build_world
-from gcs.daemon.planner_start import start_planner
+from gcs.daemon.plan_runner_start import start_plan_runner
 from gcs.scenarios import load_scenario
 from protocols.codec import encode
 from protocols.keys import nav_key, report_key, scenario_key, truth_key
@@ -67,10 +67,10 @@ class FakeZenoh:
 
 
 def _daemon(accept_unlisted: bool = False) -> Daemon:
-    daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=ZenohSettings(), planner="pursuit", planner_mode="inline",
+    daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=ZenohSettings(), planner="pursuit", plan_runner="inline",
                                                    accept_unlisted=accept_unlisted))
     daemon.zenoh = FakeZenoh()
-    daemon.planner = start_planner("inline", SCENARIO, WORLD, "pursuit", 0, daemon._subset)
+    daemon.plan_runner = start_plan_runner("inline", SCENARIO, WORLD, "pursuit", 0, daemon._subset)
     return daemon
 
 
@@ -165,7 +165,7 @@ def test_whatever_arrives_the_daemon_goes_on_and_counts_every_rejection(batches,
         _run(daemon, batches)
         status = daemon.status(100.0)
     finally:
-        daemon.planner.close()
+        daemon.plan_runner.close()
     samples = sum(1 for _, batch in batches for item in batch if item.kind == "sample" or " " in item.key)
     counters = status.counters
     # accepted first, then dropped (a step whose fusion diverged: its reports were accepted)
@@ -197,7 +197,7 @@ def test_reports_from_outside_the_roster_are_rejected_unless_accepted_on_request
         try:
             _run(daemon, [(0.1 * k, [_seen_from("observer1", EPOCH_NS + k * S)]) for k in range(3)])
         finally:
-            daemon.planner.close()
+            daemon.plan_runner.close()
         tracks = [m for m in daemon.zenoh.published if type(m).__name__ == "TrackEstimate"]
         counters = daemon.status(0.0).counters
         if accept:
@@ -209,7 +209,7 @@ def test_reports_from_outside_the_roster_are_rejected_unless_accepted_on_request
 
 
 def test_a_step_whose_fusion_diverges_is_counted_and_the_previous_estimate_stands(monkeypatch) -> None:
-    import gcs.daemon.fusion as fusion
+    import gcs.core.single_target as single_target
     from gcs.core.filters.uif import NotPositiveDefinite
 
     daemon = _daemon()
@@ -221,10 +221,10 @@ def test_a_step_whose_fusion_diverges_is_counted_and_the_previous_estimate_stand
         def diverging(*args, **kwargs):
             raise NotPositiveDefinite("made to fail")
 
-        monkeypatch.setattr(fusion, "fuse", diverging)
+        monkeypatch.setattr(single_target, "fuse", diverging)
         _run(daemon, [(0.1, [_seen_from("uav1", EPOCH_NS + S)])])
     finally:
-        daemon.planner.close()
+        daemon.plan_runner.close()
     assert daemon.counters["rejected.diverged"] == 1 and daemon.loop.estimate is before
     assert "errors.decision" not in daemon.counters
 
@@ -258,7 +258,7 @@ def test_a_behind_loop_publishes_each_step_before_handling_the_next_and_plans_th
         daemon.turn(20.0)
         daemon.turn(20.1)
     finally:
-        daemon.planner.close()
+        daemon.plan_runner.close()
     expected = []
     for k in (1, 2, 3):
         expected += [("report", EPOCH_NS + k * S)] * len(ROSTER) + [("track", EPOCH_NS + k * S)]
@@ -268,7 +268,7 @@ def test_a_behind_loop_publishes_each_step_before_handling_the_next_and_plans_th
     assert daemon.counters["steps_fused_only"] == 2
 
 
-class _HeldPlanner:
+class _HeldPlanRunner:
     """A planner the test keeps planning or frees; it records the steps handed to it."""
 
     def __init__(self) -> None:
@@ -289,7 +289,7 @@ class _HeldPlanner:
 
 
 def test_a_plan_interval_grows_with_the_team_from_the_minimum_to_a_steering_period() -> None:
-    from gcs.app import MIN_PLAN_INTERVAL_S, PLAN_INTERVAL_PER_VEHICLE_S, STEER_RATE_HZ, plan_interval_s
+    from gcs.daemon.app import MIN_PLAN_INTERVAL_S, PLAN_INTERVAL_PER_VEHICLE_S, STEER_RATE_HZ, plan_interval_s
 
     small = int(MIN_PLAN_INTERVAL_S / PLAN_INTERVAL_PER_VEHICLE_S)
     assert [plan_interval_s(n) for n in (0, 1, 3, small)] == [MIN_PLAN_INTERVAL_S] * 4
@@ -301,7 +301,7 @@ def test_a_plan_interval_grows_with_the_team_from_the_minimum_to_a_steering_peri
 @pytest.mark.parametrize("per_vehicle_s", [None, 0.05])
 def test_the_newest_step_waits_for_a_free_planner_and_plans_are_handed_over_at_most_every_interval(
         per_vehicle_s, monkeypatch) -> None:
-    from gcs import app
+    from gcs.daemon import app
     from gcs.engine import memory
 
     if per_vehicle_s is not None:  # as if the team were large: the interval is that of 3 vehicles at this cost
@@ -309,8 +309,8 @@ def test_the_newest_step_waits_for_a_free_planner_and_plans_are_handed_over_at_m
     interval = memory.plan_interval_s(len(ROSTER))
     assert interval == (app.MIN_PLAN_INTERVAL_S if per_vehicle_s is None else 3 * per_vehicle_s)
     daemon = _daemon()
-    daemon.planner.close()
-    daemon.planner = planner = _HeldPlanner()
+    daemon.plan_runner.close()
+    daemon.plan_runner = planner = _HeldPlanRunner()
     alive = [Received("alive", f"gcs/vehicle/{v}/alive", b"", "", 0) for v in ROSTER]
     navs = [_sample(nav_key(v), NavReport(vehicle_id=v, seq=1, stamp_ns=EPOCH_NS, velocity_enu_mps=(25.0, 0.0, 0.0),
                                           heading_rad=0.0)) for v in ROSTER]
@@ -337,14 +337,14 @@ def test_the_newest_step_waits_for_a_free_planner_and_plans_are_handed_over_at_m
 def test_the_loop_freezes_what_it_keeps_every_second_and_collects_it_all_every_ten_minutes(monkeypatch) -> None:
     import gc
 
-    from gcs import app
+    from gcs.daemon import heap
 
     calls: list[str] = []
     monkeypatch.setattr(gc, "freeze", lambda: calls.append("freeze"))
     monkeypatch.setattr(gc, "unfreeze", lambda: calls.append("unfreeze"))
     monkeypatch.setattr(gc, "collect", lambda *args: calls.append("collect") or 0)
     ticks = iter(range(100_000))
-    daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=ZenohSettings(), planner="pursuit", planner_mode="inline"),
+    daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=ZenohSettings(), planner="pursuit", plan_runner="inline"),
                     clock=lambda: 0.25 * next(ticks))  # every reading of the clock (once a pass) 0.25 s on
     daemon.zenoh = FakeZenoh()
     daemon.zenoh.open = lambda: None
@@ -356,7 +356,7 @@ def test_the_loop_freezes_what_it_keeps_every_second_and_collects_it_all_every_t
     assert len(full) == 1  # once in 700 s
     assert 650 <= calls.count("freeze") <= 750  # once a second, each after a collection of the young generations
     assert calls.count("collect") == calls.count("freeze") - 1  # (not before the first, at the start)
-    assert app.FULL_COLLECT_EVERY_S == 600.0 and app.FREEZE_EVERY_S == 1.0
+    assert heap.FULL_COLLECT_EVERY_S == 600.0 and heap.FREEZE_EVERY_S == 1.0
 
 
 def _ready_daemon() -> Daemon:
@@ -372,13 +372,13 @@ def _ready_daemon() -> Daemon:
 def test_while_the_planner_process_starts_a_newer_step_replaces_the_job_waiting() -> None:
     """The process planner keeps a job submitted while its child starts; the newest step must win."""
 
-    class Starting(_HeldPlanner):
+    class Starting(_HeldPlanRunner):
         def submit(self, job) -> None:  # the child is not ready: the job waits, nothing is being planned
             self.jobs.append(job.stamp_ns)
 
     daemon = _ready_daemon()
-    daemon.planner.close()
-    daemon.planner = planner = Starting()
+    daemon.plan_runner.close()
+    daemon.plan_runner = planner = Starting()
     for k in range(1, 8):
         daemon.zenoh.inbox.extend(_seen_from(v, EPOCH_NS + k * S) for v in ROSTER)
         daemon.turn(11.0 + 0.1 * k)
@@ -400,7 +400,7 @@ def test_a_step_is_not_timed_out_while_its_missing_report_waits_in_the_same_pass
         daemon.zenoh.inbox.extend(truths + [_seen_from(ROSTER[-1], EPOCH_NS + S)])
         daemon.turn(11.0 + 2 * daemon.options.max_wait_s)
     finally:
-        daemon.planner.close()
+        daemon.plan_runner.close()
     assert "rejected.late" not in daemon.steps.counters
     (record,) = [r for r in daemon.records if r.stamp_ns == EPOCH_NS + S]
     assert all(record.seen[v] for v in ROSTER)
@@ -419,7 +419,7 @@ def test_a_loop_never_idle_still_collects_everything_it_froze(monkeypatch) -> No
     monkeypatch.setattr(gc, "freeze", lambda: None)
     monkeypatch.setattr(gc, "unfreeze", lambda: full_collections.append(clock[0]))
     monkeypatch.setattr(gc, "collect", lambda *args: 0)
-    daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=ZenohSettings(), planner="pursuit", planner_mode="inline"),
+    daemon = Daemon(SCENARIO, WORLD, DaemonOptions(zenoh=ZenohSettings(), planner="pursuit", plan_runner="inline"),
                     clock=tick)
     daemon.zenoh = FakeZenoh()
     daemon.zenoh.open = lambda: None
@@ -434,8 +434,8 @@ def test_a_withdrawn_token_is_seen_at_once_and_an_aged_heartbeat_within_the_refr
     """The loop reuses its set of vehicles alive (ALIVE_REFRESH_S): a liveliness change must not wait for
     the refresh (the step is released without the vehicle in the same pass), and a vehicle alive by
     MAVLink heartbeat alone is lost no later than the refresh after its heartbeat passes LOST_AFTER_S."""
-    from gcs.app import ALIVE_REFRESH_S
-    from gcs.daemon.registry import LOST_AFTER_S
+    from gcs.daemon.app import ALIVE_REFRESH_S
+    from gcs.engine.registry import LOST_AFTER_S
 
     daemon = _ready_daemon()
     gone, kept = ROSTER[0], ROSTER[1:]
@@ -456,4 +456,4 @@ def test_a_withdrawn_token_is_seen_at_once_and_an_aged_heartbeat_within_the_refr
         assert gone in daemon._alive(lost_s - ALIVE_REFRESH_S / 2)
         assert gone not in daemon._alive(lost_s + ALIVE_REFRESH_S)
     finally:
-        daemon.planner.close()
+        daemon.plan_runner.close()

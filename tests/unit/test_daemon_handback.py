@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 
 from gcs.adapters.zenoh_session import ZenohSettings
-from gcs.app import Daemon, DaemonOptions
+from gcs.daemon.app import Daemon, DaemonOptions
 from gcs.config.world import build_world
 from gcs.core.kinematics import VehicleState
 from gcs.core.steering import PlannedPath
-from gcs.daemon.steps import ReadyStep
+from gcs.engine.steps import ReadyStep
 from gcs.scenarios import load_scenario
 
 SCENARIO = load_scenario("wang2012_urban")

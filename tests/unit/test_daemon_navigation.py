@@ -1,4 +1,4 @@
-"""The daemon's per-vehicle navigation (gcs.daemon.navigation) and the steps that wait for it (gcs.daemon.steps).
+"""The daemon's per-vehicle navigation (gcs.engine.navigation) and the steps that wait for it (gcs.engine.steps).
 
 Nav reports are made here: a vehicle flying a circle at 25 m/s, 5 reports a second, each
 with the INS increments since the previous one and a GPS fix outside a denied interval.
@@ -14,11 +14,11 @@ import pytest
 
 from gcs.core.geometry import LocalFrame
 from gcs.core.tracker import TrackerConfig
-from gcs.daemon.fusion import step_detections
-from gcs.daemon.navigation import MAX_EXTRAPOLATION_S, FleetNavigator
-from gcs.daemon.steps import ReadyStep, StepAssembler
+from gcs.engine.fusion import step_detections
+from gcs.engine.navigation import MAX_EXTRAPOLATION_S, FleetNavigator
+from gcs.engine.steps import ReadyStep, StepAssembler
 from gcs.scenarios import load_scenario
-from gcs.engine.tracking import tracker_config
+from gcs.engine.tracker_factory import tracker_config
 from protocols.messages import GpsFix, InsIncrement, Measurement, NavReport, SensorReport
 
 S = 1_000_000_000
@@ -318,7 +318,7 @@ def test_against_the_simulators_truth_the_covariance_is_about_right_with_a_fix_a
 
 
 def test_auto_navigation_runs_the_skf_only_where_the_scenario_declares_gps_denied_zones() -> None:
-    from gcs.daemon.navigation import navigator_for
+    from gcs.engine.navigation import navigator_for
 
     denied = load_scenario("wang2012_gps_denied")
     assert denied.gps_denied and not SCENARIO.gps_denied

@@ -11,9 +11,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gcs.adapters.zenoh_io import Received
-from gcs.daemon.ingest import Ingest
-from gcs.daemon.registry import LOST_AFTER_S, Registry
-from gcs.daemon.steps import StepAssembler
+from gcs.engine.ingest import Ingest
+from gcs.engine.registry import LOST_AFTER_S, Registry
+from gcs.engine.steps import StepAssembler
 from gcs.scenarios import load_scenario
 from protocols.codec import encode
 from protocols.keys import nav_key, report_key, truth_key
@@ -204,7 +204,7 @@ def test_a_snapshot_keeps_what_was_known_when_it_was_taken() -> None:
 
 def test_estimates_that_are_not_finite_or_positive_definite_are_refused() -> None:
     from gcs.core.filters.uif import GaussianEstimate
-    from gcs.daemon.fusion import FusionDiverged, check_estimate
+    from gcs.engine.fusion import FusionDiverged, check_estimate
 
     check_estimate(None)
     check_estimate(GaussianEstimate(np.zeros(4), np.eye(4), 0))
@@ -247,7 +247,7 @@ def test_a_vehicle_whose_reports_are_refused_for_their_stamps_is_not_waited_for_
 def test_plan_commands_carry_the_heading_after_the_step_the_first_turn_rate_and_the_path() -> None:
     from gcs.core.geometry import wrap_angle
     from gcs.core.kinematics import VehicleState, rollout
-    from gcs.daemon.fusion import plan_commands
+    from gcs.engine.fusion import plan_commands
 
     configs = list(SCENARIO.vehicles)
     n = len(configs)

@@ -11,11 +11,12 @@ from gcs.config.world import build_world
 from gcs.core.filters.uif import GaussianEstimate
 from gcs.core.kinematics import VehicleState
 from gcs.core.tracker import TrackerState, prediction
-from gcs.daemon.planner_process import ProcessPlanner
-from gcs.daemon.planning import PLANNER_MODES, PlanJob
-from gcs.daemon.planner_start import start_planner
+from gcs.daemon.plan_process import ProcessPlanRunner
+from gcs.daemon.plan_runners import PLAN_RUNNERS
+from gcs.engine.plan_jobs import PlanJob
+from gcs.daemon.plan_runner_start import start_plan_runner
 from gcs.scenarios import load_scenario
-from gcs.engine.tracking import subset_config, tracker_config
+from gcs.engine.tracker_factory import subset_config, tracker_config
 
 SCENARIO = load_scenario("wang2012_urban")
 WORLD = build_world(SCENARIO)
@@ -51,9 +52,9 @@ def _wait_for(planner, count: int, timeout_s: float = 60.0) -> list:
     return done
 
 
-@pytest.fixture(params=PLANNER_MODES)
+@pytest.fixture(params=PLAN_RUNNERS)
 def planner(request):
-    started = start_planner(request.param, SCENARIO, WORLD, PLANNER, seed=3, configs=_configs)
+    started = start_plan_runner(request.param, SCENARIO, WORLD, PLANNER, seed=3, configs=_configs)
     yield started
     started.close()
 
@@ -101,7 +102,7 @@ def test_a_job_that_fails_is_reported_and_planning_goes_on(planner) -> None:
 
 @pytest.mark.parametrize("mode", ["thread", "process"])
 def test_jobs_handed_over_while_the_planner_is_busy_keep_only_the_newest(mode: str) -> None:
-    planner = start_planner(mode, SCENARIO, WORLD, PLANNER, seed=3, configs=_configs)
+    planner = start_plan_runner(mode, SCENARIO, WORLD, PLANNER, seed=3, configs=_configs)
     try:
         for index in range(1, 6):
             planner.submit(_job(index))
@@ -118,7 +119,7 @@ def test_jobs_handed_over_while_the_planner_is_busy_keep_only_the_newest(mode: s
 
 
 def test_a_planner_process_that_dies_is_started_again() -> None:
-    planner = ProcessPlanner(SCENARIO, WORLD, PLANNER, seed=3)
+    planner = ProcessPlanRunner(SCENARIO, WORLD, PLANNER, seed=3)
     try:
         planner.submit(_job(1))
         _wait_for(planner, 1)
@@ -146,7 +147,7 @@ def test_a_planner_process_that_dies_is_started_again() -> None:
 def test_the_planner_process_runs_that_much_below_the_daemon(niceness: int) -> None:
     import os
 
-    planner = ProcessPlanner(SCENARIO, WORLD, PLANNER, seed=3, niceness=niceness)
+    planner = ProcessPlanRunner(SCENARIO, WORLD, PLANNER, seed=3, niceness=niceness)
     try:
         planner.submit(_job(1))
         _wait_for(planner, 1)  # the child has reniced itself before it said it was ready
@@ -158,4 +159,4 @@ def test_the_planner_process_runs_that_much_below_the_daemon(niceness: int) -> N
 
 def test_a_niceness_outside_0_19_is_refused() -> None:
     with pytest.raises(ValueError, match="0-19"):
-        ProcessPlanner(SCENARIO, WORLD, PLANNER, seed=3, niceness=20)
+        ProcessPlanRunner(SCENARIO, WORLD, PLANNER, seed=3, niceness=20)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from gcs.daemon.records import MAX_TRUTHS, TRUTH_WAIT_S, StepRecord, StepScorer, keep_newest
+from gcs.engine.records import MAX_TRUTHS, TRUTH_WAIT_S, StepRecord, StepScorer, keep_newest
 
 S = 1_000_000_000
 
@@ -69,7 +69,7 @@ def test_many_targets_are_scored_by_gospa_against_every_truth_and_name_the_targe
     """Two tracks, three cars: one track 3-4-5 off car ``a``, one 6-8-10 off ``b``, ``c`` untracked. GOSPA
     (c = 100 m, p = 2, alpha = 2) is sqrt(5^2 + 10^2 + 100^2 / 2) = sqrt(5125)."""
     from gcs.daemon.demo import summarise
-    from gcs.daemon.records import GOSPA_CUTOFF_M
+    from gcs.engine.records import GOSPA_CUTOFF_M
 
     clock, emitted = _Clock(), []
     scorer = StepScorer(S, clock, emitted.append)

@@ -1,4 +1,4 @@
-"""The reorder window (gcs.daemon.steps, gcs.daemon.ingest), property-tested.
+"""The reorder window (gcs.engine.steps, gcs.engine.ingest), property-tested.
 
 A stream of reports (three vehicles, one report per step each, some skipped,
 stamps jittered) is sent ``D`` wall seconds per step and every report is
@@ -16,8 +16,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gcs.adapters.zenoh_io import Received
-from gcs.daemon.ingest import REORDER_WINDOW_NS, Ingest
-from gcs.daemon.steps import ReadyStep, StepAssembler
+from gcs.engine.ingest import REORDER_WINDOW_NS, Ingest
+from gcs.engine.steps import ReadyStep, StepAssembler
 from protocols.codec import encode
 from protocols.keys import nav_key, report_key
 from protocols.messages import NavReport, SensorReport
@@ -186,7 +186,7 @@ def test_a_vehicle_whose_clock_runs_ahead_does_not_cut_the_others_wait_short() -
 
 
 def test_a_step_is_released_at_the_latest_after_the_hold_without_a_quorum() -> None:
-    from gcs.daemon.steps import HOLD_WAITS
+    from gcs.engine.steps import HOLD_WAITS
 
     three = set(VEHICLES)
     steps = StepAssembler(step_ns=S, max_wait_s=MAX_WAIT_S)

@@ -6,7 +6,7 @@ import logging
 
 from gcs.adapters.zenoh_io import Received
 from gcs.config.fingerprint import scenario_fingerprint
-from gcs.daemon.ingest import Ingest
+from gcs.engine.ingest import Ingest
 from gcs.scenarios import load_scenario
 from protocols.codec import encode
 from protocols.keys import scenario_key

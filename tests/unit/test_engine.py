@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from gcs.config.world import build_world
-from gcs.daemon.planning import run_job
+from gcs.daemon.plan_runners import run_job
 from gcs.daemon.status_cli import format_status
 from gcs.engine.engine import Engine, EngineOptions
 from gcs.engine.events import Arrived, PlanDone, PlannerFree, PublishPlan, PublishTrack, SubmitPlan, Tick

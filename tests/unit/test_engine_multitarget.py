@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from gcs.config.world import build_world
-from gcs.daemon.planning import run_job
+from gcs.daemon.plan_runners import run_job
 from gcs.engine.engine import Engine, EngineOptions
 from gcs.engine.events import Arrived, PlanDone, PlannerFree, PublishPlan, PublishTrack, RetireTrack, SubmitPlan, Tick
 from gcs.scenarios import load_scenario

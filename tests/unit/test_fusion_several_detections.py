@@ -12,9 +12,9 @@ import math
 import numpy as np
 
 from gcs.core.filters.uif import GaussianEstimate
-from gcs.daemon.fusion import fuse_step, step_detections
-from gcs.daemon.steps import ReadyStep
-from gcs.engine.tracking import tracker_config
+from gcs.engine.fusion import fuse_step, step_detections
+from gcs.engine.steps import ReadyStep
+from gcs.engine.tracker_factory import tracker_config
 from gcs.scenarios import load_scenario
 from protocols.messages import Measurement, SensorReport
 

@@ -16,7 +16,7 @@ from gcs.core.models.motion import constant_velocity
 from gcs.core.models.sensor import SensorModel
 from gcs.core.tracker import Detection, TrackerConfig, fuse
 from gcs.scenarios import load_scenario
-from gcs.engine.tracking import tracker_config
+from gcs.engine.tracker_factory import tracker_config
 from sim_vehicles.truth.sensor import exact_measurements
 
 SENSOR = SensorModel.range_bearing(10.0, 0.05, 0.05)

@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 
 from gcs.core.geometry import LocalFrame
 from gcs.core.world import Buildings, RestrictedAirspace, World
-from gcs.daemon.picture import TRAIL_STEP_S, Picture
-from gcs.daemon.picture_geometry import SIGMAS, ellipse, encode_json, world_geometry
+from gcs.adapters.live_map.picture import TRAIL_STEP_S, Picture
+from gcs.adapters.live_map.picture_geometry import SIGMAS, ellipse, encode_json, world_geometry
 from gcs.scenarios import load_scenario
 from protocols.codec import encode
 from protocols.messages import (DaemonStatus, GpsFix, Measurement, NavReport, PlanCommand, PredictedPoint, SensorReport,

@@ -9,21 +9,10 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from gcs.adapters.mavlink_commands import (
-    CARROT_TYPE_MASK,
-    Carrot,
-    ChangeAltitude,
-    ChangeHeading,
-    ChangeSpeed,
-    MessageInterval,
-    ModeRequest,
-    SendMemory,
-    Takeover,
-    carrot_distance_m,
-    carrot_for,
-    course_param_deg,
-    due_actions,
-)
+from gcs.adapters.mavlink_commands import SendMemory, carrot_distance_m, carrot_for, due_actions
+from gcs.adapters.mavlink_messages import (CARROT_TYPE_MASK, Carrot, ChangeAltitude, ChangeHeading, ChangeSpeed,
+                                           MessageInterval, ModeRequest, course_param_deg)
+from gcs.adapters.mavlink_takeover import Takeover
 from gcs.adapters.mavlink_io import MavlinkCommander
 from gcs.adapters.mavlink_link import HeadingCommand, VehicleLink, in_guided_mode, update_from_message
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODES, GCS_SYSID, mavlink

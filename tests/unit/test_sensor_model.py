@@ -120,7 +120,7 @@ def test_linearisation_variance_matters_under_the_vehicle_only() -> None:
 def test_equal_models_hash_alike_and_the_scenarios_vehicles_share_one() -> None:
     from gcs.bench.urban import with_vehicles
     from gcs.scenarios import load_scenario
-    from gcs.engine.tracking import filter_sensor_models
+    from gcs.engine.tracker_factory import filter_sensor_models
 
     a, b = SensorModel.range_bearing(10.0, 0.05, 0.05), SensorModel.range_bearing(10.0, 0.05, 0.05)
     c = SensorModel.range_bearing(10.0, 0.05, 0.06)

@@ -10,13 +10,13 @@ import pytest
 from gcs.core.filters.uif import GaussianEstimate
 from gcs.core.kinematics import VehicleState
 from gcs.core.planners.problem import PlanningProblem
-from gcs.core.planners.sequential import SequentialPlanner
+from gcs.core.planners.sequential import SightPlanner
 from gcs.core.planners.shared import (SharedView, assign_vehicles, shared_joint_values, target_weights,
                                       vehicles_subproblem)
 from gcs.core.planners.sight import SightModel, TeamView, joint_values
 from gcs.core.tracker import prediction
 from gcs.config.world import build_world
-from gcs.engine.tracking import tracker_config
+from gcs.engine.tracker_factory import tracker_config
 from gcs.scenarios import load_scenario
 
 SCENARIO = load_scenario("wang2012_urban")
@@ -70,7 +70,7 @@ def test_the_summed_objective_is_the_weighted_sum_of_each_targets() -> None:
 def test_the_shared_plan_is_never_worse_than_its_starting_plans() -> None:
     problems = [_problem(1500.0, 1500.0), _problem(2200.0, 900.0), _problem(900.0, 2300.0)]
     weights = target_weights([1.0, 1.0, 2.0], [0.0, 10.0, 0.0], 30.0)
-    planner = SequentialPlanner(CONFIG.planner.weights)
+    planner = SightPlanner(CONFIG.planner.weights)
     warm = np.random.default_rng(2).uniform(-0.1, 0.1, (3, CONFIG.horizon_steps))
     result = planner.solve_shared(problems, weights, np.random.default_rng(2), warm)
     models = [SightModel.build(p, CONFIG.planner.weights) for p in problems]
@@ -106,7 +106,7 @@ def test_a_subproblem_keeps_the_chosen_vehicles_rows() -> None:
 
 def test_assigned_planning_plans_each_target_with_its_own_vehicles() -> None:
     problems = [_problem(1300.0, 1450.0), _problem(1700.0, 1450.0)]
-    planner = SequentialPlanner(CONFIG.planner.weights)
+    planner = SightPlanner(CONFIG.planner.weights)
     result = planner.solve_assigned(problems, np.array([0.5, 0.5]), np.random.default_rng(3))
     assigned = assign_vehicles(VEHICLES, np.array([[1300.0, 1450.0], [1700.0, 1450.0]]), np.array([0.5, 0.5]))
     for k in (0, 1):

@@ -14,13 +14,13 @@ from gcs.config.world import airspace_from_config, build_world
 from gcs.core.filters.uif import GaussianEstimate
 from gcs.core.kinematics import VehicleState
 from gcs.core.planners.airspace_guard import AirspaceGuard
-from gcs.core.planners.sequential import SequentialPlanner
+from gcs.core.planners.sequential import SightPlanner
 from gcs.core.planners.sight import SightModel, TeamView, joint_values
 from gcs.core.planners.problem import PlanningProblem
 from gcs.core.tracker import TrackerState, plan
 from gcs.core.world import World
 from gcs.scenarios import load_scenario
-from gcs.engine.tracking import tracker_config
+from gcs.engine.tracker_factory import tracker_config
 
 SCENARIO = load_scenario("wang2012_urban")
 WORLD = build_world(SCENARIO)
@@ -42,7 +42,7 @@ def test_the_plan_is_never_worse_than_a_starting_plan(positions, target, speed, 
     warm = np.random.default_rng(seed).uniform(-0.2, 0.2, (3, CONFIG.horizon_steps))
     new_state, diagnostics, problem = _planned(vehicles, estimate, warm, seed)
     model = SightModel.build(problem, CONFIG.planner.weights)
-    starts = SequentialPlanner(CONFIG.planner.weights).starts(problem, warm)
+    starts = SightPlanner(CONFIG.planner.weights).starts(problem, warm)
     values = joint_values(model, np.concatenate([new_state.plan[None], starts]))
     assert values[0] >= values[1:].max() - 1e-9
     assert abs(diagnostics.plan.fitness - values[0]) < 1e-9
@@ -153,7 +153,7 @@ def test_a_deadline_cuts_every_vehicle_short_equally_often(monkeypatch) -> None:
         return values(self, i, candidates)
 
     monkeypatch.setattr(TeamView, "values", spy)
-    planner = SequentialPlanner(CONFIG.planner.weights, deadline_s=4.5)
+    planner = SightPlanner(CONFIG.planner.weights, deadline_s=4.5)
     solves = 60
     for seed in range(solves):
         ticks = iter(range(100))  # the start, then one reading before each visit: the fifth visit is late
@@ -170,7 +170,7 @@ def test_without_a_clock_every_vehicle_is_visited_every_round_in_order(monkeypat
     visited: list[int] = []
     values = TeamView.values
     monkeypatch.setattr(TeamView, "values", lambda self, i, c: (visited.append(i), values(self, i, c))[1])
-    planner = SequentialPlanner(CONFIG.planner.weights)
+    planner = SightPlanner(CONFIG.planner.weights)
     result = planner.solve(problem, np.random.default_rng(1), warm)
     rounds = planner.sweeps + planner.refine_sweeps
     assert visited == [0, 1, 2] * rounds

@@ -18,8 +18,8 @@ from gcs.config.world import build_world
 from gcs.core.geometry import WGS84_A, WGS84_F
 from gcs.core.world.los import line_of_sight
 from gcs.scenarios import load_scenario
-from sim_vehicles.payload import (BadTelemetry, Liveliness, PayloadBridge, USER_RANGE_ERROR_M, VehicleTelemetry,
-                                  gps_status)
+from sim_vehicles.payload import Liveliness, PayloadBridge
+from sim_vehicles.payload_telemetry import USER_RANGE_ERROR_M, BadTelemetry, VehicleTelemetry, gps_status
 from sim_vehicles.scene import Scene
 from sim_vehicles.truth.fixed_wing import AirframeState
 

@@ -6,7 +6,7 @@ import numpy as np
 
 from gcs.core.tracker import Detection, fuse
 from gcs.scenarios import load_scenario
-from gcs.engine.tracking import tracker_config
+from gcs.engine.tracker_factory import tracker_config
 from sim_vehicles.truth.sensor import TargetSensor
 
 SCENARIO = load_scenario("zuo2021_aoa")

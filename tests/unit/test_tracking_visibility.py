@@ -12,7 +12,7 @@ import numpy as np
 from gcs.config.world import build_world
 from gcs.core.world.visibility import VisibilityMaps
 from gcs.scenarios import load_scenario
-from gcs.engine.tracking import tracker_config
+from gcs.engine.tracker_factory import tracker_config
 
 SCENARIO = load_scenario("wang2012_urban")
 WORLD = build_world(SCENARIO)

@@ -152,7 +152,7 @@ def test_update_says_what_it_cannot_fuse() -> None:
 def test_the_daemons_filter_is_the_documented_default_the_second_order_form() -> None:
     from gcs.config.world import build_world
     from gcs.scenarios import load_scenario
-    from gcs.engine.tracking import scenario_planner, tracker_config
+    from gcs.engine.tracker_factory import scenario_planner, tracker_config
 
     scenario = load_scenario("wang2012_urban")
     config = tracker_config(scenario, build_world(scenario), scenario_planner(scenario))

@@ -13,7 +13,7 @@ from gcs.config import ScenarioError, TargetConfig
 from gcs.config.world import build_world
 from gcs.core.roads import RoadGraph
 from gcs.core.world import FRAME_MARGIN_M, Buildings, World, content_bounds
-from gcs.daemon.picture_geometry import world_geometry
+from gcs.adapters.live_map.picture_geometry import world_geometry
 from gcs.scenarios import load_scenario, parse_scenario
 from sim_vehicles.truth.target import WhiteNoiseTarget, start_state, target_model
 

@@ -5,7 +5,7 @@ samples ``batch`` team plans (V, T) from an independent Gaussian per turn-rate
 command, scores them in one call (:func:`gcs.core.planners.sight.joint_values`),
 refits the Gaussian to the best ``elite`` of them, and repeats ``iterations``
 times. Its mean starts at the best of the same starting plans as
-:class:`~gcs.core.planners.sequential.SequentialPlanner` (the shifted previous
+:class:`~gcs.core.planners.sequential.SightPlanner` (the shifted previous
 plan, the baselines, straight flight), which stay in every batch, so it too is
 never worse than them on the objective.
 
@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 from gcs.core.planners.ga import GeneticPlanner
 from gcs.core.planners.problem import PlanningProblem, PlanResult
-from gcs.core.planners.sequential import SequentialPlanner
+from gcs.core.planners.sequential import SightPlanner
 from gcs.core.planners.sight import SightModel, SightWeights, joint_values
 
 __all__ = ["CrossEntropyPlanner", "SightGeneticPlanner"]
@@ -54,7 +54,7 @@ class CrossEntropyPlanner:
         """The best team plan of every batch (see the module docstring)."""
         start_s = now() if now is not None else 0.0
         model = SightModel.build(problem, self.weights)
-        starts = SequentialPlanner(self.weights).starts(problem, warm_start)
+        starts = SightPlanner(self.weights).starts(problem, warm_start)
         values = joint_values(model, starts)
         best = int(np.argmax(values))
         best_plan, best_value = starts[best].copy(), float(values[best])

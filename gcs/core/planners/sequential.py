@@ -50,11 +50,11 @@ from gcs.core.planners.problem import PlanningProblem, PlanResult
 from gcs.core.planners.shared import SharedView, assign_vehicles, shared_joint_values, vehicles_subproblem
 from gcs.core.planners.sight import SightModel, SightWeights
 
-__all__ = ["SequentialPlanner"]
+__all__ = ["SightPlanner"]
 
 
 @dataclass(frozen=True)
-class SequentialPlanner:
+class SightPlanner:
     """Parameters of the per-vehicle search (module docstring) and of the objective it maximises."""
 
     weights: SightWeights = field(default_factory=SightWeights)

@@ -1,5 +1,5 @@
 """Scenes for the tracker tests: ground targets, vehicles and their detections, made by the tests' own formulas
-(not the filter's ``h(x)``, design.md section 2)."""
+(not the filter's ``h(x)``, docs/design.md, the layers)."""
 
 from __future__ import annotations
 

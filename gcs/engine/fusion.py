@@ -1,20 +1,18 @@
-"""One decision step into wire messages: shared by the daemon and ``gcs replay --process``.
+"""One decision step's reports into the trackers' detections, and the trackers' results into wire messages.
 
-Both call :func:`fuse_step` on the same steps and get the same ``TrackEstimate``
-bit for bit: detections are taken in roster order (not arrival order) from
-every roster vehicle that reported in the step, whether or not it is being
-planned for, and the prediction is the tracker's own (eq. 16-17). With a
-:class:`~gcs.daemon.navigation.FleetNavigator` (advanced to the step's stamp by
-the caller) a detection's vehicle position and its covariance are the
-navigator's; without one, or for a vehicle it has no estimate of, the report's
-own ``vehicle_position_enu_m``, taken as exact.
+The engine fuses every released step with :func:`fuse_step` (one target) or a scan of
+the multi-target tracker (:func:`scan_detections`), so that the daemon and ``gcs replay
+--process`` get the same ``TrackEstimate`` bit for bit: detections are taken in roster
+order (not arrival order) from every roster vehicle that reported in the step, whether
+or not it is being planned for, and the prediction is the tracker's own (eq. 16-17).
+With a :class:`~gcs.engine.navigation.FleetNavigator` (advanced to the step's stamp by
+the caller) a detection's vehicle position and its covariance are the navigator's;
+without one, or for a vehicle it has no estimate of, the report's own
+``vehicle_position_enu_m``, uncertain by its ``vehicle_position_std_m``.
 
-The single-target track takes at most one detection from each report
-(:func:`choose_measurement`): the only one when there is one, exactly as a
-report of one measurement always was; of several, the one nearest the track in
-squared Mahalanobis distance. Before a track exists, the step starts one from the
-first detection of the first roster vehicle that has one (the order the vehicle
-listed them in), and every other report's detection is chosen against that start.
+The single-target tracker (:class:`~gcs.core.single_target.SingleTargetTracker`) takes
+at most one detection from each report, the one nearest the track
+(:func:`~gcs.core.single_target.choose_detections`).
 """
 
 from __future__ import annotations
@@ -28,15 +26,17 @@ from gcs.core.filters.prediction import HorizonPrediction
 from gcs.core.filters.uif import GaussianEstimate, NotPositiveDefinite
 from gcs.core.geometry import wrap_angle
 from gcs.core.kinematics import VehicleState, rollout
-from gcs.core.models.sensor import RANGE, SensorModel
-from gcs.core.multitarget.filter import innovations
-from gcs.core.tracker import Detection, TrackerConfig, TrackerState, fuse, initial_estimate, prediction
-from gcs.daemon.navigation import FleetNavigator
-from gcs.daemon.steps import ReadyStep
+from gcs.core.models.sensor import SensorModel
+from gcs.core.single_target import SingleTargetScan, SingleTargetTracker, choose_detections
+from gcs.core.target_tracker import TargetTracker
+from gcs.core.tracker import Detection, TrackerConfig, TrackerState, prediction
+from gcs.engine.navigation import FleetNavigator
+from gcs.engine.steps import ReadyStep
 from gcs.config import VehicleConfig
 from protocols.messages import PlanCommand, PredictedPoint, SensorReport, TrackEstimate
 
-__all__ = ["choose_measurement", "step_detections", "scan_detections", "fuse_step", "FusionDiverged", "check_estimate", "track_message", "plan_commands", "PlanMemory", "with_observers"]
+__all__ = ["reported_detections", "step_detections", "scan_detections", "fuse_step", "FusionDiverged", "check_estimate",
+           "track_message", "plan_commands", "PlanMemory", "with_observers"]
 
 
 _REPORT_FIELD = {"range": "range_m", "azimuth": "azimuth_rad", "elevation": "elevation_rad"}
@@ -69,48 +69,10 @@ def _reported_cov(report: SensorReport) -> float | None:
     return std * std if std else None
 
 
-def choose_measurement(candidates: Sequence[np.ndarray], sensor: SensorModel, track: GaussianEstimate,
-                       vehicle_xyz: np.ndarray, vehicle_cov: np.ndarray) -> int:
-    """Index of the candidate measurement nearest the track: least ``nu^T S^-1 nu``.
-
-    ``nu = z - h(x)`` is the innovation (azimuth wrapped) about the track's mean position and
-    ``S = H P H^T + R + J_s P_s J_s^T`` its covariance, with the track's position covariance
-    ``P``, the sensor's noise ``R`` and the vehicle's position covariance ``P_s`` (3, 3) carried
-    through ``J_s = dh/dp_s`` (:func:`gcs.core.multitarget.filter.innovations`). This is
-    nearest-neighbour association (Bar-Shalom, Willett & Tian, *Tracking and Data Fusion*,
-    2011, section 3.2); ties go to the earlier candidate.
-    """
-    z = np.stack(candidates)
-    n = len(z)
-    inn = innovations(track.mean[None, :], track.cov[None, :, :], sensor, z,
-                      np.broadcast_to(vehicle_xyz, (n, 3)), np.broadcast_to(vehicle_cov, (n, 3, 3)))
-    return int(np.argmin(inn.d2[0]))
-
-
-def _track_now(config: TrackerConfig, estimate: GaussianEstimate | None, stamp_ns: int) -> GaussianEstimate | None:
-    """The track predicted to the step (as :func:`fuse` will), to choose among a report's detections.
-
-    Predicted as a plain Gaussian of its mean and covariance, so an IMM estimate (a
-    :class:`~gcs.core.filters.imm_target.ImmEstimate`) is taken as its moment-matched whole."""
-    if estimate is None or estimate.dim != config.uif.motion.dim or stamp_ns < estimate.stamp_ns:
-        return estimate
-    return config.uif.predict(GaussianEstimate(estimate.mean, estimate.cov, estimate.stamp_ns,
-                                                        layout=estimate.layout), stamp_ns)
-
-
-def _seed_track(config: TrackerConfig, seed: Detection, stamp_ns: int) -> GaussianEstimate | None:
-    """The track a step starts from its first detection (:func:`initial_estimate`); None without a range."""
-    sensor = config.sensors[seed.vehicle]
-    if config.bearing_filter is not None or RANGE not in sensor.components:
-        return None
-    return initial_estimate(seed, sensor, stamp_ns, config.initial_position_std_m,
-                            config.initial_velocity_std_mps, config.uif.motion.dim)
-
-
-def step_detections(ready: ReadyStep, roster: Sequence[str], config: TrackerConfig,
-                    navigator: FleetNavigator | None = None,
-                    estimate: GaussianEstimate | None = None) -> tuple[Detection, ...]:
-    """The step's detections in roster order (a vehicle's first report of the step counts), one per report.
+def reported_detections(ready: ReadyStep, roster: Sequence[str], sensors: Sequence[SensorModel],
+                        navigator: FleetNavigator | None = None) -> dict[int, list[Detection]]:
+    """Every detection of the step by roster index, of the vehicles whose report has one (a vehicle's first
+    report of the step counts; a detection without every component of its vehicle's sensor model is left out).
 
     With a ``navigator`` the vehicle's position is its estimate at the report's stamp, horizontal
     from the SKF and vertical from the report, with the (3, 3) covariance of
@@ -118,38 +80,28 @@ def step_detections(ready: ReadyStep, roster: Sequence[str], config: TrackerConf
     report's own position, uncertain by the report's ``vehicle_position_std_m`` on every axis
     when given: a few metres of GPS error are nothing 300 m from the target, but from
     right above it they turn the azimuth around, and the filter must know.
-
-    A report with several detections gives the one :func:`choose_measurement` picks against
-    ``estimate`` (the track before this step) predicted to the step; without a track, against
-    the track the step starts from its first detection (the first vehicle's first), or the
-    first detection when that start needs a range the sensor does not measure.
     """
     first = _first_reports(ready)
-    usable = []
+    detections: dict[int, list[Detection]] = {}
     for index, vehicle_id in enumerate(roster):
         report = first.get(vehicle_id)
         if report is None or not report.detected:
             continue
-        candidates = _measurements(report, config.sensors[index].components)
+        candidates = _measurements(report, sensors[index].components)
         if candidates:
-            usable.append((index, report, candidates))
-    if not usable:
-        return ()
-    detections = []
-    track = None
-    for index, report, candidates in usable:
-        where, cov = _vehicle_position(report, navigator)
-        values = candidates[0]
-        if len(candidates) > 1:
-            if track is None:
-                track = _track_now(config, estimate, ready.stamp_ns)
-            if track is None and detections:
-                track = _seed_track(config, detections[0], ready.stamp_ns)
-            if track is not None:
-                values = candidates[choose_measurement(candidates, config.sensors[index], track, where,
-                                                       Detection(index, where, values, vehicle_cov=cov).position_cov)]
-        detections.append(Detection(index, where, values, vehicle_cov=cov))
-    return tuple(detections)
+            where, cov = _vehicle_position(report, navigator)
+            detections[index] = [Detection(index, where, values, vehicle_cov=cov) for values in candidates]
+    return detections
+
+
+def step_detections(ready: ReadyStep, roster: Sequence[str], config: TrackerConfig,
+                    navigator: FleetNavigator | None = None,
+                    estimate: GaussianEstimate | None = None) -> tuple[Detection, ...]:
+    """The step's detections the single-target tracker fuses, in roster order: of each vehicle's
+    (:func:`reported_detections`), the one :func:`gcs.core.single_target.choose_detections` picks against
+    ``estimate`` (the track before this step)."""
+    return choose_detections(config, estimate, ready.stamp_ns, reported_detections(ready, roster, config.sensors,
+                                                                                   navigator))
 
 
 def with_observers(config: TrackerConfig, roster: Sequence[str], observers: Sequence[str], sensor: SensorModel
@@ -241,19 +193,20 @@ def scan_detections(ready: ReadyStep, roster: Sequence[str], sensors: Sequence[S
 
 def fuse_step(config: TrackerConfig, estimate: GaussianEstimate | None, ready: ReadyStep, roster: Sequence[str],
               navigator: FleetNavigator | None = None) -> tuple[GaussianEstimate | None, tuple[Detection, ...]]:
-    """The estimate after one step, and the detections that went into it (``navigator``, and the choice
-    among a report's several detections: :func:`step_detections`).
+    """The estimate after one step, and the detections that went into it: one scan of the single-target tracker
+    (:class:`~gcs.core.single_target.SingleTargetTracker`) with the step's detections (:func:`reported_detections`).
 
     Raises :class:`FusionDiverged` when the detections (valid on the wire, but absurd together or with
     the prior) give no usable estimate, so that one bad step cannot poison the track that follows.
     """
-    detections = step_detections(ready, roster, config, navigator, estimate)
+    tracker: TargetTracker[GaussianEstimate | None, SingleTargetScan] = SingleTargetTracker(config)
+    detections = reported_detections(ready, roster, config.sensors, navigator)
     try:
-        fused = fuse(config, estimate, ready.stamp_ns, detections)
+        fused, scanned = tracker.scan(estimate, ready.stamp_ns, detections, config.sensors)
     except (NotPositiveDefinite, np.linalg.LinAlgError, ArithmeticError) as error:
         raise FusionDiverged(f"fusing step {ready.index} failed: {error}") from error
     check_estimate(fused)
-    return fused, detections
+    return fused, scanned.detections
 
 
 def plan_commands(vehicles: VehicleState, configs: Sequence[VehicleConfig], controls: np.ndarray,

@@ -4,14 +4,14 @@
 plan each job the engine submits (:class:`~gcs.engine.events.SubmitPlan`) before the next input, to
 the end of every generation (the planner's ``now`` is None: no deadline), so that their plans are a
 function of the inputs and the seed alone; the daemon's planner stops at its deadline instead
-(:mod:`gcs.daemon.planning`).
+(:mod:`gcs.daemon.plan_runners`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from gcs.daemon.planning import PlanJob, PlanOutcome, plan_job
+from gcs.engine.plan_jobs import PlanJob, PlanOutcome, plan_job
 from gcs.engine.engine import Engine
 from gcs.engine.events import Action, PlanDone
 

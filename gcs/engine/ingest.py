@@ -1,4 +1,4 @@
-"""Validation of everything the daemon receives over Zenoh: accept, or reject with a counted reason.
+"""Validation of everything the ground station receives over Zenoh: accept, or reject with a counted reason.
 
 Every sample goes through :meth:`Ingest.accept`, which returns the decoded
 message or ``None``. Rejections are counted under ``rejected.<reason>`` and
@@ -20,7 +20,7 @@ flood of bad input cannot flood the log); nothing raises. Reasons:
 * ``stale``: a stamp more than :data:`REORDER_WINDOW_NS` older than the
   newest accepted one of the same kind from the same source. Inside that
   window an older stamp is accepted (out-of-order arrival): the step
-  assembler (:mod:`gcs.daemon.steps`) decides whether a report is still in
+  assembler (:mod:`gcs.engine.steps`) decides whether a report is still in
   time for its decision step, and the registry keeps the newest navigation;
 * ``future``: a stamp more than :data:`MAX_AHEAD_NS` after the newest accepted
   one from anybody (a clock gone wrong must not make that vehicle's later
@@ -43,9 +43,9 @@ import heapq
 import logging
 from collections import Counter
 
-from gcs.adapters.zenoh_io import Received
 from gcs.config import Scenario
 from gcs.config.fingerprint import scenario_fingerprint
+from gcs.engine.events import Arrived
 from protocols.codec import decode
 from protocols.errors import ProtocolError
 from protocols.keys import MESSAGE_TYPE_BY_KIND, ParsedKey, parse_key
@@ -122,7 +122,7 @@ class Ingest:
         level = logging.WARNING if self.counters[name] <= WARN_FIRST else logging.DEBUG
         log.log(level, "rejected (%s): %s", reason, detail)
 
-    def accept(self, received: Received) -> SensorReport | NavReport | TargetTruth | VehicleScenario | None:
+    def accept(self, received: Arrived) -> SensorReport | NavReport | TargetTruth | VehicleScenario | None:
         """The decoded message if it passes every check, else None (counted and logged)."""
         parsed = self._keys.get(received.key)
         if parsed is None:

@@ -1,7 +1,8 @@
-"""Building the tracker (estimator + planner) a scenario describes.
+"""The tracker (estimator + planner) a scenario describes, built: the factory shared by the daemon, replay and
+the benchmarks, so that they all run the same filter and planner for the same scenario.
 
-Shared by the daemon, the benchmarks and replay, so that they all run the same
-filter and planner for the same scenario.
+The planner is named as the scenario and the command line name it (:mod:`gcs.core.planner_names`) and
+built with the scenario's ``[planner]`` parameters (:func:`tracker_config`).
 """
 
 from __future__ import annotations
@@ -16,46 +17,25 @@ from gcs.core.filters.uif import UnscentedInformationFilter
 from gcs.core.filters.vgukf import VariableGainUKF
 from gcs.core.models.motion import motion_model
 from gcs.core.models.sensor import SensorModel
-from gcs.core.planners import (GeneticPlanner, LmGcrlbPlanner, OneStepHeadingPlanner, OrbitPlanner, PursuitPlanner,
-                               RhcWeights, StraightLinePlanner, crlb_planner)
+from gcs.core.planner_names import (AOA_PLANNERS, GA_PLANNERS, K0_PLANNERS, PLANNERS, SEARCH_VARIANTS, SIGHT_PLANNERS,
+                                    URBAN_PLANNERS)
+from gcs.core.planners import (CrossEntropyPlanner, GeneticPlanner, LmGcrlbPlanner, OneStepHeadingPlanner,
+                               OrbitPlanner, PursuitPlanner, RhcWeights, SightGeneticPlanner, SightPlanner,
+                               SightWeights, StraightLinePlanner, crlb_planner)
 from gcs.core.planners.airspace_guard import AirspaceGuard
-from gcs.core.planners.cross_entropy import CrossEntropyPlanner, SightGeneticPlanner
-from gcs.core.planners.sequential import SequentialPlanner
-from gcs.core.planners.sight import SightWeights
 from gcs.core.tracker import TrackerConfig
 from gcs.core.world import VisibilityMaps, World
 
-__all__ = ["PLANNERS", "URBAN_PLANNERS", "SEARCH_VARIANTS", "SIGHT_PLANNERS", "K0_PLANNERS", "AOA_PLANNERS", "FROM_SCENARIO", "horizon_steps",
-           "sight_weights", "filter_sensor_models", "observer_sensor_model",
+__all__ = ["FROM_SCENARIO", "horizon_steps", "sight_weights", "filter_sensor_models", "observer_sensor_model",
            "tracker_config", "target_imm", "scenario_planner", "subset_config"]
-
-URBAN_PLANNERS = ("sight", "sight_k0", "ga_k5", "ga_k0", "orbit", "pursuit")
-"""The sight planner on the k+1..k+n predictions or on the current estimate (k+0);
-wang2012: GA-RHC on k+5 predictions or on the current estimate (k+0, the paper's
-comparison); stand-off orbit, straight-line pursuit."""
-SEARCH_VARIANTS = ("sight_cem", "sight_ga")
-"""The sight objective searched otherwise, to compare searches: cross-entropy over whole-team plans, and
-wang2012's GA operators with larger batches and fewer generations (:mod:`gcs.core.planners.cross_entropy`)."""
-SIGHT_PLANNERS = ("sight", "sight_k0") + SEARCH_VARIANTS
-"""Planners of the sight objective (:mod:`gcs.core.planners.sight`)."""
-K0_PLANNERS = ("sight_k0", "ga_k0")
-"""Planners that plan on the current estimate held over the horizon."""
-AOA_PLANNERS = ("gcrlb_lm", "crlb_lm", "straight")
-"""zuo2021: the GCRLB-LM heading planner, Dogancay's constant-noise CRLB planner,
-straight flight at the target."""
-PLANNERS = URBAN_PLANNERS + SEARCH_VARIANTS + AOA_PLANNERS
-"""Every planner a scenario or ``gcs run --planner`` may name."""
 
 FROM_SCENARIO = "scenario"
 """Default of ``stall``: take ``planner.stall_generations`` from the scenario."""
 
-_PLANNER_BY_KIND = {"sight": "sight", "sight_k0": "sight_k0", "ga_rhc": "ga_k5", "k0": "ga_k0", "orbit": "orbit", "pursuit": "pursuit",
-                    "gcrlb_lm": "gcrlb_lm", "crlb_lm": "crlb_lm", "straight": "straight"}
-
 
 def scenario_planner(scenario: Scenario) -> str:
-    """The :data:`PLANNERS` name of the scenario's ``[planner] kind``."""
-    return _PLANNER_BY_KIND[scenario.planner.kind]
+    """The planner the scenario names (``[planner] kind``, one of :data:`~gcs.core.planner_names.PLANNERS`)."""
+    return scenario.planner.kind
 
 
 def filter_sensor_models(scenario: Scenario) -> tuple[SensorModel, ...]:
@@ -97,13 +77,13 @@ def _planner(name: str, scenario: Scenario, generations: int | None, stall: int 
                                    weights=sight_weights(scenario))
     if name in SIGHT_PLANNERS:
         sight = cfg.sight
-        return SequentialPlanner(sight_weights(scenario), sweeps=sight.sweeps, refine_sweeps=sight.refine_sweeps,
+        return SightPlanner(sight_weights(scenario), sweeps=sight.sweeps, refine_sweeps=sight.refine_sweeps,
                                  refine_candidates=sight.refine_candidates, deadline_s=sight.deadline_s)
-    if name in ("ga_k5", "ga_k0"):
+    if name in GA_PLANNERS:
         return GeneticPlanner(population=cfg.population, generations=generations or cfg.generations,
                               deadline_s=cfg.deadline_s,
                               stall=cfg.stall_generations if stall == FROM_SCENARIO else stall)
-    if name in ("gcrlb_lm", "crlb_lm", "straight"):
+    if name in AOA_PLANNERS:
         solver = {"gcrlb_lm": LmGcrlbPlanner, "crlb_lm": crlb_planner, "straight": StraightLinePlanner}[name]()
         max_range = min(scenario.sensor_for(v).max_range_m for v in scenario.vehicles)
         return OneStepHeadingPlanner(solver, max_detection_range_m=max_range)
@@ -121,7 +101,7 @@ def _visibility(world: World, planner, altitude_m: float, max_range_m: float):
     build) answer them cheaply. The other planners score one plan: the sight lines
     answer its few positions directly, with the same answers, and nothing is built.
     """
-    if isinstance(planner, (SequentialPlanner, CrossEntropyPlanner, SightGeneticPlanner)):
+    if isinstance(planner, (SightPlanner, CrossEntropyPlanner, SightGeneticPlanner)):
         return None  # they ask the sight table (TrackerConfig.sight) instead
     if isinstance(planner, GeneticPlanner):
         return lambda points: VisibilityMaps(world.visibility_maps(points, altitude_m, max_range_m))
@@ -132,7 +112,7 @@ def horizon_steps(scenario: Scenario, planner: str) -> int:
     """Steps planned ahead: the paper's ``n`` for its GA, ``[planner.sight] horizon_steps`` (long enough to
     turn) for every other planner of the city."""
     cfg = scenario.planner
-    return cfg.horizon_steps if planner in ("ga_k5", "ga_k0") else cfg.sight.horizon_steps
+    return cfg.horizon_steps if planner in GA_PLANNERS else cfg.sight.horizon_steps
 
 
 def tracker_config(scenario: Scenario, world: World | None, planner: str, generations: int | None = None,

@@ -1,36 +1,38 @@
-"""Planning beside the daemon's loop: one plan at a time, the newest step wins.
+"""Plan runners: how the daemon runs its planner beside the loop, one plan at a time, the newest step winning.
 
-Planning a step (the visibility regions of the k+1..k+n predictions, then the
-GA or another planner) takes tens to hundreds of milliseconds; fusing a step
-takes a few. Run on the loop, every plan holds up the reports, tracks and
-queries behind it. So the loop fuses and publishes every step's track at once
-and hands the planning to a planner:
+A *planner* is an algorithm (:mod:`gcs.core.planners`); a *plan runner* is where and
+when the daemon runs it. Planning a step (the visibility regions of the k+1..k+n
+predictions, then the planner's search) takes tens to hundreds of milliseconds;
+fusing a step takes a few. Run on the loop, every plan holds up the reports, tracks
+and queries behind it. So the loop fuses and publishes every step's track at once and
+hands the planning to a plan runner:
 
-* a **mailbox of one**: :meth:`Planner.submit` replaces a job the planner has
+* a **mailbox of one**: :meth:`PlanRunner.submit` replaces a job the runner has
   not started yet (counted as ``superseded``). A plan made from older data
   than the newest fused step is worth nothing once the newer one exists, so the
-  planner never queues behind itself. The daemon goes further: it keeps the
-  newest step's planning itself and submits only when the planner is free
-  (``Daemon._hand_over``, at most every ``plan_interval_s``), so a job is
-  built once and carries the warm start of the plan just applied;
-* the planner runs :func:`gcs.core.tracker.plan` (pure) and the loop takes the
-  finished :class:`PlanOutcome` s with :meth:`Planner.take` and applies them
-  (warm-start memory, commands, ``PlanCommand``): every side effect stays on
+  runner never queues behind itself. The engine goes further: it keeps the
+  newest step's planning itself and submits only when the runner is free
+  (:class:`~gcs.engine.events.PlannerFree`, at most every
+  :func:`~gcs.engine.memory.plan_interval_s`), so a job is built once and carries
+  the warm start of the plan just applied;
+* the runner plans the job (:func:`run_job`, pure but for the clock of the
+  deadline) and the loop takes the finished :class:`~gcs.engine.plan_jobs.PlanOutcome` s
+  with :meth:`PlanRunner.take` and hands them to the engine: every side effect stays on
   the loop;
-* the random generator belongs to the planner and serves one job at a time.
+* the random generator belongs to the runner and serves one job at a time.
 
-Three planners share that interface:
+Three plan runners share that interface (``gcs run --plan-in``):
 
-``process`` (the daemon's default, :class:`gcs.daemon.planner_process.ProcessPlanner`)
+``process`` (the daemon's default, :class:`gcs.daemon.plan_process.ProcessPlanRunner`)
     A child process with its own tracker, world and generator. Python runs one
     thread at a time in a process, so a planning *thread* takes the interpreter
     from the loop for as long as it computes; a process does not.
-``thread`` (:class:`ThreadPlanner`)
+``thread`` (:class:`ThreadPlanRunner`)
     A thread of the daemon's process: no start-up cost, shares the interpreter.
-``inline`` (:class:`InlinePlanner`)
-    Plans inside :meth:`~Planner.submit`, before the loop goes on (deterministic).
+``inline`` (:class:`InlinePlanRunner`)
+    Plans inside :meth:`~PlanRunner.submit`, before the loop goes on (deterministic).
 
-:func:`gcs.daemon.planner_start.start_planner` starts the one a mode names.
+:func:`gcs.daemon.plan_runner_start.start_plan_runner` starts the one a name gives.
 """
 
 from __future__ import annotations
@@ -39,24 +41,20 @@ import logging
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 
-from gcs.core.filters.prediction import HorizonPrediction
-from gcs.core.kinematics import VehicleState
-from gcs.core.multitarget.planning import TargetsToPlan, plan_targets
-from gcs.core.planners.problem import PlanResult
-from gcs.core.tracker import TrackerConfig, TrackerState, plan
+from gcs.core.tracker import TrackerConfig
+from gcs.engine.plan_jobs import PlanJob, PlanOutcome, plan_job
 
-__all__ = ["PLANNER_MODES", "PLANNER_NICENESS", "START_TIMEOUT_S", "PlanJob", "PlanOutcome", "plan_job", "run_job",
-           "Planner", "InlinePlanner", "ThreadPlanner"]
+__all__ = ["PLAN_RUNNERS", "PLAN_PROCESS_NICENESS", "START_TIMEOUT_S", "run_job", "PlanRunner", "InlinePlanRunner",
+           "ThreadPlanRunner"]
 
 log = logging.getLogger(__name__)
 
-PLANNER_MODES = ("process", "thread", "inline")
-PLANNER_NICENESS = 5
-"""How much lower the planner process's scheduling priority is than the daemon's, by default.
+PLAN_RUNNERS = ("process", "thread", "inline")
+PLAN_PROCESS_NICENESS = 5
+"""How much lower the plan process's scheduling priority is than the daemon's, by default.
 
 Two things pull in opposite directions. The loop (reports, tracks, commands)
 should not wait for a CPU while plans are made; the planner's search has a
@@ -71,93 +69,6 @@ is for, so 5 (about a quarter of the CPU of a busy program at the default priori
 ``gcs run --planner-nice 19`` gives the loop the machine when reports flood in."""
 START_TIMEOUT_S = 60.0
 """How long a planner process may take to import, build its tracker and say it is ready."""
-
-
-@dataclass(frozen=True)
-class PlanJob:
-    """Everything one plan needs, built on the loop when it is handed over: the step's estimate,
-    prediction and vehicles as they were when it was fused, the warm start of the plan applied last.
-
-    Attributes
-    ----------
-    index, stamp_ns : int
-        The decision step the plan is for.
-    active : tuple of str
-        The vehicles planned (the rows of ``vehicles`` and of the plan).
-    indices : tuple of int
-        Their places in the roster (which tracker to plan with: ``subset_config``).
-    state : TrackerState
-        The fused estimate, the warm start and the turn rates being flown.
-    vehicles : VehicleState
-        The vehicles' states at ``stamp_ns``.
-    predicted : HorizonPrediction
-        The k+1..k+n prediction already published with the track.
-    clock_scale : float
-        The planner's clock is ``time.monotonic`` times this (data time per wall
-        second over the share of the step the planner may use; see
-        ``Daemon._clock_scale``): its deadline is in data time.
-    submitted_s : float
-        ``time.monotonic`` when its step was fused (the daemon keeps the newest step's
-        planning until the planner is free, then builds the job).
-    targets : TargetsToPlan or None
-        With ``[multitarget]``: the tracks the vehicles are shared between
-        (:func:`gcs.core.multitarget.planning.plan_targets`); ``state.estimate`` and
-        ``predicted`` are then None.
-    """
-
-    index: int
-    stamp_ns: int
-    active: tuple[str, ...]
-    indices: tuple[int, ...]
-    state: TrackerState
-    vehicles: VehicleState
-    predicted: HorizonPrediction | None
-    clock_scale: float
-    submitted_s: float
-    targets: TargetsToPlan | None = None
-
-
-@dataclass(frozen=True)
-class PlanOutcome:
-    """A finished job: the new tracker state and first turn rates, or the error that stopped it.
-
-    ``started_s - job.submitted_s`` is the time the job waited (the planner was
-    busy with the previous plan); ``finished_s - started_s`` is the planning
-    time (visibility regions and solve); both ``time.monotonic``.
-    ``finished_ns`` is ``time.time_ns`` at the end (to compare with other processes).
-    """
-
-    job: PlanJob
-    state: TrackerState | None
-    turn_rates: np.ndarray | None
-    result: PlanResult | None
-    started_s: float
-    finished_s: float
-    finished_ns: int
-    error: str | None = None
-
-    @property
-    def waited_s(self) -> float:
-        return self.started_s - self.job.submitted_s
-
-    @property
-    def planning_s(self) -> float:
-        return self.finished_s - self.started_s
-
-    @property
-    def solve_s(self) -> float | None:
-        """The planner's own solve time in wall seconds (planning less the visibility regions)."""
-        return None if self.result is None else self.result.elapsed_s / self.job.clock_scale
-
-
-def plan_job(job: PlanJob, config: TrackerConfig, rng: np.random.Generator,
-             now: Callable[[], float] | None = None) -> tuple[TrackerState, np.ndarray, PlanResult | None]:
-    """The job's plan: the new state, first turn rates and the planner's result (``now`` None: no deadline).
-    One target: :func:`gcs.core.tracker.plan`; many: :func:`gcs.core.multitarget.planning.plan_targets`."""
-    if job.targets is not None:
-        return plan_targets(config, job.state, job.vehicles, job.targets, rng, now)
-    state, turn_rates, diagnostics = plan(config, job.state, job.vehicles, rng, now=now, predicted=job.predicted)
-    return state, turn_rates, diagnostics.plan
 
 
 def run_job(job: PlanJob, config: TrackerConfig, rng: np.random.Generator) -> PlanOutcome:
@@ -176,8 +87,8 @@ def run_job(job: PlanJob, config: TrackerConfig, rng: np.random.Generator) -> Pl
     return PlanOutcome(job, state, turn_rates, result, started, time.monotonic(), time.time_ns())
 
 
-class Planner:
-    """What the daemon's loop sees of a planner (see the module docstring)."""
+class PlanRunner:
+    """What the daemon's loop sees of a plan runner (see the module docstring)."""
 
     superseded: int = 0
 
@@ -208,7 +119,7 @@ class Planner:
         """Stop after the job being planned (idempotent); a waiting job is dropped."""
 
 
-class InlinePlanner(Planner):
+class InlinePlanRunner(PlanRunner):
     """Plans in :meth:`submit` (the loop waits for it)."""
 
     def __init__(self, configs: Callable[[tuple[int, ...]], TrackerConfig], rng: np.random.Generator) -> None:
@@ -234,7 +145,7 @@ class InlinePlanner(Planner):
         return bool(self._done)
 
 
-class ThreadPlanner(Planner):
+class ThreadPlanRunner(PlanRunner):
     """Plans on a thread of its own, one job at a time."""
 
     def __init__(self, configs: Callable[[tuple[int, ...]], TrackerConfig], rng: np.random.Generator) -> None:
@@ -280,7 +191,7 @@ class ThreadPlanner(Planner):
         if self._thread is not threading.current_thread():
             self._thread.join(timeout_s)
             if self._thread.is_alive():
-                log.warning("the planner thread did not stop within %.0f s", timeout_s)
+                log.warning("the planning thread did not stop within %.0f s", timeout_s)
 
     def _work(self) -> None:
         while True:

@@ -1,4 +1,4 @@
-"""The live map of a daemon or a replay: a :class:`~gcs.daemon.picture.Picture`, its HTTP server and,
+"""The live map of a daemon or a replay: a :class:`~gcs.adapters.live_map.picture.Picture`, its HTTP server and,
 optionally, Foxglove outputs (:mod:`gcs.adapters.foxglove_out`).
 
 The producer's loop calls :meth:`LiveMap.observe` (decoded messages) or
@@ -19,8 +19,8 @@ from gcs.adapters.foxglove_out import FoxgloveOptions, FoxgloveOut
 from gcs.adapters.web.server import LiveMapServer
 from gcs.config import Scenario
 from gcs.core.world import World
-from gcs.daemon.picture import Picture
-from gcs.daemon.picture_geometry import encode_json
+from gcs.adapters.live_map.picture import Picture
+from gcs.adapters.live_map.picture_geometry import encode_json
 from protocols.messages import DaemonStatus, Message
 
 __all__ = ["LiveMap", "PUBLISH_RATE_HZ"]

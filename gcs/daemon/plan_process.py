@@ -1,9 +1,9 @@
-"""The planner in a child process (:mod:`gcs.daemon.planning`'s ``process`` mode, the daemon's default).
+"""The plan runner in a child process (:mod:`gcs.daemon.plan_runners`' ``process``, the daemon's default).
 
 Python runs one thread at a time in a process, so a planning *thread* takes the
 interpreter from the daemon's loop for as long as it computes; a child process
 does not. The child (:func:`_serve`) builds its own tracker from the scenario and
-world and plans the jobs it is sent, one at a time; :class:`ProcessPlanner` keeps
+world and plans the jobs it is sent, one at a time; :class:`ProcessPlanRunner` keeps
 the mailbox of one on the daemon's side, starts the child in the background and
 starts it again if it dies.
 """
@@ -24,11 +24,12 @@ import numpy as np
 from gcs.config import Scenario
 from gcs.core.tracker import TrackerConfig
 from gcs.core.world import World
-from gcs.daemon.planning import PLANNER_NICENESS, START_TIMEOUT_S, PlanJob, PlanOutcome, Planner, run_job
+from gcs.daemon.plan_runners import PLAN_PROCESS_NICENESS, START_TIMEOUT_S, PlanRunner, run_job
+from gcs.engine.plan_jobs import PlanJob, PlanOutcome
 from gcs.daemon.niceness import check_niceness, lower_priority
-from gcs.engine.tracking import subset_config, tracker_config
+from gcs.engine.tracker_factory import subset_config, tracker_config
 
-__all__ = ["ProcessPlanner"]
+__all__ = ["ProcessPlanRunner"]
 
 log = logging.getLogger(__name__)
 
@@ -44,7 +45,7 @@ def _serve(conn, scenario: Scenario, world: World, planner_name: str, seed: int,
         return
     configs: dict[tuple[int, ...], TrackerConfig] = {}
     rng = np.random.default_rng(seed)
-    gc.freeze()  # the imports and the world: never garbage, and slow to walk (see gcs.app.Daemon.run)
+    gc.freeze()  # the imports and the world: never garbage, and slow to walk (see gcs.daemon.app.Daemon.run)
     conn.send(("ready", None))
     while True:
         try:
@@ -63,11 +64,11 @@ def _serve(conn, scenario: Scenario, world: World, planner_name: str, seed: int,
             return
 
 
-class ProcessPlanner(Planner):
+class ProcessPlanRunner(PlanRunner):
     """Plans in a child process (spawned, so no thread of the daemon's is copied into it).
 
     The child builds its own tracker from the scenario and world, seeds its own
-    generator, and runs at a lower priority (``niceness``, :data:`PLANNER_NICENESS` by default). It is
+    generator, and runs at a lower priority (``niceness``, :data:`PLAN_PROCESS_NICENESS` by default). It is
     started in the background: starting Python and handing it the world takes a
     second or more, which the loop spends fusing (jobs submitted meanwhile wait,
     the newest winning). The mailbox of one is kept here: a job is sent only when
@@ -76,7 +77,7 @@ class ProcessPlanner(Planner):
     """
 
     def __init__(self, scenario: Scenario, world: World, planner_name: str, seed: int,
-                 niceness: int = PLANNER_NICENESS) -> None:
+                 niceness: int = PLAN_PROCESS_NICENESS) -> None:
         self._arguments = (scenario, world, planner_name, seed, check_niceness(niceness, "the planner's"))
         self.superseded = 0
         self.restarts = 0

@@ -28,46 +28,39 @@ everything is closed.
 
 from __future__ import annotations
 
-import gc
 import logging
 import time
 from collections.abc import Callable
 
 from gcs import __version__
+from gcs.adapters.live_map.outputs import LiveMap
 from gcs.adapters.mavlink_io import MavlinkCommander
-from gcs.adapters.mavlink_link import HeadingCommand, steering_command
 from gcs.adapters.recording import Recorder
 from gcs.adapters.zenoh_io import Received, ZenohIO
 from gcs.adapters.zenoh_session import listening_endpoints
 from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
-from gcs.core.steering import SAMPLES_PER_STEP, course_loop
+from gcs.core.steering import course_loop
 from gcs.core.world import World
-from gcs.daemon.live import LiveMap
+from gcs.daemon.daemon_status import daemon_status
+from gcs.daemon.heap import HeapFreezer
 from gcs.daemon.options import DaemonOptions
-from gcs.daemon.planning import Planner
-from gcs.daemon.planner_start import start_planner
-from gcs.daemon.records import PlanRecord, StepRecord
-from gcs.daemon.registry import LOST_AFTER_S
-from gcs.daemon.track_summary import summarise_track
+from gcs.daemon.plan_runners import PlanRunner
+from gcs.daemon.plan_runner_start import start_plan_runner
+from gcs.daemon.steering import steer_along_paths
 from gcs.engine.engine import ALIVE_REFRESH_S, Engine, EngineOptions
 from gcs.engine.events import (Action, Arrived, Heartbeat, LetGo, Observed, PlanDone, PlannerFree, PublishPlan,
                                PublishTrack, RetireTrack, SubmitPlan, Tick)
 from gcs.engine.memory import MIN_PLAN_INTERVAL_S, PLAN_INTERVAL_PER_VEHICLE_S, STEER_RATE_HZ, plan_interval_s
+from gcs.engine.records import PlanRecord, StepRecord
 from protocols.keys import alive_key
-from protocols.status import MAX_STATUS_TRACKS, DaemonStatus, VehicleStatus
+from protocols.status import DaemonStatus
 
 __all__ = ["DaemonOptions", "Daemon", "StepRecord", "PlanRecord", "STEER_RATE_HZ", "ALIVE_REFRESH_S",
            "MIN_PLAN_INTERVAL_S", "PLAN_INTERVAL_PER_VEHICLE_S", "plan_interval_s"]
 
 log = logging.getLogger(__name__)
 
-AUTOPILOT_NAMES = {3: "ArduPilot", 12: "PX4"}
-FREEZE_EVERY_S = 1.0
-"""How often the loop hands what it has built so far to ``gc.freeze`` (see :meth:`Daemon.run`)."""
-FULL_COLLECT_EVERY_S = 600.0
-"""How often the loop, when idle, collects everything it froze (any cyclic garbage; the imports' heap too);
-a loop never idle does it after twice this."""
 PLAN_CHECK_ITEMS = 16
 """While a pass handles what it received, it applies a finished plan after every this many items."""
 
@@ -89,7 +82,7 @@ class Daemon:
         self.recorder: Recorder | None = None
         self.zenoh = ZenohIO(options.zenoh, options.prefix, tap=self._record_published)
         self.commander: MavlinkCommander | None = None
-        self.planner: Planner | None = None
+        self.plan_runner: PlanRunner | None = None
         self._heard: dict[str, float | None] = {}
         self._stopping = False
         self._started_s = clock()
@@ -159,8 +152,8 @@ class Daemon:
                 signing_key=self.options.signing_key,
                 max_turn_rate_rad_s={v.id: v.max_turn_rate_rad_s for v in self.scenario.vehicles},
                 stream_rate_hz=self.options.stream_rate_hz, takeover=self.options.takeover)
-        self.planner = start_planner(self.options.planner_mode, self.scenario, self.world, self.planner_name,
-                                     self.options.seed, self._subset, self.options.planner_niceness)
+        self.plan_runner = start_plan_runner(self.options.plan_runner, self.scenario, self.world, self.planner_name,
+                                             self.options.seed, self._subset, self.options.plan_process_niceness)
         if self.options.http is not None or self.options.foxglove is not None:
             try:
                 self.live = LiveMap.open(self.options.http, self.scenario, self.world,
@@ -183,8 +176,8 @@ class Daemon:
     def close(self) -> None:
         """Stop the planner, close MAVLink and Zenoh and finish the recording (idempotent).
         The commander's last view stays readable."""
-        if self.planner is not None:
-            self.planner.close()
+        if self.plan_runner is not None:
+            self.plan_runner.close()
         self.engine.flush()
         if self.commander is not None and not self._closed:
             self._carry_out([self.engine.let_go_all("the daemon stopped")])
@@ -201,44 +194,26 @@ class Daemon:
     def run(self, until: Callable[[], bool] | None = None, idle_s: float = 0.001) -> None:
         """Loop until :meth:`stop` (or ``until()`` returns True); always closes what it opened.
 
-        The heap built before the loop is frozen (``gc.freeze``): CPython's full garbage
-        collection walks every tracked object, and after the imports (SciPy, pymavlink,
-        Zenoh, ...) that is some 75,000 of them and 40-60 ms of CPU, several times a
-        minute at thousands of reports a second, holding every report and command behind
-        it. Nothing built before the loop becomes cyclic garbage while it runs. What the
-        loop keeps (records, estimates, registry entries) is frozen too, every
-        :data:`FREEZE_EVERY_S`: at 100 vehicles its older-generation collections otherwise
-        took 5-11 ms, a few times a minute. The loop makes no cyclic garbage (none was
-        collected over whole ``gcs bench daemon`` runs); in case some path does, the young
-        generations are collected before each freeze, and every :data:`FULL_COLLECT_EVERY_S`
-        the loop collects everything it froze: when idle, or after twice that if never idle.
-        The heap is given back to the collector (``gc.unfreeze``) when the loop ends.
+        What the loop builds is frozen out of the garbage collector's walks as it goes
+        (:class:`~gcs.daemon.heap.HeapFreezer`), and given back to it when the loop ends.
         """
+        heap = HeapFreezer()
         try:
             self.open()
-            gc.freeze()
-            next_status = next_freeze = self.clock()
-            next_full_collect = next_status + FULL_COLLECT_EVERY_S
+            next_status = self.clock()
+            heap.start(next_status)
             while not self._stopping and (until is None or not until()):
                 now = self.clock()
                 busy = self.turn(now)
                 if now >= next_status:
                     self.zenoh.publish_status(self.status(now))
                     next_status = now + 1.0
-                if now >= next_freeze:
-                    gc.collect(1)  # the young generations' cycles, if any, before their survivors are frozen
-                    gc.freeze()
-                    next_freeze = now + FREEZE_EVERY_S
-                if now >= next_full_collect and (not busy or now >= next_full_collect + FULL_COLLECT_EVERY_S):
-                    gc.unfreeze()
-                    gc.collect()
-                    gc.freeze()
-                    next_full_collect = now + FULL_COLLECT_EVERY_S
+                heap.turn(now, busy)
                 if not busy:  # wake for input, or for a finished plan to command at once
-                    self.zenoh.wait(idle_s, until=self.planner.finished)
+                    self.zenoh.wait(idle_s, until=self.plan_runner.finished)
         finally:
             self.close()
-            gc.unfreeze()
+            heap.stop()
 
     # ------------------------------------------------------------------ loop
 
@@ -271,7 +246,7 @@ class Daemon:
             self._heartbeats()
         activity += self._release(now)
         activity += self._apply_finished_plans()
-        if not self.planner.planning:
+        if not self.plan_runner.planning:
             self._carry_out(self.engine.feed(PlannerFree(now)))
         if now >= self._next_steer_s:
             self._steer(now)
@@ -318,7 +293,7 @@ class Daemon:
 
     def _apply_finished_plans(self) -> int:
         """Hand the engine what the planner has finished (checked several times a pass, so that a plan waits little)."""
-        outcomes = self.planner.take()
+        outcomes = self.plan_runner.take()
         for outcome in outcomes:
             self._carry_out(self.engine.feed(PlanDone(outcome)))
         return len(outcomes)
@@ -336,64 +311,20 @@ class Daemon:
                 if self.live is not None:
                     self.live.observe(action.message)
             elif isinstance(action, SubmitPlan):
-                self.planner.submit(action.job)
+                self.plan_runner.submit(action.job)
             elif isinstance(action, LetGo) and self.commander is not None:
                 for vehicle_id in action.vehicle_ids:
                     self.commander.let_go(vehicle_id, action.why)
 
     def _steer(self, now: float) -> None:
-        """Steer each vehicle along its planned path from its latest MAVLink telemetry (:mod:`gcs.core.steering`).
-
-        The steering is the path follower's, encoded with the lead that makes the course loop of
-        the vehicle's autopilot (the one its scenario names) turn at the rate wanted: the course
-        an ArduPilot peer is told, and the direction of a PX4 peer's carrot. Following the path from where the vehicle
-        is *now* absorbs the delay between the reports a plan was made from and the moment it
-        is flown. Without telemetry the plan's course one step on is commanded. The engine measures each
-        command's age (:class:`~gcs.engine.memory.CommandAges`), without MAVLink too (``gcs bench daemon``):
-        the age of the plan a vehicle would be steered along.
-        """
-        period = 1.0 / STEER_RATE_HZ
+        """Steer each vehicle along the path the engine gives it (:func:`~gcs.daemon.steering.steer_along_paths`)."""
         steered = self.engine.steer()
-        if self.commander is None:
-            return
-        for vehicle_id, path in steered:
-            link = self.commander.link(vehicle_id)
-            latency = link.position_age_s(now) * self.loop.data_rate
-            command = steering_command(link, path, self.course_loops[vehicle_id], period, latency)
-            if command is None:
-                fallback = float(path.courses[min(SAMPLES_PER_STEP, len(path.courses) - 1)])
-                command = HeadingCommand(fallback, path.altitude_m, path.airspeed_mps)
-            self.commander.command(vehicle_id, command)
+        if self.commander is not None:
+            steer_along_paths(self.commander, steered, self.course_loops, now, self.loop.data_rate)
 
     # ----------------------------------------------------------------- status
 
     def status(self, now: float) -> DaemonStatus:
-        """The daemon's health: vehicles, link state, counters, the newest step's tracks (the first 256)."""
-        vehicles = []
-        for vehicle_id, entry in self.registry.entries.items():
-            autopilot = heartbeat = control = None
-            if self.commander is not None:
-                link = self.commander.link(vehicle_id)
-                autopilot = AUTOPILOT_NAMES.get(link.autopilot)
-                heartbeat = "unknown" if link.last_heartbeat_s is None else (
-                    "ok" if link.alive(now, LOST_AFTER_S) else "lost")
-                control = self.commander.control(vehicle_id, now)
-            vehicles.append(VehicleStatus(vehicle_id=vehicle_id, sysid=entry.config.sysid,
-                                          link=self.registry.link_state(vehicle_id, now),
-                                          last_report_stamp_ns=entry.last_report_stamp_ns, reports=entry.reports,
-                                          autopilot=autopilot, heartbeat=heartbeat,
-                                          liveliness=self.registry.liveliness_state(vehicle_id),
-                                          control=control))
-        counters = self.engine.counters_now()
-        if self.planner is not None:
-            counters["plans_superseded"] = self.planner.superseded
-            counters["planner_restarts"] = getattr(self.planner, "restarts", 0)
-        if self.commander is not None:
-            counters.update({f"mavlink.{k}": v for k, v in self.commander.counters().items()})
-        return DaemonStatus(stamp_ns=time.time_ns(), uptime_s=max(now - self._started_s, 0.0),
-                            scenario=self.scenario.name, vehicles=tuple(vehicles),
-                            counters={k: int(v) for k, v in counters.items() if v >= 0},
-                            last_track_stamp_ns=self.loop.last_track_stamp_ns,
-                            tracks=tuple(summarise_track(t) for t in self.engine.tracks_now.values())[:MAX_STATUS_TRACKS],
-                            command_age_ms_median=self.engine.command_ages.median_ms(),
-                            command_age_ms_p99=self.engine.command_ages.p99_ms())
+        """The daemon's health (:func:`~gcs.daemon.daemon_status.daemon_status`)."""
+        return daemon_status(self.engine, self.scenario.name, self.commander, self.plan_runner,
+                             max(now - self._started_s, 0.0), now)

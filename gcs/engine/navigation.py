@@ -1,6 +1,6 @@
 """Every roster vehicle's own position from its ``NavReport``s: feng2019's SKF, in stamp order, for the daemon and replay.
 
-The daemon (:mod:`gcs.app`) and ``gcs replay --process`` (:mod:`gcs.recordings.replay`) hold one
+The daemon (:mod:`gcs.daemon.app`) and ``gcs replay --process`` (:mod:`gcs.recordings.replay`) hold one
 :class:`FleetNavigator` and drive it the same way, so that the position a detection is
 fused with does not depend on when the nav reports arrived:
 
@@ -13,7 +13,7 @@ fused with does not depend on when the nav reports arrived:
 * :meth:`FleetNavigator.position_at` gives a vehicle's horizontal position at a stamp
   (extrapolated by eq. 6 from its last applied report) with its covariance.
 
-The step assembler (:mod:`gcs.daemon.steps`) releases step ``k`` only once every expected
+The step assembler (:mod:`gcs.engine.steps`) releases step ``k`` only once every expected
 vehicle that sends nav (at least once a step) has sent one stamped ``>= T_k`` (or the step
 times out), so every report stamped ``<= T_k`` is in the buffer by then. A report stamped at or before a step
 already advanced to is **late**: counted as ``rejected.late_nav``, logged at DEBUG and
@@ -24,7 +24,7 @@ A vehicle's filter starts at its first report with a GPS fix (``fix_type >= 2``)
 fix with ``h_acc_m`` per axis, heading from the report's ``heading_rad`` or else its
 velocity (``nav.waiting_for_fix`` counts the reports before it). A report the filter
 refuses (the update raises, its result is not finite, or its position is further than
-ingest's :data:`~gcs.daemon.ingest.MAX_ABS_POSITION_M` from the origin) is counted as
+ingest's :data:`~gcs.engine.ingest.MAX_ABS_POSITION_M` from the origin) is counted as
 ``rejected.nav_update`` and the estimate stays as it was. An estimate more than
 :data:`MAX_EXTRAPOLATION_S` older than the detection (the vehicle's nav stopped) is not
 used: the detection falls back to the report's own position (``nav.stale``).
@@ -71,7 +71,7 @@ from numpy.typing import NDArray
 
 from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
-from gcs.daemon.ingest import MAX_ABS_POSITION_M
+from gcs.engine.ingest import MAX_ABS_POSITION_M
 from gcs.core.navigation.fleet_ekf import gaussian_updates
 from gcs.core.navigation.skf import (NavGaussian, NavParams, initial, nav_measurements,
                                      position_at)

@@ -1,4 +1,4 @@
-"""What the daemon did, step by step and plan by plan: records for the demo's summary, the benchmarks and tests.
+"""What the engine did, step by step and plan by plan: records for the demo's summary, the benchmarks and tests.
 
 A :class:`StepRecord` is made when a decision step is fused and scored against the
 simulator's truth at its stamp (the simulator publishes ``TargetTruth`` beside the

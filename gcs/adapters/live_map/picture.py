@@ -33,8 +33,8 @@ import numpy as np
 from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
 from gcs.core.world import World
-from gcs.daemon.picture_geometry import TRAIL_POINTS, TRAIL_STEP_S, Trail, ellipse, world_geometry
-from gcs.daemon.picture_geometry import rounded as _r
+from gcs.adapters.live_map.picture_geometry import TRAIL_POINTS, TRAIL_STEP_S, Trail, ellipse, world_geometry
+from gcs.adapters.live_map.picture_geometry import rounded as _r
 from protocols.codec import decode
 from protocols.errors import ProtocolError
 from protocols.messages import (DaemonStatus, Message, NavReport, PlanCommand, SensorReport, TargetTruth,

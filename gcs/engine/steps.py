@@ -20,13 +20,13 @@ never changes a result. Steps are released in index order, each once:
   their wait short; the first step of a run always waits for the timeout;
 * or, earlier, when **complete**: every vehicle the daemon expects (those
   alive, less those whose latest two reports ingest refused for their stamps: see
-  :attr:`gcs.daemon.ingest.Ingest.off_clock`) has a report in the step, or has already reported for step
+  :attr:`gcs.engine.ingest.Ingest.off_clock`) has a report in the step, or has already reported for step
   ``k + 1 + reorder_steps`` or later (it skipped the step and is not waited
   for), and the step follows the last released one directly (after a step
   that nobody reported for, the next step waits for its timeout).
 
 **Navigation.** With the daemon's own navigation (``--navigation skf``,
-:mod:`gcs.daemon.navigation`) a step also waits, within the same window and
+:mod:`gcs.engine.navigation`) a step also waits, within the same window and
 timeout, for the nav reports it needs: complete means, besides the above, that
 every expected vehicle that sends nav (:meth:`StepAssembler.add_nav`) has sent
 one stamped ``>= T_k``. A vehicle's messages arrive in the order it sent them

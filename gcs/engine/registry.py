@@ -1,4 +1,4 @@
-"""What the daemon knows about each vehicle of the roster, and which ones it plans for.
+"""What the engine knows about each vehicle of the roster, and which ones it plans for.
 
 A vehicle is **alive** while its Zenoh liveliness token is declared or its
 MAVLink heartbeat is recent (within ``lost_after_s``, 5 s: MAVProxy's
