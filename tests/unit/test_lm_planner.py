@@ -104,7 +104,9 @@ def test_lm_never_ends_with_a_higher_penalised_cost_than_keeping_the_headings(pr
         end = GCRLB_LM.solve(problem)
         again = float(GCRLB_LM.cost(problem, end.heading_change))
     if np.isfinite(kept):
-        assert end.cost <= kept
+        # Within round-off: solve() scores its iterates in batches of another shape than cost() scores the kept
+        # headings, so the same sum can differ in its last digits (seen: 1 ulp where LM ends on the kept headings).
+        assert end.cost <= kept * (1.0 + 1e-12)
         assert end.cost == pytest.approx(again, rel=1e-9)
     assert end.iterations <= GCRLB_LM.max_iterations
 
