@@ -42,6 +42,7 @@ def assert_lines_are_the_graph(lines: list[np.ndarray], one_way: list[bool], gra
         for a, b in zip(nodes[:-1].tolist(), nodes[1:].tolist()):
             drawn[(a, b) if oneway else frozenset((a, b))] += 1
     expected = graph_segments(graph)
+    missing, extra = list((expected - drawn).items())[:5], list((drawn - expected).items())[:5]
     assert drawn == expected, (f"{sum(drawn.values())} segments drawn, {sum(expected.values())} in the graph; "
-                               f"missing {list((expected - drawn).items())[:5]}, extra {list((drawn - expected).items())[:5]}")
+                               f"missing {missing}, extra {extra}")
     return sum(drawn.values())

@@ -6,8 +6,9 @@ road is a LineString feature (``kind`` ``road``) in WGS84 ``[lon, lat]``; taken 
 to ENU through the scenario's origin (at the origin's height: GeoJSON has none, and the
 ground 3 km away is 0.7 m higher than the origin on the ellipsoid, which moves it 0.3 mm),
 every vertex is within 0.01 m of the graph's node (centimetres on the map, 1e-8 degrees,
-about a millimetre, in the file), and the LineStrings' consecutive vertex pairs are the graph's segments, each once, a one-way road's in
-its driving sense. The extent's outline is the world's ``bounds_m``.
+about a millimetre, in the file), and the LineStrings' consecutive vertex pairs are
+the graph's segments, each once, a one-way road's in its driving sense. The extent's
+outline is the world's ``bounds_m``.
 """
 
 from __future__ import annotations
