@@ -3,7 +3,8 @@
 The city (from OpenStreetMap) lies about the scenario's origin, mostly at negative
 coordinates. The page must draw its extent where its buildings are and show all of
 them, and nothing much more, under "whole city": the extent is the buildings, roads
-and start points with the 100 m margin (``gcs.core.world.extent``).
+and start points with the 100 m margin (``gcs.core.world.extent``); its roads are
+drawn where the graph has them, inside the extent.
 """
 
 from __future__ import annotations
