@@ -15,7 +15,8 @@ topic                           schema                 content
 ``/map/target/truth``           foxglove.LocationFix   the first truth (simulated runs)
 ``/map/target/prediction``      foxglove.GeoJSON       the first track's k+1..k+n prediction, a LineString
 ``/map/plans``                  foxglove.GeoJSON       each vehicle's planned path
-``/map/world``                  foxglove.GeoJSON       buildings and no-fly zones (every 5 s)
+``/map/world``                  foxglove.GeoJSON       the extent's outline, roads (LineStrings), buildings and
+                                                       no-fly zones (polygons), every 5 s
 ``/gcs/status``                 JSON                   the ``/api/status`` document
 ==============================  =====================  ==========================================
 
@@ -53,6 +54,10 @@ ELLIPSE_POINTS = 36
 """Vertices of a track's 2-sigma ellipse polygon on ``/map/tracks``."""
 TRACK_STYLE = {"color": "#d81b60", "opacity": 0.35}
 PREDICTION_STYLE = {"color": "#fb8c00", "opacity": 0.9}
+ROAD_STYLE = {"color": "#a08a5a", "weight": 3, "opacity": 0.8}
+"""The roads on ``/map/world``: the live map's road colour, darker, to stand out on the map tiles' own roads."""
+EXTENT_STYLE = {"color": "#757575", "weight": 1, "opacity": 0.8, "fill": False}
+"""The world's extent (``bounds_m``) on ``/map/world``: an outline, the frame the live map's "whole city" shows."""
 
 
 class FoxgloveMissing(RuntimeError):
@@ -150,10 +155,20 @@ class FoxgloveOut:
         return [[round(float(lon), 8), round(float(lat), 8)] for lat, lon, _ in self._geodetic(xy)]
 
     def _world_features(self) -> dict:
-        features = [{"type": "Feature", "properties": {"kind": "building", "height_m": b["height_m"],
-                                                       "style": {"color": "#8d8a82", "opacity": 0.6}},
-                     "geometry": {"type": "Polygon", "coordinates": [self._ring(b["footprint"])]}}
-                    for b in self.world["buildings"]]
+        """The ``/map/world`` collection: the extent's outline, the roads (LineStrings, a one-way road's in its driving
+        sense), the buildings and the no-fly zones."""
+        west, south, east, north = self.world["bounds_m"]
+        corners = [[west, south], [east, south], [east, north], [west, north]]
+        features = [{"type": "Feature", "properties": {"kind": "extent", "style": EXTENT_STYLE},
+                     "geometry": {"type": "Polygon", "coordinates": [self._ring(corners)]}}]
+        features += [{"type": "Feature",
+                      "properties": {"kind": "road", "one_way": road["one_way"], "style": ROAD_STYLE},
+                      "geometry": {"type": "LineString", "coordinates": self._lonlat(road["line"])}}
+                     for road in self.world["roads"]]
+        features += [{"type": "Feature", "properties": {"kind": "building", "height_m": b["height_m"],
+                                                        "style": {"color": "#8d8a82", "opacity": 0.6}},
+                      "geometry": {"type": "Polygon", "coordinates": [self._ring(b["footprint"])]}}
+                     for b in self.world["buildings"]]
         features += [{"type": "Feature", "properties": {"kind": "no_fly", "name": z["name"], "floor_m": z["floor_m"],
                                                         "ceiling_m": z["ceiling_m"],
                                                         "style": {"color": "#e53935", "opacity": 0.3}},

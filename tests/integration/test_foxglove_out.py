@@ -31,7 +31,9 @@ from tests.recordings import run_recording
 
 SCENARIO = load_scenario("wang2012_urban")
 FRAME = LocalFrame(SCENARIO.origin.lat_deg, SCENARIO.origin.lon_deg, SCENARIO.origin.height_m)
-WORLD = {"buildings": [{"footprint": [[0.0, 0.0], [20.0, 0.0], [20.0, 10.0]], "height_m": 30.0}],
+WORLD = {"bounds_m": [0.0, 0.0, 300.0, 300.0],
+         "buildings": [{"footprint": [[0.0, 0.0], [20.0, 0.0], [20.0, 10.0]], "height_m": 30.0}],
+         "roads": [{"line": [[0.0, 20.0], [150.0, 20.0]], "one_way": False}],
          "no_fly": [{"name": "zone", "polygon": [[100.0, 100.0], [200.0, 100.0], [200.0, 200.0]], "floor_m": 0.0,
                      "ceiling_m": 500.0}]}
 NS = 1_000_000_000

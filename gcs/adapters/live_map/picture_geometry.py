@@ -11,6 +11,7 @@ from collections import deque
 import msgspec
 import numpy as np
 
+from gcs.adapters.live_map.road_lines import road_lines
 from gcs.config import Scenario
 from gcs.core.world import World
 
@@ -60,8 +61,9 @@ def ellipse(cov_xy: np.ndarray | tuple[float, ...], sigmas: float = SIGMAS) -> d
 
 
 def world_geometry(scenario: Scenario, world: World) -> dict:
-    """The static part of the page (``/api/world``): the world's extent (``bounds_m``: west, south, east, north), buildings
-    and no-fly zones (ENU m)."""
+    """The static part of the page (``/api/world``): the world's extent (``bounds_m``: west, south, east, north),
+    buildings, roads (:func:`~gcs.adapters.live_map.road_lines.road_lines`; none without a road graph) and no-fly
+    zones (ENU m)."""
     return {
         "scenario": scenario.name,
         "origin": {"lat_deg": scenario.origin.lat_deg, "lon_deg": scenario.origin.lon_deg,
@@ -70,6 +72,7 @@ def world_geometry(scenario: Scenario, world: World) -> dict:
         "bounds_m": [rounded(v) for v in world.bounds_m],
         "buildings": [{"footprint": [[rounded(x), rounded(y)] for x, y in footprint], "height_m": rounded(height)}
                       for footprint, height in zip(world.buildings.footprints, world.buildings.heights)],
+        "roads": [] if world.roads is None else road_lines(world.roads),
         "no_fly": [{"name": name, "polygon": [[rounded(x), rounded(y)] for x, y in polygon], "floor_m": float(floor),
                     "ceiling_m": float(ceiling)}
                    for name, polygon, floor, ceiling in zip(world.airspace.names, world.airspace.polygons,

@@ -1,4 +1,4 @@
-// gcs live map: drawing the city once and every snapshot on it.
+// gcs live map: drawing the city once (its roads: roads.js) and every snapshot on it.
 // Testable state is in the DOM: every vehicle / track / truth element carries data-x and data-y in ENU metres (a
 // track also data-target, its id; a sight line data-track, the track it goes to); a label (#layer-labels) carries
 // data-for, the id of what it names; a trail band data-age-s, the age of its newest end; the legend's vehicles
@@ -41,7 +41,7 @@ function worldBounds(world) {
 function drawWorld(world) {
   const [x0, y0, x1, y1] = worldBounds(world);
   const top = Math.max(1, ...world.buildings.map((b) => b.height_m));
-  const parts = [`<rect class="city" x="${x0}" y="${-y1}" width="${x1 - x0}" height="${y1 - y0}"/>`];
+  const parts = [`<rect class="city" x="${x0}" y="${-y1}" width="${x1 - x0}" height="${y1 - y0}"/>`, roadsMarkup(world)];
   for (const b of world.buildings) {
     const shade = Math.round(200 - 90 * (b.height_m / top));
     parts.push(`<polygon class="building" points="${pts(b.footprint)}" fill="rgb(${shade},${shade - 4},${shade - 12})"><title>${fmt(b.height_m, 0)} m</title></polygon>`);
@@ -52,6 +52,7 @@ function drawWorld(world) {
   layers.world.innerHTML = parts.join("");
   layers.world.dataset.buildings = String(world.buildings.length);
   layers.world.dataset.noFly = String(world.no_fly.length);
+  showRoads();
   for (const v of world.vehicles) vehicleColour(v.id);
 }
 
@@ -88,6 +89,7 @@ function ellipse(cls, x, y, e, extra) {
 }
 
 function render() {
+  drawRoadArrows();
   const tracks = state.tracks;
   if (!tracks || !state.view) return;
   const unit = metresPerPixel(), seconds = (ns) => (ns - tracks.trail_epoch_ns) / 1e9;  // trail time, as the points'
