@@ -32,12 +32,17 @@ from gcs.core.geometry import wrap_angle
 if TYPE_CHECKING:
     from typing_extensions import Unpack
 
-__all__ = ["RANGE", "AZIMUTH", "ELEVATION", "SensorModel", "SensorOptions"]
+__all__ = ["RANGE", "AZIMUTH", "ELEVATION", "DetectionGroup", "SensorModel", "SensorOptions"]
 
 RANGE, AZIMUTH, ELEVATION = "range", "azimuth", "elevation"
 _KNOWN = (RANGE, AZIMUTH, ELEVATION)
 _MIN_HORIZONTAL_M2 = 1e-6
 """Floor of ``rho_h^2`` in :meth:`SensorModel.linearisation_variance` (a vehicle right above the target)."""
+
+
+DetectionGroup = tuple["SensorModel", NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None]
+"""``(sensor, z (k, m), vehicle_xyz (k, 3), vehicle_cov)``: one sensor model's detections; ``vehicle_cov``: None,
+per-axis variances (k,) or (k, 3, 3) covariances."""
 
 
 class SensorOptions(TypedDict, total=False):

@@ -35,16 +35,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from gcs.core.models.sensor import SensorModel
+from gcs.core.models.sensor import DetectionGroup, SensorModel
 from gcs.core.world.sight_table import SightTable
 
 __all__ = ["DetectionGroup", "Looks", "per_axis_vehicle_variance", "detection_log_likelihoods",
            "detections_log_likelihood",
            "looks_log_likelihood", "table_sees"]
-
-DetectionGroup = tuple[SensorModel, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None]
-"""``(sensor, z (k, m), vehicle_xyz (k, 3), vehicle_cov)``; ``vehicle_cov``: None, per-axis variances (k,) or
-(k, 3, 3) covariances."""
 
 Sees = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.bool_]]
 """``sees(points_xy (P, 2), vehicle_xyz (V, 3)) -> (V, P)``: in the sensor's field and in sight."""
