@@ -149,7 +149,8 @@ def tracker_config(scenario: Scenario, world: World | None, planner: str, genera
         bearing_filter=VariableGainUKF(motion) if scenario.estimator.kind == "vgukf" else None,
         target_imm=target_imm(scenario) if scenario.estimator.kind == "imm" else None,
         sight=None if world is None else world.sight_table(altitude, sensors[0].target_height_m, cfg.sight.reach_m),
-        guard=AirspaceGuard(world.airspace if world is not None else None, cfg.airspace_margin_m),
+        guard=AirspaceGuard(margin_m=cfg.airspace_margin_m) if world is None
+        else AirspaceGuard(world.airspace, cfg.airspace_margin_m),
         max_range_m=max_range,
     )
 

@@ -48,7 +48,8 @@ class OneStepHeadingPlanner:
         return HeadingProblem(
             vehicle_xyz=vehicles.xyz, heading=vehicles.heading, speed_mps=vehicles.speed, step_s=problem.step_s,
             max_turn_rad=problem.max_turn_rate * problem.step_s, target_xy=problem.target_means[0, :2],
-            prior_information=np.linalg.inv(problem.target_covs[0, :2, :2]), sensors=tuple(problem.sensors),
+            prior_information=np.linalg.inv(problem.target_covs[0, :2, :2]).astype(np.float64, copy=False),
+            sensors=tuple(problem.sensors),
             max_detection_range_m=self.max_detection_range_m, min_separation_m=self.min_separation_m,
             max_separation_m=self.max_separation_m)
 

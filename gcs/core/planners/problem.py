@@ -131,7 +131,8 @@ class PlanningProblem:
     @cached_property
     def prior_information(self) -> NDArray[np.float64]:
         """``sum_j Y^-[j]`` over the horizon, position block (2, 2): the same for every plan."""
-        return np.linalg.inv(self.target_covs[:, :2, :2]).sum(axis=0)
+        information: NDArray[np.float64] = np.linalg.inv(self.target_covs[:, :2, :2]).sum(axis=0)
+        return information
 
     @cached_property
     def sensor_groups(self) -> list[tuple[SensorModel, list[int] | None]]:
@@ -146,7 +147,7 @@ class PlanningProblem:
     @property
     def horizon(self) -> int:
         """T, the number of planned steps."""
-        return self.target_means.shape[0]
+        return len(self.target_means)
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -214,7 +215,8 @@ def _information(problem: PlanningProblem, xyz: NDArray[np.float64], visible: ND
         xx, yy = xx + w_vis * hidden, yy + w_vis * hidden
     prior = problem.prior_information
     a, b, c = xx + prior[0, 0], xy + prior[0, 1], yy + prior[1, 1]
-    return (a + c) / (a * c - b * b)  # trace of the 2 x 2 inverse
+    trace: NDArray[np.float64] = (a + c) / (a * c - b * b)  # trace of the 2 x 2 inverse
+    return trace
 
 
 def evaluate(problem: PlanningProblem, controls: NDArray[np.float64]) -> CostBreakdown:
