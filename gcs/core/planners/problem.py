@@ -41,7 +41,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -51,7 +51,8 @@ from gcs.core.models.sensor import SensorModel
 from gcs.core.planners.airspace_guard import AirspaceGuard
 from gcs.core.world.sight_table import SightTable
 
-__all__ = ["Visibility", "RhcWeights", "PlanningProblem", "CostBreakdown", "PlanResult", "evaluate"]
+__all__ = ["Visibility", "RhcWeights", "PlanningProblem", "CostBreakdown", "PlanResult", "Planner", "SharingPlanner",
+           "evaluate"]
 
 
 class Visibility(Protocol):
@@ -194,6 +195,27 @@ class PlanResult:
     message: str
     visible_steps: int = 0
     """Vehicle-steps of the best plan from which the predicted target is visible."""
+
+
+class Planner(Protocol):
+    """A planning algorithm: the best team plan for a problem (Problem -> solve -> Result)."""
+
+    def solve(self, problem: PlanningProblem, rng: np.random.Generator,
+              warm_start: NDArray[np.float64] | None = None,
+              now: Callable[[], float] | None = None) -> PlanResult:
+        """``warm_start``: the last plan (V, T), if any; ``now``: a clock for a deadline, if the planner has one."""
+        ...
+
+
+@runtime_checkable
+class SharingPlanner(Planner, Protocol):
+    """A planner that also shares the vehicles between several targets."""
+
+    def solve_assigned(self, problems: Sequence[PlanningProblem], weights: NDArray[np.float64],
+                       rng: np.random.Generator, warm_start: NDArray[np.float64] | None = None,
+                       now: Callable[[], float] | None = None) -> PlanResult:
+        """One plan for the targets of ``problems`` (one each, beside the same vehicles), weighted ``weights``."""
+        ...
 
 
 def _information(problem: PlanningProblem, xyz: NDArray[np.float64], visible: NDArray[np.bool_]) -> NDArray[np.float64]:

@@ -39,7 +39,7 @@ from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
 from gcs.core.kinematics import VehicleState
@@ -49,7 +49,7 @@ from gcs.core.planners.sight import Contribution, SightModel, TeamView, joint_va
 __all__ = ["target_weights", "SharedView", "shared_joint_values", "assign_vehicles", "vehicles_subproblem"]
 
 
-def target_weights(priorities: Sequence[float], unseen_s: Sequence[float], starvation_s: float) -> NDArray[np.float64]:
+def target_weights(priorities: ArrayLike, unseen_s: ArrayLike, starvation_s: float) -> NDArray[np.float64]:
     """``w_k = p_k (1 + u_k / tau) / sum_l p_l (1 + u_l / tau)`` (module docstring), shape (K,)."""
     p = np.asarray(priorities, dtype=np.float64)
     u = np.asarray(unseen_s, dtype=np.float64)
