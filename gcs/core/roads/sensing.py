@@ -78,7 +78,8 @@ def per_axis_vehicle_variance(covs: NDArray[np.float64] | None, k: int) -> NDArr
     covs = np.asarray(covs, dtype=np.float64)
     if covs.ndim == 1:
         return covs
-    return np.trace(covs, axis1=-2, axis2=-1) / 3.0
+    per_axis: NDArray[np.float64] = np.trace(covs, axis1=-2, axis2=-1) / 3.0
+    return per_axis
 
 
 def detection_log_likelihoods(points: NDArray[np.float64], group: DetectionGroup, spread_var_m2: float = 0.0
@@ -118,7 +119,8 @@ def looks_log_likelihood(points: NDArray[np.float64], looks: Looks | None) -> ND
     seen = looks.sees(points, looks.vehicle_xyz)  # (V, P)
     pd = looks.detection_probability
     factor = np.where(looks.detected[:, None], np.where(seen, 1.0, 1.0 - pd), np.where(seen, 1.0 - pd, 1.0))
-    return np.log(factor).sum(axis=0)
+    log_factors: NDArray[np.float64] = np.log(factor).sum(axis=0)
+    return log_factors
 
 
 def table_sees(table: SightTable, max_range_m: float) -> Sees:
