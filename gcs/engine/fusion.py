@@ -21,6 +21,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from numpy.typing import NDArray
 
 from gcs.core.filters.prediction import HorizonPrediction
 from gcs.core.filters.uif import GaussianEstimate, NotPositiveDefinite
@@ -113,9 +114,10 @@ def with_observers(config: TrackerConfig, roster: Sequence[str], observers: Sequ
     return [*roster, *observers], replace(config, sensors=config.sensors + (sensor,) * len(observers))
 
 
-def _symmetric(matrix: np.ndarray) -> np.ndarray:
+def _symmetric(matrix: NDArray[np.float64]) -> NDArray[np.float64]:
     """Exactly symmetric copy (the wire checks symmetry)."""
-    return 0.5 * (matrix + matrix.T)
+    symmetric: NDArray[np.float64] = 0.5 * (matrix + matrix.T)
+    return symmetric
 
 
 def track_message(config: TrackerConfig, estimate: GaussianEstimate, target_id: str, model: str, seq: int,
@@ -229,13 +231,13 @@ class PlanMemory:
     """Each vehicle's last planned row (the GA's warm start) and the turn rate it is flying,
     kept by vehicle id so that a planning subset can change from step to step."""
 
-    rows: dict[str, np.ndarray] = field(default_factory=dict)
+    rows: dict[str, NDArray[np.float64]] = field(default_factory=dict)
     turn_rate: dict[str, float] = field(default_factory=dict)
 
     def state_for(self, active: Sequence[str], estimate: GaussianEstimate | None) -> TrackerState:
         """The tracker state for the vehicles planned now (a warm start only if every one has a row)."""
-        rows = [self.rows.get(v) for v in active]
-        warm = np.stack(rows) if all(r is not None for r in rows) else None
+        rows = [self.rows[v] for v in active if v in self.rows]
+        warm = np.stack(rows) if len(rows) == len(active) else None
         return TrackerState(estimate, warm, np.array([self.turn_rate.get(v, 0.0) for v in active]))
 
     def remember(self, active: Sequence[str], state: TrackerState, turn_rates: np.ndarray) -> None:
