@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 import re
+from typing import TypeVar, overload
 
 import msgspec
 
@@ -44,6 +45,8 @@ __all__ = [
 MAX_PAYLOAD_BYTES = 64 * 1024
 ENCODING_MEDIA_TYPE = "application/json"
 SCHEMA_NAMESPACE = "gcs."
+
+M = TypeVar("M", bound=Message)
 
 _TYPES_BY_NAME: dict[str, type[Message]] = {tp.__name__: tp for tp in MESSAGE_TYPES}
 _DECODERS: dict[type[Message], msgspec.json.Decoder[Message]] = {
@@ -276,6 +279,12 @@ def encode(msg: Message) -> tuple[bytes, str]:
     return payload, encoding_for(tp)
 
 
+@overload
+def decode(payload: bytes | bytearray | memoryview, encoding: str | None, expected: type[M]) -> M: ...
+@overload
+def decode(payload: bytes | bytearray | memoryview, encoding: str | None = None, expected: None = None) -> Message: ...
+
+
 def decode(
     payload: bytes | bytearray | memoryview,
     encoding: str | None = None,
@@ -297,7 +306,7 @@ def decode(
     Returns
     -------
     Message
-        A valid instance of the named type.
+        A valid instance of the named type (of ``expected``, when given).
 
     Raises
     ------
