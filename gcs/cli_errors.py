@@ -70,9 +70,10 @@ def run_command(args: argparse.Namespace, known: tuple[type[BaseException], ...]
     returns 128 + its number (130 for Ctrl-C) unless it failed otherwise (its own status then)."""
     prog = getattr(args, "command_prog", None) or Path(sys.argv[0]).name
     _signals_received.clear()
+    caught: tuple[type[BaseException], ...] = (UsageError, *known)
     try:
         status = args.handler(args)
-    except (UsageError, *known) as error:
+    except caught as error:
         print(f"{prog}: error: {one_line(error)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
