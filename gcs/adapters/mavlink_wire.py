@@ -22,6 +22,7 @@ import os
 import socket
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 if "pymavlink.mavutil" in sys.modules and os.environ.get("MAVLINK20") != "1":  # pragma: no cover
     raise ImportError("pymavlink.mavutil was imported before MAVLINK20=1 was set; import "
@@ -32,6 +33,9 @@ from pymavlink import mavutil  # noqa: E402
 
 mavlink = mavutil.mavlink
 """pymavlink's MAVLink 2 module (``all`` dialect: message classes, enums, ``MAVLink``)."""
+
+if TYPE_CHECKING:  # the class of mavlink.MAVLink (pymavlink has no type information: it checks as Any)
+    from pymavlink.dialects.v20.all import MAVLink
 
 __all__ = [
     "ARDUPLANE_MODES",
@@ -200,7 +204,7 @@ def read_signing_key(path: str | Path) -> bytes:
     return key
 
 
-def sign_outgoing(mav: mavlink.MAVLink, key: bytes, link_id: int, timestamp_10us: int) -> None:
+def sign_outgoing(mav: MAVLink, key: bytes, link_id: int, timestamp_10us: int) -> None:
     """Sign every message ``mav`` sends with ``key`` (pymavlink's ``setup_signing`` for a bare encoder).
 
     ``timestamp_10us`` is the MAVLink signing timestamp (10 us units since

@@ -61,7 +61,7 @@ class ZenohIO:
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._latest: dict[str, tuple[bytes, str]] = {}
         self._samples: list = []
-        self._liveliness = None
+        self._liveliness: zenoh.Subscriber[zenoh.handlers.Handler[zenoh.Sample]] | None = None
         self._held: list[Received] = []
 
     def open(self) -> None:
@@ -95,12 +95,12 @@ class ZenohIO:
 
     def _take(self, limit: int) -> list[Received]:
         out: list[Received] = []
-        if self.session is None:
+        if self.session is None or self._liveliness is None:
             return out
         now = self.clock_ns()
         while len(out) < limit and (sample := self._liveliness.try_recv()) is not None:
-            kind = "alive" if sample.kind == zenoh.SampleKind.PUT else "gone"
-            out.append(Received(kind, str(sample.key_expr), b"", "", now))
+            out.append(Received("alive" if sample.kind == zenoh.SampleKind.PUT else "gone", str(sample.key_expr),
+                                b"", "", now))
         for subscriber in self._samples:
             while len(out) < limit and (sample := subscriber.try_recv()) is not None:
                 out.append(Received("sample", str(sample.key_expr), sample.payload.to_bytes(), str(sample.encoding),
@@ -111,6 +111,8 @@ class ZenohIO:
         payload, encoding = encode(message)
         publisher = self._publishers.get(key)
         if publisher is None:
+            if self.session is None:
+                raise RuntimeError(f"cannot publish on {key}: the Zenoh session is not open (call open() first)")
             publisher = self._publishers[key] = declare_publisher(self.session, key, type(message))
         publisher.put(payload)  # the publisher was declared with this type's encoding
         self._latest[key] = (payload, encoding)
