@@ -25,7 +25,7 @@ import signal
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import NoReturn
+from typing import NoReturn, overload
 
 __all__ = ["UsageError", "OneLineParser", "one_line", "run_command", "set_command", "writable_file",
            "existing_file", "positive", "stop_on_signals", "stopped_by", "guard_console", "INTERRUPTED_STATUS",
@@ -126,6 +126,12 @@ def existing_file(path: Path, option: str) -> Path:
     if not os.access(path, os.R_OK):
         raise UsageError(f"{option} {path}: not readable")
     return path
+
+
+@overload
+def positive(value: float, option: str) -> float: ...
+@overload
+def positive(value: float | None, option: str) -> float | None: ...
 
 
 def positive(value: float | None, option: str) -> float | None:

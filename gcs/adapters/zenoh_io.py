@@ -64,9 +64,9 @@ class ZenohIO:
         self._liveliness: zenoh.Subscriber[zenoh.handlers.Handler[zenoh.Sample]] | None = None
         self._held: list[Received] = []
 
-    def open(self) -> None:
-        """Open the session and declare every subscriber and queryable."""
-        self.session = open_session(self.settings)
+    def open(self) -> zenoh.Session:
+        """Open the session and declare every subscriber and queryable; the session."""
+        session = self.session = open_session(self.settings)
         for selector in (reports_selector(self.prefix), navs_selector(self.prefix), truth_selector(self.prefix),
                          scenarios_selector(self.prefix)):
             self._samples.append(self.session.declare_subscriber(selector, zenoh.handlers.FifoChannel(INBOX_CAPACITY)))
@@ -75,6 +75,7 @@ class ZenohIO:
         self._tracks = self.session.declare_queryable(tracks_selector(self.prefix))
         self._status = self.session.declare_queryable(status_key(self.prefix))
         self._entities += [*self._samples, self._liveliness, self._tracks, self._status]
+        return session
 
     def wait(self, timeout_s: float, until: Callable[[], bool] | None = None) -> bool:
         """Wait until something is received, ``until()`` (if given) is true, or ``timeout_s`` passes

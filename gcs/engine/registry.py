@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 from gcs.config import VehicleConfig
 from gcs.core.kinematics import VehicleState
 from protocols.messages import NavReport, SensorReport
+from protocols.status import LinkState
 
 __all__ = ["VehicleEntry", "Registry", "VehicleSnapshot", "LOST_AFTER_S"]
 
@@ -105,14 +106,14 @@ class Registry:
             return False
         return entry.token_changed_s is None or now_s - age > entry.token_changed_s + AFTER_WITHDRAWAL_S
 
-    def liveliness_state(self, vehicle_id: str) -> str:
+    def liveliness_state(self, vehicle_id: str) -> LinkState:
         """The Zenoh liveliness token alone: ``ok`` (declared), ``lost`` (withdrawn) or ``unknown`` (never seen)."""
         entry = self.entries[vehicle_id]
         if entry.token:
             return "ok"
         return "unknown" if entry.token_changed_s is None else "lost"
 
-    def link_state(self, vehicle_id: str, now_s: float) -> str:
+    def link_state(self, vehicle_id: str, now_s: float) -> LinkState:
         """``ok``, ``lost`` (was alive, is not) or ``unknown`` (never heard of)."""
         entry = self.entries[vehicle_id]
         if self.alive(vehicle_id, now_s):
