@@ -34,7 +34,7 @@ import numpy as np
 import zenoh
 
 from gcs.adapters.recording import HEARTBEAT_ENCODING, LIVELINESS_ENCODING, Recorded, Recorder, read_recording
-from gcs.adapters.zenoh_session import open_session
+from gcs.adapters.zenoh_session import has_subscribers, open_session
 from gcs.config import Scenario
 from gcs.config.world import build_world
 from gcs.core.metrics import gospa
@@ -279,7 +279,7 @@ def republish(path: Path, settings, prefix: str, rate: float | None, stop: threa
         # reports from the first step even when they are replayed as fast as possible
         tokens = {_under(prefix, key): session.liveliness().declare_token(_under(prefix, key)) for key in alive}
         deadline = time.monotonic() + wait_for_subscriber_s
-        while not all(p.matching_status.matching for p in publishers.values()) and time.monotonic() < deadline:
+        while not all(has_subscribers(p) for p in publishers.values()) and time.monotonic() < deadline:
             if stop.wait(0.02):
                 break
         if tokens:
