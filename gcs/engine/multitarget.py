@@ -52,7 +52,7 @@ FOUND_PROBABILITY = 0.999
 MODEL = "cv2d"
 
 
-def _covers_nothing(points_xy: np.ndarray) -> np.ndarray:
+def _covers_nothing(points_xy: NDArray[np.float64]) -> NDArray[np.bool_]:
     """The coverage of a step in which no vehicle reported."""
     return np.zeros(len(points_xy), dtype=bool)
 
