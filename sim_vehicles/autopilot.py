@@ -2,7 +2,7 @@
 
 :class:`SimAutopilot` holds what a flight controller holds (mode, arming, the
 active guidance, home, stream rates) and speaks the send/accept set of
-reference/mavlink.md. It is also the base of the personalities that behave as
+docs/mavlink.md. It is also the base of the personalities that behave as
 the real autopilots do (:mod:`sim_vehicles.arduplane`, :mod:`sim_vehicles.px4`),
 which override the hooks named below.
 

@@ -1,7 +1,7 @@
 """The ``px4`` autopilot personality: what PX4 fixed-wing does with the ground station's commands.
 
 Differences from the ``ideal`` autopilot (:mod:`sim_vehicles.autopilot`), each from
-PX4's sources (paths under ``src/modules/``) or reference/mavlink.md:
+PX4's sources (paths under ``src/modules/``) or docs/mavlink.md:
 
 * **HEARTBEAT** says MAV_AUTOPILOT_PX4 (12); ``custom_mode`` is PX4's
   ``px4_custom_mode`` union, ``main_mode << 16 | sub_mode << 24`` (MANUAL 1,

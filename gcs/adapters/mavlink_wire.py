@@ -4,7 +4,7 @@ Importing this module selects MAVLink 2 in pymavlink (``MAVLINK20=1`` must be se
 before ``pymavlink.mavutil`` is first imported; signing needs MAVLink 2) and
 exposes pymavlink's default MAVLink 2 module as :data:`mavlink` (the ``all``
 dialect, a superset of ``ardupilotmega`` with the GUIDED_CHANGE_* commands;
-reference/mavlink.md). Connections parse with ``ardupilotmega``; the message
+docs/mavlink.md). Connections parse with ``ardupilotmega``; the message
 ids and enums are the same, but each module has its own ``MAVError`` class.
 
 Conventions at this edge (docs/design.md, frames, units and time): latitude and longitude are
@@ -58,7 +58,7 @@ if mavlink.WIRE_PROTOCOL_VERSION != "2.0":  # pragma: no cover
     raise ImportError("pymavlink did not load the MAVLink 2 dialect")
 
 GCS_SYSID = 255
-"""System id of a ground station (reference/mavlink.md)."""
+"""System id of a ground station (docs/mavlink.md)."""
 
 ARDUPLANE_MODE_NAMES: dict[int, str] = dict(mavutil.mode_mapping_apm)
 """ArduPlane custom_mode numbers to names (pymavlink's table: 12 LOITER, 15 GUIDED, ...)."""

@@ -1,4 +1,4 @@
-"""Opening Zenoh sessions the same way everywhere (reference/zenoh.md).
+"""Opening Zenoh sessions the same way everywhere (docs/protocol.md#zenoh).
 
 Every session this project opens has multicast scouting off (two runs on one
 host would otherwise find each other) and no scouting delay. A session is a
