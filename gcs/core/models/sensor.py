@@ -22,17 +22,13 @@ Noise: ``constant`` standard deviations, or zuo2021 eq. (2)
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, TypedDict
 
 import numpy as np
 from numpy.typing import NDArray
 
 from gcs.core.geometry import wrap_angle
 
-if TYPE_CHECKING:
-    from typing_extensions import Unpack
-
-__all__ = ["RANGE", "AZIMUTH", "ELEVATION", "DetectionGroup", "SensorModel", "SensorOptions"]
+__all__ = ["RANGE", "AZIMUTH", "ELEVATION", "DetectionGroup", "SensorModel"]
 
 RANGE, AZIMUTH, ELEVATION = "range", "azimuth", "elevation"
 _KNOWN = (RANGE, AZIMUTH, ELEVATION)
@@ -43,14 +39,6 @@ _MIN_HORIZONTAL_M2 = 1e-6
 DetectionGroup = tuple["SensorModel", NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None]
 """``(sensor, z (k, m), vehicle_xyz (k, 3), vehicle_cov)``: one sensor model's detections; ``vehicle_cov``: None,
 per-axis variances (k,) or (k, 3, 3) covariances."""
-
-
-class SensorOptions(TypedDict, total=False):
-    """The keyword options of :class:`SensorModel`'s constructors beside the noise."""
-
-    distance_dependent: bool
-    reference_range_m: float
-    target_height_m: float
 
 
 @dataclass(frozen=True)
@@ -109,18 +97,23 @@ class SensorModel:
         return state
 
     @classmethod
-    def range_bearing(cls, range_std_m: float, azimuth_std_rad: float, elevation_std_rad: float,
-                      **kw: Unpack[SensorOptions]) -> SensorModel:
-        """The paper's 3-D sensor: range, azimuth and elevation."""
-        return cls((RANGE, AZIMUTH, ELEVATION), (range_std_m, azimuth_std_rad, elevation_std_rad), **kw)
+    def range_bearing(cls, range_std_m: float, azimuth_std_rad: float, elevation_std_rad: float, *,
+                      distance_dependent: bool = distance_dependent, reference_range_m: float = reference_range_m,
+                      target_height_m: float = target_height_m) -> SensorModel:
+        """The paper's 3-D sensor: range, azimuth and elevation (the options default to the fields' defaults)."""
+        return cls((RANGE, AZIMUTH, ELEVATION), (range_std_m, azimuth_std_rad, elevation_std_rad),
+                   distance_dependent=distance_dependent, reference_range_m=reference_range_m,
+                   target_height_m=target_height_m)
 
     @classmethod
-    def bearing_only(cls, azimuth_std_rad: float, elevation_std_rad: float | None = None,
-                     **kw: Unpack[SensorOptions]) -> SensorModel:
-        """Angles only: azimuth, plus elevation when its noise is given."""
-        if elevation_std_rad is None:
-            return cls((AZIMUTH,), (azimuth_std_rad,), **kw)
-        return cls((AZIMUTH, ELEVATION), (azimuth_std_rad, elevation_std_rad), **kw)
+    def bearing_only(cls, azimuth_std_rad: float, elevation_std_rad: float | None = None, *,
+                     distance_dependent: bool = distance_dependent, reference_range_m: float = reference_range_m,
+                     target_height_m: float = target_height_m) -> SensorModel:
+        """Angles only: azimuth, plus elevation when its noise is given (options as :meth:`range_bearing`)."""
+        components, std = ((AZIMUTH,), (azimuth_std_rad,)) if elevation_std_rad is None else (
+            (AZIMUTH, ELEVATION), (azimuth_std_rad, elevation_std_rad))
+        return cls(components, std, distance_dependent=distance_dependent, reference_range_m=reference_range_m,
+                   target_height_m=target_height_m)
 
     @property
     def dim(self) -> int:
