@@ -32,6 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 from gcs.config import Scenario, SensorConfig, VehicleConfig
 from gcs.core.geometry import LocalFrame, wrap_angle
@@ -120,15 +121,15 @@ class Scene:
         self.epoch_ns = int(epoch_ns)
         self.frame = LocalFrame(scenario.origin.lat_deg, scenario.origin.lon_deg, scenario.origin.height_m)
         sim = scenario.simulation
-        self.wind = tuple(sim.wind_enu_mps)
+        self.wind = (float(sim.wind_enu_mps[0]), float(sim.wind_enu_mps[1]))
         self.elapsed_ns = 0
         vehicles = len(scenario.vehicles)
         streams = np.random.SeedSequence(seed).spawn(1 + 3 * vehicles + len(scenario.targets))
         self.targets: list[SimTarget] = []
-        for index, cfg in enumerate(scenario.all_targets):
+        for index, target_cfg in enumerate(scenario.all_targets):
             rng = np.random.default_rng(streams[0 if index == 0 else 3 * vehicles + index])
-            model = target_model(scenario, world, base_dir=base_dir, target=cfg)
-            self.targets.append(SimTarget(cfg.id, model, start_state(model, scenario, rng, cfg), rng))
+            model = target_model(scenario, world, base_dir=base_dir, target=target_cfg)
+            self.targets.append(SimTarget(target_cfg.id, model, start_state(model, scenario, rng, target_cfg), rng))
         gps_model = GpsModel.from_scenario(scenario)
         self.vehicles: dict[str, SimVehicle] = {}
         unknown = sorted(set(only or ()) - {v.id for v in scenario.vehicles})
@@ -168,7 +169,8 @@ class Scene:
         """Loiter about the start point at the scenario's altitude and speed (no autopilot attached)."""
         cfg = self.vehicles[vehicle_id].config
         return Guidance(kind="loiter", altitude_m=cfg.altitude_m, airspeed_mps=cfg.speed_mps,
-                        point_enu_m=tuple(cfg.start_enu_m), radius_m=self.scenario.simulation.airframe.loiter_radius_m)
+                        point_enu_m=(cfg.start_enu_m[0], cfg.start_enu_m[1]),
+                        radius_m=self.scenario.simulation.airframe.loiter_radius_m)
 
     def advance(self, dt: float, guidance: dict[str, Guidance]) -> None:
         """Fly every vehicle ``dt`` seconds under its guidance, move the target, sample GPS."""
@@ -242,7 +244,7 @@ class Scene:
         vehicle.report_seq += 1
         return SensorReport(
             vehicle_id=vehicle_id, seq=vehicle.report_seq, stamp_ns=self.stamp_ns,
-            vehicle_position_enu_m=tuple(float(v) for v in vehicle.nav_position_enu_m),
+            vehicle_position_enu_m=_xyz(vehicle.nav_position_enu_m),
             vehicle_position_std_m=float(vehicle.nav_std_m), detections=tuple(detections))
 
     def nav_report(self, vehicle_id: str) -> NavReport:
@@ -264,7 +266,7 @@ class Scene:
         vehicle.nav_seq += 1
         velocity = None
         if gps is not None or ins is None:  # GNSS velocity (accurate to centimetres per second: truth)
-            velocity = tuple(float(v) for v in vehicle.state.ground_velocity(self.wind))
+            velocity = _xyz(vehicle.state.ground_velocity(self.wind))
         return NavReport(vehicle_id=vehicle_id, seq=vehicle.nav_seq, stamp_ns=self.stamp_ns, gps=gps, ins=ins,
                          velocity_enu_mps=velocity, heading_rad=wrap_angle(vehicle.nav_heading_rad),
                          turn_rate_rad_s=float(vehicle.state.turn_rate_rad_s))
@@ -322,3 +324,8 @@ def simple_navigation(position_enu_m: np.ndarray, heading_rad: float, std_m: flo
     position = position_enu_m + np.array([distance_m * math.cos(mid), distance_m * math.sin(mid), 0.0])
     position[2] = true_altitude_m
     return position, heading_rad + turn_rad, std_m + DEAD_RECKONING_GROWTH * distance_m
+
+
+def _xyz(vector: NDArray[np.float64]) -> tuple[float, float, float]:
+    """An ENU vector (3,) as three Python floats, as the wire messages hold it."""
+    return float(vector[0]), float(vector[1]), float(vector[2])

@@ -25,7 +25,7 @@ __all__ = ["MultiTargetConfig", "check_multitarget"]
 Window = Annotated[int, msgspec.Meta(ge=1, le=62)]
 
 
-class MultiTargetConfig(Config):
+class MultiTargetConfig(Config, frozen=True):
     """The multi-target tracker and the sharing of the UAVs between its tracks.
 
     ``association``: ``gnn`` or ``jpda``; ``accel_psd_m2_s3``: the tracks' constant-velocity

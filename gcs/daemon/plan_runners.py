@@ -198,9 +198,10 @@ class ThreadPlanRunner(PlanRunner):
             with self._wakeup:
                 while self._pending is None and not self._closing:
                     self._wakeup.wait()
-                if self._closing:
+                job = self._pending
+                if self._closing or job is None:
                     return
-                job, self._pending, self._running = self._pending, None, True
+                self._pending, self._running = None, True
             outcome = run_job(job, self.configs(job.indices), self.rng)
             with self._wakeup:
                 self._done.append(outcome)

@@ -18,7 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from gcs.engine.plan_jobs import PlanJob, PlanOutcome
-from protocols.messages import NavReport, PlanCommand, SensorReport, TargetTruth, TrackEstimate
+from protocols.messages import NavReport, PlanCommand, SensorReport, TargetTruth, TrackEstimate, VehicleScenario
 
 __all__ = ["Arrived", "Heartbeat", "Tick", "PlanDone", "PlannerFree", "Observed", "PublishTrack", "PublishPlan",
            "SubmitPlan", "LetGo", "Action", "Input"]
@@ -88,9 +88,9 @@ Input = Arrived | Heartbeat | Tick | PlanDone | PlannerFree
 
 @dataclass(frozen=True)
 class Observed:
-    """An accepted input message, for the live map."""
+    """An accepted input message (a vehicle's scenario announcement too), for the live map."""
 
-    message: SensorReport | NavReport | TargetTruth
+    message: SensorReport | NavReport | TargetTruth | VehicleScenario
 
 
 @dataclass(frozen=True)

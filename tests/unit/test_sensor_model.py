@@ -74,6 +74,14 @@ def test_distance_dependent_noise_follows_zuo2021_eq2() -> None:
     np.testing.assert_allclose(RBE.noise_information(), 1.0 / np.array([100.0, 0.0025, 0.0025]))
 
 
+def test_distance_dependent_noise_without_a_range_names_what_it_needs() -> None:
+    sensor = SensorModel.bearing_only(math.radians(1.0), distance_dependent=True)
+    with pytest.raises(ValueError, match="needs the predicted range .* or target_xy and vehicle_xyz"):
+        sensor.noise_variance(np.array([0.3]))
+    with pytest.raises(ValueError, match="target_xy and vehicle_xyz"):
+        sensor.noise_information(None, np.array([1000.0, 0.0]))
+
+
 def _numeric_hessians(sensor: SensorModel, target: np.ndarray, vehicle: np.ndarray, step: float) -> np.ndarray:
     """Second derivatives of every component with respect to the target's (x, y), central differences: (m, 2, 2)."""
     def h(dx: float, dy: float) -> np.ndarray:

@@ -224,7 +224,8 @@ class MultiTargetTracker:
             fusion_fallbacks=fallbacks, detected_by=detected_by)
         return new_state, diagnostics
 
-    def _associate(self, mean: NDArray[np.float64], cov: NDArray[np.float64], batch: _Batch, counts: dict):
+    def _associate(self, mean: NDArray[np.float64], cov: NDArray[np.float64], batch: _Batch, counts: dict[str, int]
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_]]:
         """One vehicle: contributions ``A`` (T, 2, 2), ``b`` (T, 2), tracks detected (T,), detections used (n,)."""
         inn = batched.innovations(mean, cov, batch.sensor, batch.z, batch.xyz, batch.pcov)
         valid = gate(inn.d2, self.gate_probability, batch.sensor.dim)
@@ -234,13 +235,13 @@ class MultiTargetTracker:
         if self.association == "gnn":
             assigned = gnn_assign(costs)
             a, b = batched.assigned_contributions(inn, assigned)
-            used = np.zeros(batch.z.shape[0], dtype=bool)
+            used: NDArray[np.bool_] = np.zeros(batch.z.shape[0], dtype=bool)
             used[assigned[assigned >= 0]] = True
             detected = assigned >= 0
         else:
             result = jpda_marginals(costs, valid, self.max_hypotheses)
             a, b = batched.mixture_contributions(inn, result.beta, cov[:, :2, :2])
-            used = valid.any(axis=0)
+            used = np.any(valid, axis=0)
             detected = result.beta.sum(axis=1) >= 0.5
             counts["clusters"] += result.clusters
             counts["over"] += result.clusters_over_cap
@@ -286,7 +287,8 @@ def _position_definite(cov: NDArray[np.float64]) -> NDArray[np.bool_]:
     return (pxx > 0.0) & (pxx * pyy - pxy * pxy > 0.0)
 
 
-def _batches(detections_by_vehicle, sensor) -> list[_Batch]:
+def _batches(detections_by_vehicle: Mapping[int, Sequence[Detection]] | Sequence[Sequence[Detection]],
+             sensor: SensorModel | Sequence[SensorModel]) -> list[_Batch]:
     """Each vehicle's non-empty detection list as arrays."""
     groups = detections_by_vehicle.values() if isinstance(detections_by_vehicle, Mapping) else detections_by_vehicle
     out = []
