@@ -1,6 +1,6 @@
 """Plans made at once, with no deadline, for shells without a planner of their own: replay and the benches.
 
-``gcs replay --plan`` (:mod:`gcs.recordings.replay`) and ``gcs bench autopilots`` (:mod:`gcs.bench.autopilots`)
+``gcs replay --plan`` (:mod:`gcs.recordings.replay`) and ``gcs-bench autopilots`` (:mod:`benchmarks.autopilots`)
 plan each job the engine submits (:class:`~gcs.engine.events.SubmitPlan`) before the next input, to
 the end of every generation (the planner's ``now`` is None: no deadline), so that their plans are a
 function of the inputs and the seed alone; the daemon's planner stops at its deadline instead
