@@ -35,7 +35,7 @@ def add_estimation(sub: argparse._SubParsersAction) -> None:
 
 def add_urban(sub: argparse._SubParsersAction) -> None:
     """Register ``gcs-bench urban``."""
-    from benchmarks.urban_nav import NAVIGATION_MODES
+    from benchmarks.urban_scene import NAVIGATIONS
 
     urb = sub.add_parser(
         "urban",
@@ -68,8 +68,9 @@ def add_urban(sub: argparse._SubParsersAction) -> None:
     urb.add_argument("--plots", type=Path, metavar="DIR", help=PLOTS_HELP)
     urb.add_argument("--gps-denied", action="store_true",
                      help="GPS-denied zones (the scenario's, else a 1.5 km square about the target's start): target "
-                          "RMSE with the vehicles' own navigation (perfect, raw GPS, SKF); planner default ga_k5")
-    urb.add_argument("--navigation", action="append", choices=NAVIGATION_MODES,
+                          "RMSE with the vehicles' own navigation (perfect, reported, the engine's SKF); planner "
+                          "default ga_k5")
+    urb.add_argument("--navigation", action="append", choices=NAVIGATIONS,
                      help="with --gps-denied: navigation to run (repeatable; default all)")
     urb.set_defaults(handler=outputs_checked(commands.cmd_urban), planners=None, navigation=None)
     finish(urb)

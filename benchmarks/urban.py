@@ -1,13 +1,10 @@
-"""The wang2012 section 5 experiment as a closed loop in one process, with no I/O.
+"""The wang2012 section 5 experiment as a closed loop in one process, through the ground station's engine.
 
-Each 1 s step (the ASRTP loop): the truth target moves; the UAVs fly the
-command chosen at the previous step (eq. 1); every UAV senses the target unless
-a building blocks the line of sight or it is out of range
-(:mod:`sim_vehicles.truth.sensor`); the tracker fuses the detections
-(:func:`gcs.core.tracker.fuse`), then predicts and plans
-(:func:`gcs.core.tracker.plan`) the next commands.
-
-Planners compared over paired runs (same seed: same city, same target path,
+Each run flies :mod:`benchmarks.closed_loop`: the simulated scene of :mod:`benchmarks.urban_scene` (the
+truth target, occluded sensing from the true vehicle positions, what the vehicles report) feeds the
+daemon's engine (:class:`gcs.engine.engine.Engine`: acceptance, step assembly, fusion, the k+1..k+n
+prediction, plan jobs), every plan is made at once with no deadline, and the vehicles fly its turn
+rates (wang2012 eq. 1). Planners compared over paired runs (same seed: same city, same target path,
 same sensor noise draws): any of :data:`gcs.core.planner_names.URBAN_PLANNERS`, e.g.
 
 * ``sight``: the sight objective on the k+1..k+n predictions (the default planner);
@@ -17,51 +14,37 @@ same sensor noise draws): any of :data:`gcs.core.planner_names.URBAN_PLANNERS`, 
 * ``orbit``: stand-off orbit around the estimate;
 * ``pursuit``: fly straight at the estimate.
 
-Recorded per step: which UAVs saw the target, the fused position error, the
-decision time (the whole planning step: prediction, sight tables or visibility
-maps, search and the airspace guard; wall clock), and which UAVs were inside
-restricted airspace at any of ``VIOLATION_SAMPLES`` points of the arc they
-flew. Planners run to their full budget with no deadline, so a run's result
-depends on its seed alone, not on the machine or on what else runs beside it.
-
-This loop does not drive the daemon's engine (:mod:`gcs.engine`, which ``gcs-bench
-autopilots`` does): it is the paper's experiment on the true kinematics, every UAV
-flying its planned turn rate exactly (eq. 1) and every detection made in process, so
-there are no reports to validate, no steps to assemble and no autopilot to steer; going
-through report decoding and step release would add the wire and the ground station's
-timing to what is a measurement of the estimator and the planners against wang2012.
+Recorded per decision step: which UAVs saw the target (the engine's step records), the published
+track's position and covariance and its error against the truth (the point estimate scored is the
+position of the ``TrackEstimate`` the engine publishes for the step, the tracker's posterior mean at
+the step's stamp), the decision time (the plan job: sight tables or visibility maps, search and the
+airspace guard; wall clock, never the planner's deadline), and which UAVs were inside restricted
+airspace at any tick of the step's flight. A run's result depends on its seed alone, not on the
+machine, the process or what else runs beside it.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import msgspec
-
 import numpy as np
 from numpy.typing import NDArray
 
-from benchmarks.urban_nav import FleetNavigation
+from benchmarks.closed_loop import EngineLoop, IdealAirframes, fly
+from benchmarks.urban_scene import NAVIGATIONS, UrbanScene, start_of
 from gcs.config import Scenario
-from gcs.core.filters.uif import NS_PER_S
-from gcs.core.kinematics import VehicleState, rollout, step_vehicles
-from gcs.core.models.sensor import SensorModel
-from gcs.core.tracker import Detection, TrackerState, fuse, plan
-from gcs.core.world import World
-from gcs.engine.tracker_factory import FROM_SCENARIO, filter_sensor_models, tracker_config
 from gcs.core.planner_names import URBAN_PLANNERS as PLANNERS
-from sim_vehicles.truth.sensor import TargetSensor
-from sim_vehicles.truth.target import start_state, target_model
+from gcs.core.world import World
+from gcs.engine.engine import EngineOptions
+from gcs.engine.tracker_factory import FROM_SCENARIO
 
-__all__ = ["PLANNERS", "LOST_M", "VIOLATION_SAMPLES", "RunRecord", "run_closed_loop", "sensor_models", "tracker_config",
-           "with_vehicles"]
+__all__ = ["PLANNERS", "LOST_M", "RunRecord", "run_closed_loop", "with_vehicles", "with_budget"]
 
 LOST_M = 100.0
 """A run *lost the track* when the fused estimate was ever farther than this from the target."""
-VIOLATION_SAMPLES = 5
-"""Points of each flown 1 s arc tested against restricted airspace."""
 
 
 @dataclass(frozen=True)
@@ -72,14 +55,18 @@ class RunRecord:
     seed: int
     seen: NDArray[np.bool_]  # (K, V)
     errors_m: NDArray[np.float64]  # (K,) position error, NaN before the track starts
-    decision_s: NDArray[np.float64]  # (K,) planner solve time, NaN when it did not run
+    decision_s: NDArray[np.float64]  # (K,) the plan job's wall time, NaN when the step was not planned
     vehicle_xy: NDArray[np.float64]  # (K, V, 2)
     target_xy: NDArray[np.float64]  # (K, 2)
     estimate_xy: NDArray[np.float64]  # (K, 2)
     violations: NDArray[np.bool_] | None = None  # (K, V) inside restricted airspace during the step
+    nees: NDArray[np.float64] | None = None  # (K,) the track's position NEES, e^T P_pp^-1 e, NaN without a track
     navigation: str = "perfect"
     nav_error_m: NDArray[np.float64] | None = None  # (K, V) the vehicles' own position error, with navigation
     gps_fix: NDArray[np.bool_] | None = None  # (K, V) whether each vehicle had a GPS fix, with navigation
+    heading: NDArray[np.float64] | None = None  # (K, V) the vehicles' headings at each step's stamp
+    planned_turn_rate: NDArray[np.float64] | None = None  # (K, V) each step's plan's first turn rate, NaN unplanned
+    counters: dict[str, int] | None = None  # the engine's counters at the end of the run
 
     @property
     def seen_any(self) -> int:
@@ -109,10 +96,16 @@ class RunRecord:
         return float(np.sqrt(np.mean(self.errors_m[valid] ** 2))) if valid.any() else float("nan")
 
 
-def sensor_models(scenario: Scenario) -> tuple[tuple[SensorModel, ...], tuple[TargetSensor, ...]]:
-    """The filter's sensor model and the truth sensor of every vehicle, from the scenario."""
-    truths = tuple(TargetSensor.from_config(scenario.sensor_for(v)) for v in scenario.vehicles)
-    return filter_sensor_models(scenario), truths
+def with_budget(scenario: Scenario, generations: int | None = None, stall: int | None | str = FROM_SCENARIO
+                ) -> Scenario:
+    """The scenario with the GA's budget changed: ``generations``, and ``stall`` generations without improvement
+    before it stops (None: never; ``"scenario"``: the scenario's)."""
+    planner = scenario.planner
+    if generations is not None:
+        planner = msgspec.structs.replace(planner, generations=generations)
+    if stall != FROM_SCENARIO:
+        planner = msgspec.structs.replace(planner, stall_generations=stall)
+    return scenario if planner is scenario.planner else msgspec.structs.replace(scenario, planner=planner)
 
 
 def run_closed_loop(
@@ -127,82 +120,71 @@ def run_closed_loop(
     clock: Callable[[], float] | None = time.perf_counter,
     navigation: str | None = None,
 ) -> RunRecord:
-    """One closed-loop run. ``clock`` times each planning step (never the planner's deadline); None: no timing.
+    """One closed-loop run. ``clock`` times each plan job (never the planner's deadline); None: no timing.
 
     ``generations`` and ``stall`` override the scenario's GA budget (``stall=None``: no early stop).
-    ``navigation`` (one of :data:`benchmarks.urban_nav.NAVIGATION_MODES`) gives the tracker and planner
-    the vehicles' own navigation instead of their true positions (:mod:`benchmarks.urban_nav`).
+    ``navigation`` (one of :data:`benchmarks.urban_scene.NAVIGATIONS`; None: ``perfect``) is what the
+    vehicles report of their own positions and which navigation the engine runs on it.
     """
+    scenario = with_budget(scenario, generations, stall)
+    nav = navigation or "perfect"
+    if nav not in NAVIGATIONS:
+        raise ValueError(f"unknown navigation {nav!r}; expected one of {', '.join(NAVIGATIONS)}")
     dt = scenario.time.step_s
     steps = int(round((duration_s or scenario.time.duration_s) / dt))
-    truth_rng = np.random.default_rng([seed, 1])
-    sensor_rng = np.random.default_rng([seed, 2])
-    plan_rng = np.random.default_rng([seed, 3])
-    config = tracker_config(scenario, world, planner, generations, stall)
-    _, truth_sensors = sensor_models(scenario)
-    model = target_model(scenario, world, motion)
-    target = start_state(model, scenario, truth_rng)
-    vehicles = VehicleState(
-        np.array([v.start_enu_m for v in scenario.vehicles], dtype=np.float64),
-        np.array([v.start_heading_rad for v in scenario.vehicles]),
-        np.array([v.speed_mps for v in scenario.vehicles]),
-        np.array([v.altitude_m for v in scenario.vehicles]),
-    )
-    state = TrackerState.start(len(vehicles))
-    count = len(vehicles)
-    seen = np.zeros((steps, count), dtype=bool)
-    errors, decisions = np.full(steps, np.nan), np.full(steps, np.nan)
-    vehicle_xy, target_xy, estimate_xy = np.zeros((steps, count, 2)), np.zeros((steps, 2)), np.full((steps, 2), np.nan)
-    nav = None if navigation is None else FleetNavigation.start(navigation, scenario, seed, vehicles)
-    nav_error, gps_fix = np.zeros((steps, count)), np.ones((steps, count), dtype=bool)
-    airspace = len(world.airspace) > 0
-    violations = np.zeros((steps, count), dtype=bool)
+    options = EngineOptions(planner=planner, navigation="skf" if nav == "skf" else "reported", plan_every_step=True)
+    loop = EngineLoop(scenario, world, np.random.default_rng([seed, 3]), options, clock=clock)
+    scene = UrbanScene(scenario, world, seed, steps, motion, nav)
+    config = loop.engine.tracker
+    airframes = IdealAirframes(scene.roster, start_of(scenario), config.max_turn_rate, dt,
+                               scenario.simulation.airframe.loiter_radius_m)
+    navigated = np.full((steps, len(scene.roster)), np.nan)
+
+    def navigator_error(step: int, substep: int) -> None:
+        navigator = loop.engine.navigator
+        if substep == 0 and navigator is not None:
+            stamp = round(step * dt * 1e9)
+            for i, vehicle_id in enumerate(scene.roster):
+                estimate = navigator.position_at(vehicle_id, stamp)
+                if estimate is not None:
+                    navigated[step, i] = np.hypot(*(estimate[0] - airframes.state.xy[i]))
+
+    loop.declare(scene.roster, 0.0)
+    fly(loop, scene, steps, airframes, navigator_error)
+    return _record(planner, seed, nav, loop, scene, steps, dt, navigated)
+
+
+def _record(planner: str, seed: int, navigation: str, loop: EngineLoop, scene: UrbanScene, steps: int, dt: float,
+            navigated: NDArray[np.float64]) -> RunRecord:
+    """The run's record from the engine's step records and published tracks, and the scene's truth."""
+    roster = scene.roster
+    seen = np.zeros((steps, len(roster)), dtype=bool)
+    for record in loop.engine.records:
+        if record.index < steps:
+            seen[record.index] = [record.seen[v] for v in roster]
+    errors, nees, decisions = np.full(steps, np.nan), np.full(steps, np.nan), np.full(steps, np.nan)
+    estimate_xy = np.full((steps, 2), np.nan)
     for k in range(steps):
-        stamp_ns = int(round(k * dt * NS_PER_S))
-        if k > 0:
-            target = model.step(target, dt, truth_rng)
-            before = vehicles
-            vehicles = step_vehicles(vehicles, state.turn_rate, dt, config.max_turn_rate)
-            if nav is not None:
-                nav.fly(before, vehicles, dt, stamp_ns)
-        believed = vehicles if nav is None else nav.believed(vehicles)
-        target_xyz = np.array([target.position[0], target.position[1], 0.0])
-        detections = []
-        for i, sensor in enumerate(truth_sensors):
-            obs = sensor.observe(target_xyz, vehicles.xyz[i : i + 1], world.line_of_sight, sensor_rng)
-            if obs.detected[0]:
-                detections.append(Detection(i, believed.xyz[i], obs.values[0],
-                                            None if nav is None else nav.covariance(i)))
-                seen[k, i] = True
-        estimate = fuse(config, state.estimate, stamp_ns, detections)
-        started = clock() if clock is not None else 0.0
-        state, _, diagnostics = plan(config, replace(state, estimate=estimate), believed, plan_rng)
-        if diagnostics.plan is not None and clock is not None:
-            decisions[k] = clock() - started
-        if nav is not None:
-            nav.commanded(believed, state.plan if state.plan is not None else state.turn_rate[:, None], dt,
-                          config.max_turn_rate)
-            nav_error[k], gps_fix[k] = nav.errors_m(vehicles), nav.fixes
-        if airspace:
-            violations[k] = _inside_airspace(world, vehicles, state.turn_rate, dt, config.max_turn_rate)
-        if state.estimate is not None:
-            estimate_xy[k] = state.estimate.mean[:2]
-            errors[k] = float(np.hypot(*(state.estimate.mean[:2] - target.position)))
-        vehicle_xy[k], target_xy[k] = vehicles.xy, target.position
-    if nav is None:
-        return RunRecord(planner, seed, seen, errors, decisions, vehicle_xy, target_xy, estimate_xy, violations)
-    return RunRecord(planner, seed, seen, errors, decisions, vehicle_xy, target_xy, estimate_xy, violations,
-                     navigation, nav_error, gps_fix)
-
-
-def _inside_airspace(world: World, vehicles: VehicleState, turn_rate: NDArray[np.float64], dt: float,
-                     max_turn_rate: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """Which vehicles (V,) will be inside restricted airspace at any of :data:`VIOLATION_SAMPLES` points of the
-    arc they fly next, holding ``turn_rate`` for ``dt``."""
-    xy, _ = rollout(vehicles, np.broadcast_to(turn_rate[:, None], (len(vehicles), VIOLATION_SAMPLES)),
-                    dt / VIOLATION_SAMPLES, max_turn_rate, headings=False)
-    xyz = np.concatenate([xy, np.broadcast_to(vehicles.altitude[:, None, None], xy.shape[:-1] + (1,))], axis=-1)
-    return world.in_restricted(xyz).any(axis=-1)
+        stamp = round(k * dt * 1e9)
+        tracks = loop.tracks.get(stamp)
+        if tracks:
+            track = tracks[-1]
+            n = len(track.state)
+            estimate_xy[k] = track.state[:2]
+            error = estimate_xy[k] - scene.target_xy[k]
+            cov = np.asarray(track.covariance, dtype=np.float64).reshape(n, n)[:2, :2]
+            errors[k], nees[k] = np.hypot(*error), float(error @ np.linalg.solve(cov, error))
+        if stamp in loop.plan_seconds:
+            decisions[k] = loop.plan_seconds[stamp]
+    planned = np.full((steps, len(roster)), np.nan)
+    for k in range(steps):
+        for command in loop.commands.get(round(k * dt * 1e9), ()):
+            planned[k, roster.index(command.vehicle_id)] = command.turn_rate_rad_s
+    simulated = navigation != "perfect" or bool(loop.engine.scenario.gps_denied)  # GPS and INS flown
+    nav_error = navigated if navigation == "skf" else scene.nav_error_m if simulated else None
+    return RunRecord(planner, seed, seen, errors, decisions, scene.vehicle_xy, scene.target_xy, estimate_xy,
+                     scene.violations, nees, navigation, nav_error, scene.gps_fix if simulated else None,
+                     scene.vehicle_heading, planned, dict(loop.engine.counters_now()))
 
 
 def with_vehicles(scenario: Scenario, count: int) -> Scenario:

@@ -1,14 +1,15 @@
 """``gcs-bench urban --gps-denied``: the closed loop with the vehicles' own navigation in GPS-denied zones.
 
-Every requested planner and navigation (:data:`benchmarks.urban_nav.NAVIGATION_MODES`)
-runs on the same seeds (same city, target path, sensor noise, GPS and INS draws).
+Every requested planner and navigation (:data:`benchmarks.urban_scene.NAVIGATIONS`: the true positions,
+the vehicles' own reported navigation, the engine's SKF on their nav reports) runs on the same seeds
+(same city, target path, sensor noise, GPS and INS draws).
 The zones are the scenario's ``[[gps_denied]]`` polygons; a scenario without any
 gets :data:`DEFAULT_ZONE`, the 1.5 km square about the target's start, where the
 UAVs spend most of their time. Reported per planner and navigation: the target's
 fused RMSE over the run and over the outage steps (steps at which at least one
 UAV has no fix), the UAVs' own horizontal navigation error over their steps
 without a fix, the outage steps and the observations; and, paired, in how many
-runs SKF navigation beat raw GPS on the outage RMSE.
+runs the engine's SKF beat the reported positions on the outage RMSE.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ import msgspec
 import numpy as np
 
 from benchmarks.urban import RunRecord, run_closed_loop
-from benchmarks.urban_nav import NAVIGATION_MODES
+from benchmarks.urban_scene import NAVIGATIONS as NAVIGATION_MODES
 from gcs.config import Scenario
 from gcs.config.simulation import GpsDeniedZone
 from gcs.core.world import World
@@ -79,11 +80,11 @@ def run_benchmark(scenario: Scenario, world: World, runs: int, seed: int, planne
               "planners": {}}
     for planner, by_nav in records.items():
         entry = {"navigation": {nav: summarise(recs) for nav, recs in by_nav.items()}}
-        if "skf" in by_nav and "raw_gps" in by_nav:
+        if "skf" in by_nav and "reported" in by_nav:
             def outage_rmse(r: RunRecord) -> float:
                 return _rms(r.errors_m[~r.gps_fix.all(axis=1)])
-            wins = sum(outage_rmse(s) < outage_rmse(g) for s, g in zip(by_nav["skf"], by_nav["raw_gps"]))
-            entry["skf_beats_raw_gps_runs"] = int(wins)
+            wins = sum(outage_rmse(s) < outage_rmse(g) for s, g in zip(by_nav["skf"], by_nav["reported"]))
+            entry["skf_beats_reported_runs"] = int(wins)
         report["planners"][planner] = entry
     return report
 
@@ -100,8 +101,9 @@ def format_report(report: dict) -> str:
         for nav, m in entry["navigation"].items():
             lines.append(f"{nav:<13}{m['rmse_m']:>15.2f}{m['rmse_outage_m']:>12.2f}{m['nav_rmse_outage_m']:>19.2f}"
                          f"{m['outage_steps_mean']:>10.1f}/{m['steps']:<3}{m['seen_any_mean']:>9.1f}/{m['steps']}")
-        if "skf_beats_raw_gps_runs" in entry:
-            lines.append(f"skf below raw_gps in outages in {entry['skf_beats_raw_gps_runs']} of {report['runs']} runs")
+        if "skf_beats_reported_runs" in entry:
+            lines.append(f"skf below reported in outages in {entry['skf_beats_reported_runs']} of {report['runs']} "
+                         "runs")
     return "\n".join(lines)
 
 

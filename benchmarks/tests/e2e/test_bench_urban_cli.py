@@ -49,22 +49,22 @@ def test_bench_urban_gps_denied_writes_the_navigation_comparison(tmp_path: Path)
     out, plots = tmp_path / "denied.json", tmp_path / "plots"
     done = subprocess.run(
         [sys.executable, "-m", "benchmarks.cli", "urban", "--gps-denied", "--runs", "1", "--duration", "6",
-         "--planner", "orbit", "--navigation", "perfect", "--navigation", "raw_gps", "--navigation", "skf",
+         "--planner", "orbit", "--navigation", "perfect", "--navigation", "reported", "--navigation", "skf",
          "--seed", "3", "--json", str(out), "--plots", str(plots)],
         capture_output=True, text=True, timeout=600,
     )
     assert done.returncode == 0, done.stderr
-    assert "GPS-denied" in done.stdout and "skf below raw_gps" in done.stdout
+    assert "GPS-denied" in done.stdout and "skf below reported" in done.stdout
     report = json.loads(out.read_text())
     assert report["gps_denied"][0]["name"] == "centre"
     navs = report["planners"]["orbit"]["navigation"]
-    assert set(navs) == {"perfect", "raw_gps", "skf"}
+    assert set(navs) == {"perfect", "reported", "skf"}
     for metrics in navs.values():
         assert {"rmse_m", "rmse_outage_m", "nav_rmse_outage_m", "outage_steps_mean"} <= set(metrics)
     assert navs["perfect"]["nav_rmse_outage_m"] == 0.0 and navs["skf"]["nav_rmse_outage_m"] > 0.0
     assert_pngs(plots, ["urban_gps_denied.png"])
     (table,) = read_tables(plots / "urban_gps_denied.md").values()
-    assert [row["navigation"] for row in table] == ["perfect", "raw_gps", "skf"]
+    assert [row["navigation"] for row in table] == ["perfect", "reported", "skf"]
     for row in table:
         assert_close(row["target RMSE m"], navs[row["navigation"]]["rmse_m"])
         assert_close(row["in outages m"], navs[row["navigation"]]["rmse_outage_m"])

@@ -1,4 +1,5 @@
-"""The wang2012 closed loop in one process: determinism, paired runs, honest sensing, tracking."""
+"""The wang2012 closed loop in one process, through the engine: determinism, paired runs, honest sensing,
+the vehicles flying the engine's plans, tracking."""
 
 from __future__ import annotations
 
@@ -72,10 +73,13 @@ def test_more_vehicles_are_added_on_a_ring() -> None:
 def test_scenario_stall_setting_reaches_the_ga_and_can_be_overridden() -> None:
     import msgspec
 
-    from benchmarks.urban import tracker_config
+    from benchmarks.urban import with_budget
+    from gcs.engine.tracker_factory import tracker_config
 
     stalling = msgspec.structs.replace(SCENARIO, planner=msgspec.structs.replace(SCENARIO.planner, stall_generations=7))
     assert tracker_config(stalling, WORLD, "ga_k5").planner.stall == 7
-    assert tracker_config(stalling, WORLD, "ga_k5", stall=None).planner.stall is None
+    assert tracker_config(with_budget(stalling, stall=None), WORLD, "ga_k5").planner.stall is None
+    assert tracker_config(with_budget(SCENARIO, generations=9), WORLD, "ga_k5").planner.generations == 9
+    assert with_budget(SCENARIO) is SCENARIO
     assert tracker_config(SCENARIO, WORLD, "ga_k0").planner.stall is None
     assert tracker_config(SCENARIO, WORLD, "ga_k0").predict_ahead is False
