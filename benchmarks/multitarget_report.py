@@ -51,7 +51,7 @@ def run_benchmark(config: mt.BenchConfig, runs: int, seed: int, peers: bool,
         rng = np.random.default_rng(seed + run)
         scene = mt.make_scene(world, altitudes, config, rng)
         scans = mt.make_scans(world, scene, sensor, max_range, config, rng)
-        results = mt.run_methods(scans, config, methods, max_range, float(np.mean(altitudes)))
+        results = mt.run_methods(scans, scene, config, methods, max_range, float(np.mean(altitudes)), world, scenario)
         scores = {m: mt.score_run(r, scene.truth_xy, config.warm_up) for m, r in results.items()}
         for m, r in results.items():
             seconds[m].extend(r.seconds)

@@ -29,22 +29,20 @@ PAIRED = ("target_steps_min", "target_steps_mean", "gospa")
 def run_benchmark(config: sharing.SharingConfig, runs: int, seed: int, modes: Sequence[str] = sharing.MODES,
                   progress: Callable[[str], None] = lambda _: None) -> dict:
     """Every mode on the seeds ``seed .. seed + runs - 1``; the report as a dict."""
+    import msgspec
+
     from gcs.config.world import build_world
-    from gcs.engine.tracker_factory import tracker_config
     from gcs.scenarios import load_scenario
 
     scenario = load_scenario("wang2012_urban")
     world = build_world(scenario)
-    tracker = tracker_config(scenario, world, "sight")
-    team = scenario.vehicles[:len(sharing.mt.ORBITS)]
-    speeds = np.array([v.speed_mps for v in team])
-    altitudes = np.array([v.altitude_m for v in team])
+    team = msgspec.structs.replace(scenario, vehicles=scenario.vehicles[:len(sharing.mt.ORBITS)])
     per_seed: list[dict] = []
     seconds: dict[str, list[float]] = {m: [] for m in modes}
     for run in range(runs):
         row = {}
         for mode in modes:
-            result = sharing.fly_run(mode, world, tracker, speeds, altitudes, seed + run, config)
+            result = sharing.fly_run(mode, world, team, seed + run, config)
             seconds[mode].extend(result.plan_seconds)
             row[mode] = {"target_steps": result.target_steps.tolist(), "uav_steps": result.uav_steps.tolist(),
                          "target_steps_mean": float(result.target_steps.mean()),
@@ -58,7 +56,7 @@ def run_benchmark(config: sharing.SharingConfig, runs: int, seed: int, modes: Se
     return {"modes": summary, "paired_p": _paired(per_seed, modes),
             "config": {"targets": scene.targets, "steps": scene.steps, "pd": scene.pd, "clutter": scene.clutter,
                        "warm_up": scene.warm_up, "scored_steps": scene.steps - min(scene.warm_up, scene.steps - 1),
-                       "starvation_s": config.starvation_s, "forget_s": sharing.FORGET_S, "uavs": len(team),
+                       "starvation_s": config.starvation_s, "forget_s": sharing.FORGET_S, "uavs": len(team.vehicles),
                        "runs": runs, "seed": seed},
             "per_seed": per_seed}
 

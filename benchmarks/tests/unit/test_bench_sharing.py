@@ -14,13 +14,12 @@ from gcs.scenarios import load_scenario
 SCENARIO = load_scenario("wang2012_urban")
 WORLD = build_world(SCENARIO)
 CONFIG = tracker_config(SCENARIO, WORLD, "sight")
-SPEEDS = np.array([v.speed_mps for v in SCENARIO.vehicles])
 ALTITUDES = np.array([v.altitude_m for v in SCENARIO.vehicles])
 SHORT = sharing.SharingConfig(mt.BenchConfig(targets=3, steps=24, warm_up=4))
 
 
 def test_the_orbit_mode_counts_the_steps_each_target_is_in_range_and_in_sight() -> None:
-    run = sharing.fly_run("orbit", WORLD, CONFIG, SPEEDS, ALTITUDES, 5, SHORT)
+    run = sharing.fly_run("orbit", WORLD, SCENARIO, 5, SHORT)
     scene = mt.make_scene(WORLD, list(ALTITUDES), SHORT.scene, np.random.default_rng(5))
     height = CONFIG.sensors[0].target_height_m
     expected_targets, expected_uavs = np.zeros(3, dtype=int), np.zeros(3, dtype=int)
@@ -40,7 +39,7 @@ def test_the_orbit_mode_counts_the_steps_each_target_is_in_range_and_in_sight() 
 
 @pytest.mark.parametrize("mode", ["sum", "assign"])
 def test_planned_modes_plan_in_the_steps_they_have_a_track(mode) -> None:
-    run = sharing.fly_run(mode, WORLD, CONFIG, SPEEDS, ALTITUDES, 5, SHORT)
+    run = sharing.fly_run(mode, WORLD, SCENARIO, 5, SHORT)
     assert 0 < len(run.plan_seconds) <= SHORT.scene.steps - 1
     assert np.all(run.target_steps <= SHORT.scene.steps - SHORT.scene.warm_up)
     assert np.isfinite(run.gospa_m) and run.gospa_m >= 0.0
@@ -48,11 +47,11 @@ def test_planned_modes_plan_in_the_steps_they_have_a_track(mode) -> None:
 
 def test_an_unknown_mode_is_refused() -> None:
     with pytest.raises(ValueError, match="unknown mode 'circle'"):
-        sharing.fly_run("circle", WORLD, CONFIG, SPEEDS, ALTITUDES, 5, SHORT)
+        sharing.fly_run("circle", WORLD, SCENARIO, 5, SHORT)
 
 
 def test_the_loop_counts_every_detection_the_tracker_took_and_times_every_step() -> None:
-    run = sharing.fly_run("assign", WORLD, CONFIG, SPEEDS, ALTITUDES, 5, SHORT)
+    run = sharing.fly_run("assign", WORLD, SCENARIO, 5, SHORT)
     assert len(run.scan_seconds) == len(run.decision_seconds) == SHORT.scene.steps
     assert np.all(np.asarray(run.decision_seconds) >= np.asarray(run.scan_seconds))
     total = sum(run.decision_seconds) - sum(run.scan_seconds)
