@@ -19,12 +19,9 @@ range), never from the filters' model.
 * :func:`run_estimators` (Fig. 2): the UAVs fly straight at the target's initial
   position; ML-VUKF, ML-EKF and LS-EKF see the same bearings; the GCRLB of the
   tracking problem (:func:`gcs.core.gcrlb.tracking_gcrlb`) is the bound.
-* :func:`run_loop` (Figs. 3-8), the closed loop of each 1 s step ``k``: the
-  sensors measure the target from ``S(k)``; the VG-UKF (initialised by ML from the
-  first scan) updates; it predicts ``x_{k+1|k}``; the planner picks every UAV's
-  heading (:mod:`gcs.core.planners.lm_gcrlb`); the UAVs fly it for one step
-  (eq. 35) and the target moves. The constraints of eq. (36)-(39) are checked on
-  the flown path here, with this module's own formulas, not the planner's.
+* the closed loop (Figs. 3-8) is :mod:`benchmarks.aoa_loop`, through the ground station's engine;
+  :func:`path_violations` checks the constraints of eq. (36)-(39) on its flown paths with this
+  module's own formulas, not the planner's.
 
 Squared errors are of the position; "MSE" is their mean over runs at each step
 (the paper's figures), and the runs of every configuration share seeds: the same
@@ -34,7 +31,7 @@ measurement noise draws.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import partial
 
@@ -49,12 +46,11 @@ from gcs.core.gcrlb import tracking_gcrlb
 from gcs.core.geometry import wrap_angle
 from gcs.core.models.motion import constant_velocity
 from gcs.core.models.sensor import SensorModel
-from gcs.core.planners.lm_gcrlb import HeadingProblem, LmGcrlbPlanner, StraightLinePlanner, crlb_planner
 from sim_vehicles.truth.sensor import TargetSensor
 
-__all__ = ["AoaScenario", "LoopRecord", "PLANNERS", "ESTIMATORS", "run_estimators", "run_loop", "path_violations"]
+__all__ = ["AoaScenario", "LoopRecord", "PLANNERS", "ESTIMATORS", "run_estimators", "bound", "path_violations"]
 
-PLANNERS = {"gcrlb_lm": LmGcrlbPlanner(), "crlb_lm": crlb_planner(), "straight_line": StraightLinePlanner()}
+PLANNERS = ("gcrlb_lm", "crlb_lm", "straight_line")
 """The planners of Figs. 3-6: the paper's, Dogancay's CRLB planner, straight flight at the target."""
 
 ESTIMATORS = ("ml_vukf", "ml_ekf", "ls_ekf")
@@ -135,7 +131,7 @@ def _fuse(flt: ScanFilter, estimate: GaussianEstimate, sensors: Sequence[SensorM
     return flt.update(estimate, [s for s, ok in zip(sensors, seen) if ok], z[seen], vehicle_xyz[seen])
 
 
-def _bound(scenario: AoaScenario, sensors: Sequence[SensorModel], vehicle_xyz: NDArray[np.float64],
+def bound(scenario: AoaScenario, sensors: Sequence[SensorModel], vehicle_xyz: NDArray[np.float64],
            truth: NDArray[np.float64]) -> NDArray[np.float64]:
     """Trace of the position block of the tracking GCRLB (no process noise, as the truth), shape (K,)."""
     prior = np.diag([0.0, 0.0, scenario.velocity_std_mps**-2, scenario.velocity_std_mps**-2])
@@ -166,7 +162,7 @@ def run_estimators(scenario: AoaScenario, seed: int) -> dict[str, NDArray[np.flo
                "ls_ekf": (pseudo_linear_initialise, BearingEKF(motion))}
     rng = np.random.default_rng([seed, 2])
     scans = [_scan(truths, truth[k], vehicles[k], rng) for k in range(scenario.steps)]
-    out = {"gcrlb": _bound(scenario, sensors, vehicles, truth)}
+    out = {"gcrlb": bound(scenario, sensors, vehicles, truth)}
     for name, (initialise, flt) in filters.items():
         errors = np.zeros(scenario.steps)
         z, seen = scans[0]
@@ -196,57 +192,3 @@ def path_violations(scenario: AoaScenario, vehicle_xy: NDArray[np.float64], head
     low, high = scenario.separation_m
     return {"turn": int((turns > limit).sum()), "detection": int((to_target > scenario.detection_range_m).sum()),
             "too_close": int((apart < low).sum()), "too_far": int((apart > high).sum())}
-
-
-def run_loop(
-    scenario: AoaScenario,
-    planner: str,
-    seed: int,
-    sigma0_deg: Sequence[float] = (1.0, 1.0, 1.0),
-    clock: Callable[[], float] | None = None,
-) -> LoopRecord:
-    """One closed-loop run with ``len(sigma0_deg)`` UAVs (module docstring); ``clock`` times the planner."""
-    solver = PLANNERS[planner]
-    count = len(sigma0_deg)
-    sensors, truths = scenario.sensors(sigma0_deg)
-    truth = scenario.truth()
-    flt = VariableGainUKF(constant_velocity(scenario.accel_psd_m2_s3))
-    rng = np.random.default_rng([seed, 2])
-    steps = scenario.steps
-    xyz = scenario.starts(count)
-    aim = np.asarray(scenario.target_start_m) - xyz[:, :2]
-    heading = np.arctan2(aim[:, 1], aim[:, 0])
-    initial_heading = heading.copy()
-    max_turn = math.radians(scenario.max_turn_deg)
-    low, high = scenario.separation_m
-    errors, positions, headings = np.zeros(steps), np.zeros((steps, count, 3)), np.zeros((steps, count))
-    solve_s, iterations = np.full(steps - 1, np.nan), np.zeros(steps - 1, dtype=int)
-    estimate: GaussianEstimate | None = None
-    for k in range(steps):
-        positions[k] = xyz
-        z, seen = _scan(truths, truth[k], xyz, rng)
-        if estimate is None:
-            estimate = ml_initialise(sensors, z, xyz, 0, scenario.velocity_std_mps, scenario.detection_range_m)
-        else:
-            estimate = _fuse(flt, estimate, sensors, z, seen, xyz)
-        errors[k] = _squared_error(estimate, truth[k])
-        if k == steps - 1:
-            headings[k] = heading
-            break
-        estimate = flt.predict(estimate, (k + 1) * NS_PER_S)  # x_{k+1|k}: the planner's target (eq. 34)
-        problem = HeadingProblem.from_prediction(
-            estimate, xyz, heading, scenario.speed_mps, scenario.step_s, max_turn, sensors,
-            max_detection_range_m=scenario.detection_range_m, min_separation_m=low, max_separation_m=high)
-        result = solver.solve(problem, now=clock)
-        if clock is not None:
-            solve_s[k] = result.elapsed_s
-        iterations[k] = result.iterations
-        heading = result.heading
-        headings[k] = heading
-        travel = scenario.speed_mps * scenario.step_s  # eq. (35), with this module's own formula
-        xyz = xyz + travel * np.column_stack([np.cos(heading), np.sin(heading), np.zeros(count)])
-    return LoopRecord(
-        planner, seed, errors, _bound(scenario, sensors, positions, truth), positions[..., :2], headings,
-        truth[:, :2], solve_s, iterations,
-        path_violations(scenario, positions[..., :2], headings, initial_heading, truth[:, :2]),
-    )

@@ -24,7 +24,8 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import wilcoxon
 
-from benchmarks.aoa import ESTIMATORS, PLANNERS, AoaScenario, LoopRecord, run_estimators, run_loop
+from benchmarks.aoa import ESTIMATORS, PLANNERS, AoaScenario, LoopRecord, run_estimators
+from benchmarks.aoa_loop import run_loop
 from benchmarks.plots import pyplot, write_markdown
 from benchmarks.plots import save as save_figure
 
