@@ -10,8 +10,9 @@ second), what is sent and when (:func:`~gcs.adapters.mavlink_commands.due_action
 and every decision: the daemon's engine (:class:`gcs.engine.engine.Engine`) takes the
 scene's liveliness, reports, nav reports and truth as the daemon receives them (encoded as
 on the wire), releases and fuses the steps, hands over the plans and gives each vehicle
-the path to steer along. Every MAVLink message is packed and parsed as on the wire. What
-is not the daemon's: no sockets, no planner process (each job is planned at once, without
+the path to steer along, fed and carried out by the benchmarks' shell of the engine
+(:class:`benchmarks.closed_loop.EngineLoop`). Every MAVLink message is packed and parsed as on the
+wire. What is not the daemon's: no sockets, no planner process (each job is planned at once, without
 deadline: :func:`gcs.engine.plan_at_once.plan_at_once`), no clock (simulation time is the
 engine's). Who saw the target at each step and the fused position's error against the
 truth are the engine's step records.
@@ -44,13 +45,10 @@ from gcs.config.simulation import AirframeConfig
 from gcs.core.geometry import LocalFrame, wrap_angle
 from gcs.core.steering import SAMPLES_PER_STEP, CourseLoop, PlannedPath, course_loop
 from gcs.core.world import World
+from benchmarks.closed_loop import EngineLoop
 from gcs.engine.records import step_error_m
-from gcs.engine.steps import HOLD_WAITS
-from gcs.engine.engine import Engine, EngineOptions
-from gcs.engine.events import Arrived, PlannerFree, SubmitPlan, Tick
-from gcs.engine.plan_at_once import plan_at_once
-from protocols.codec import encode
-from protocols.keys import alive_key, nav_key, report_key, truth_key
+from gcs.engine.engine import EngineOptions
+from protocols.keys import nav_key, report_key, truth_key
 from sim_vehicles.personalities import make_autopilot
 from sim_vehicles.scene import Scene
 from sim_vehicles.truth.fixed_wing import Airframe, AirframeState
@@ -159,8 +157,8 @@ def fly(scenario: Scenario, world: World, personality: str, seed: int, duration_
     per_steer = max(1, int(round(1.0 / (STEER_RATE_HZ * dt))))
     per_heartbeat = int(round(1.0 / dt))
     scene = Scene(scenario, world, seed)
-    engine = Engine(scenario, world, EngineOptions(planner=planner))
-    plan_rng = np.random.default_rng([seed, 3])
+    loop = EngineLoop(scenario, world, np.random.default_rng([seed, 3]), EngineOptions(planner=planner), clock=None)
+    engine = loop.engine
     roster = engine.roster
     gcs = mavlink.MAVLink(None, srcSystem=GCS_SYSID, srcComponent=mavlink.MAV_COMP_ID_MISSIONPLANNER)
     wire = _Wire()
@@ -171,16 +169,7 @@ def fly(scenario: Scenario, world: World, personality: str, seed: int, duration_
                                    encoder, sim.telemetry_rate_hz)
         autopilot.start(scene.vehicles[cfg.id].state)
         vehicles[cfg.id] = _Vehicle(autopilot, encoder, VehicleLink(cfg.id, cfg.sysid), course_loop(personality))
-        engine.feed(Arrived("alive", alive_key(cfg.id), b"", "", 0, 0.0))  # as each simulated vehicle's token
-
-    def carry_out(actions: list) -> None:
-        for action in actions:
-            if isinstance(action, SubmitPlan):
-                carry_out(plan_at_once(engine, action.job, plan_rng))
-
-    def send(key: str, message, now: float) -> None:
-        payload, encoding = encode(message)
-        engine.feed(Arrived("sample", key, payload, encoding, scene.stamp_ns, now))
+    loop.declare(vehicles, 0.0)  # as each simulated vehicle's token
 
     first_plan_s: float | None = None
     for tick in range(steps * per_step):
@@ -193,14 +182,13 @@ def fly(scenario: Scenario, world: World, personality: str, seed: int, duration_
                 update_from_message(vehicle.link, wire(message, vehicle.encoder), now, scene.frame)
         if tick % per_nav == 0:
             for vid in roster:
-                send(nav_key(vid), scene.nav_report(vid), now)
+                loop.send(nav_key(vid), scene.nav_report(vid), now)
         if tick % per_step == 0:
             for vid in roster:
-                send(report_key(vid), scene.sensor_report(vid), now)
+                loop.send(report_key(vid), scene.sensor_report(vid), now)
             for truth in scene.truths():
-                send(truth_key(truth.target_id), truth, now)
-        carry_out(engine.feed(Tick(now)))
-        carry_out(engine.feed(PlannerFree(now)))
+                loop.send(truth_key(truth.target_id), truth, now)
+        loop.tick(now)
         if first_plan_s is None and engine.loop.paths:
             first_plan_s = now
         if tick % per_steer == 0:
@@ -225,8 +213,7 @@ def fly(scenario: Scenario, world: World, personality: str, seed: int, duration_
                     update_from_message(vehicle.link, wire(reply, vehicle.encoder), now, scene.frame)
             vehicle.autopilot.update(now, truth.state, scene.wind)
         scene.advance(dt, {vid: v.autopilot.guidance for vid, v in vehicles.items() if v.autopilot.guidance is not None})
-    carry_out(engine.feed(Tick(scene.elapsed_s + HOLD_WAITS * engine.options.max_wait_s + 1.0)))  # the last steps
-    engine.flush()
+    loop.finish(scene.elapsed_s)  # the last steps
     seen = np.zeros((steps, len(roster)), dtype=bool)
     errors = np.full(steps, np.nan)
     for record in engine.records:
