@@ -30,9 +30,25 @@ def test_bench_urban_writes_json_and_plots(tmp_path: Path) -> None:
         assert metrics["violations"] == 0 and 0 < metrics["decision_ms_median"] <= metrics["decision_ms_p99"]
         if name != "orbit":  # each against the orbit, paired by seed
             assert 0.0 < metrics["p_vs_orbit"] <= 1.0
+        lost = metrics["lost_track"]  # what lost tracks look like: the same errors counted otherwise
+        assert lost["runs_over_100"] == metrics["lost_runs"] and lost["runs_over_100"] <= lost["runs_over_50"]
+        assert lost["steps_over_100"] <= lost["steps_over_50"] <= lost["steps"] <= 3 * 8
+        assert metrics["rmse_m"] <= lost["max_m"] and lost["p95_m"] <= lost["max_m"]
+        assert 0.0 <= lost["nees_in_band"] <= 1.0
+        assert lost["longest_unseen_max"] == max(lost["longest_unseen"]) <= 8
+        assert all(seen <= 8 - unseen for seen, unseen in zip(metrics["seen_any"], lost["longest_unseen"]))
     assert "p_vs_orbit" not in report["planners"]["orbit"]
+    assert "TrackEstimate" in report["scored"] and "TrackEstimate" in done.stdout
     assert_pngs(plots, ["urban_trajectories.png", "urban_rmse.png", "urban_observations.png"])
-    (table,) = read_tables(plots / "urban.md").values()  # no scaling table with --no-scaling
+    tables = read_tables(plots / "urban.md")  # no scaling table with --no-scaling
+    assert list(tables) == ["Observations and accuracy", "Lost track"]
+    table = tables["Observations and accuracy"]
+    for row in tables["Lost track"]:
+        lost = report["planners"][row["planner"]]["lost_track"]
+        assert_close(row["error p95 m"], lost["p95_m"])
+        assert int(row["runs over 100 m"]) == lost["runs_over_100"]
+        assert int(row["steps over 50 m"]) == lost["steps_over_50"]
+        assert_close(row["NEES in 95% band"], lost["nees_in_band"])
     assert [row["planner"] for row in table] == ["sight", "ga_k5", "orbit"]
     for row in table:
         metrics = report["planners"][row["planner"]]
