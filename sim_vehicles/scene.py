@@ -46,7 +46,8 @@ from sim_vehicles.truth.clutter import clutter_points, ground_disc_radius
 from sim_vehicles.truth.sensor import TargetSensor
 from sim_vehicles.truth.target import TargetModel, TargetState, start_state, target_model
 
-__all__ = ["Scene", "SimTarget", "SimVehicle", "DEAD_RECKONING_GROWTH", "simple_navigation"]
+__all__ = ["Scene", "SimTarget", "SimVehicle", "DEAD_RECKONING_GROWTH", "simple_navigation", "gps_fix",
+           "wire_measurement"]
 
 DEAD_RECKONING_GROWTH = 0.05
 """Growth of the dead-reckoned position's 1-sigma per metre flown without GPS (ours)."""
@@ -235,7 +236,7 @@ class Scene:
             found += list(zip(values, stds))
         if len(found) > 1:
             found = [found[i] for i in rng.permutation(len(found))]
-        return [_measurement(sensor.components, values, stds) for values, stds in found]
+        return [wire_measurement(sensor.components, values, stds) for values, stds in found]
 
     def sensor_report(self, vehicle_id: str) -> SensorReport:
         """The vehicle's sensor scans now: its detections of the targets and of clutter (module docstring)."""
@@ -256,13 +257,7 @@ class Scene:
             ins = InsIncrement(dt_s=dt, distance_m=max(vehicle.ins_distance_m, 0.0),
                                heading_change_rad=vehicle.ins_turn_rad)
         vehicle.last_nav_ns, vehicle.ins_distance_m, vehicle.ins_turn_rad = self.elapsed_ns, 0.0, 0.0
-        gps = None
-        if vehicle.gps.position_enu_m is not None:
-            lat, lon, _ = self.frame.to_geodetic(vehicle.gps.position_enu_m)
-            gps = GpsFix(lat_deg=float(lat), lon_deg=float(lon),
-                         alt_m=self.frame.height_m + float(vehicle.gps.position_enu_m[2]),
-                         fix_type=vehicle.gps.fix_type, h_acc_m=vehicle.gps.horizontal_std_m,
-                         v_acc_m=vehicle.gps.vertical_std_m, satellites=vehicle.gps.satellites)
+        gps = gps_fix(self.frame, vehicle.gps)
         vehicle.nav_seq += 1
         velocity = None
         if gps is not None or ins is None:  # GNSS velocity (accurate to centimetres per second: truth)
@@ -299,13 +294,23 @@ _FIELDS = {"range": ("range_m", "range_std_m"), "azimuth": ("azimuth_rad", "azim
 """The ``Measurement`` fields of each sensor component: its value and its standard deviation."""
 
 
-def _measurement(components: tuple[str, ...], values: np.ndarray, stds: np.ndarray) -> Measurement:
+def wire_measurement(components: tuple[str, ...], values: np.ndarray, stds: np.ndarray) -> Measurement:
     """The wire form of one detection's measured components and their standard deviations."""
     fields: dict[str, float] = {}
     for component, value, std in zip(components, values, stds):
         name, std_name = _FIELDS[component]
         fields[name], fields[std_name] = float(value), float(std)
     return Measurement(**fields)
+
+
+def gps_fix(frame: LocalFrame, reading: GpsReading) -> GpsFix | None:
+    """The wire form of a GPS reading (geodetic, about the scenario's origin ``frame``); None without a fix."""
+    if reading.position_enu_m is None:
+        return None
+    lat, lon, _ = frame.to_geodetic(reading.position_enu_m)
+    return GpsFix(lat_deg=float(lat), lon_deg=float(lon), alt_m=frame.height_m + float(reading.position_enu_m[2]),
+                  fix_type=reading.fix_type, h_acc_m=reading.horizontal_std_m, v_acc_m=reading.vertical_std_m,
+                  satellites=reading.satellites)
 
 
 def simple_navigation(position_enu_m: np.ndarray, heading_rad: float, std_m: float, gps: GpsReading,

@@ -14,13 +14,11 @@
 4. return the first command of the plan for every vehicle (Step 5), and the
    plan itself to warm-start the next step.
 
-The daemon, ``gcs replay --process`` and ``gcs bench autopilots`` drive the engine
-(:mod:`gcs.engine`), which calls this function's halves apart: :func:`fuse` on every
+The daemon, ``gcs replay --process`` and the benchmarks' closed loops (``gcs-bench``) drive
+the engine (:mod:`gcs.engine`), which calls this function's halves apart: :func:`fuse` on every
 decision step as it is released, :func:`plan` on the newest fused step when the
-planner is free (docs/design.md, the layers). ``gcs bench urban`` (:mod:`gcs.bench.urban`)
-calls :func:`fuse` then :func:`plan` on every step of its own loop on the true
-kinematics (detections made in process, no reports to decode, no autopilot);
-:func:`step` is the two in one, for callers that plan every step.
+planner is free (docs/design.md, the layers); :func:`step` is the two in one, for
+callers that plan every step.
 """
 
 from __future__ import annotations

@@ -59,7 +59,7 @@ PLAN_PROCESS_NICENESS = 5
 Two things pull in opposite directions. The loop (reports, tracks, commands)
 should not wait for a CPU while plans are made; the planner's search has a
 wall-clock deadline, and what it does not get by then is lost to the plan.
-Measured on 2 cores: ``gcs bench daemon`` (the planner busy all the time) gave a
+Measured on 2 cores: ``gcs-bench daemon`` (the planner busy all the time) gave a
 report-to-command p99 at 5,000 reports/s of 35-38 ms with the planner 5 lower and
 7-38 ms with it 19 lower; but in the closed loop against three simulated vehicle
 processes (``tests/e2e/test_daemon_closed_loop.py``) the target RMSE was 8.4, 9.6 and

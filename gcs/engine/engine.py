@@ -1,7 +1,7 @@
 """The one loop of the ground station, as an object fed time-stamped inputs that returns actions.
 
 The daemon (:mod:`gcs.daemon.app`), ``gcs replay --process/--plan`` (:mod:`gcs.recordings.replay`) and the
-in-process closed loop of ``gcs bench autopilots`` (:mod:`gcs.bench.autopilots`) all drive an
+benchmarks' closed loops (``gcs-bench``, a simulated scene in one process) all drive an
 :class:`Engine`; only where the inputs come from (Zenoh and MAVLink, a recording, a simulated
 scene) and where the actions go differ (docs/design.md, the layers: "one engine"). Everything that
 decides lives here, so that live and replayed runs cannot drift apart:

@@ -9,8 +9,8 @@ times gives the decisions the live run made.
 
 Actions are what the engine asks its shell to do: publish, plan, give vehicles back,
 show a message on the live map. The daemon (:mod:`gcs.daemon.app`) carries them out on Zenoh
-and MAVLink; ``gcs replay --process`` (:mod:`gcs.recordings.replay`) collects them; the benches
-(:mod:`gcs.bench.autopilots`) fly them.
+and MAVLink; ``gcs replay --process`` (:mod:`gcs.recordings.replay`) collects them; the benchmarks'
+closed loops (``gcs-bench``) fly them.
 """
 
 from __future__ import annotations

@@ -48,8 +48,8 @@ altitude by barometer, whose accuracy a ``NavReport`` does not carry, and the ta
 filter takes an unreported vertical as exact, as before this filter.
 
 **Route.** No map observations: the commanded path is not given as a route. It says how far
-a vehicle moved, not where it is, and makes the filter overconfident (``gcs bench urban
---gps-denied``, ``nav_update``'s docstring); against ``sim-vehicles``, whose autopilot steers
+a vehicle moved, not where it is, and makes the filter overconfident (``nav_update``'s
+docstring); against ``sim-vehicles``, whose autopilot steers
 with its true position, it would even carry absolute information a real one in a
 GPS-denied zone would not have. The daemon's navigation is GPS + INS.
 

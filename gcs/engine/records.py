@@ -31,7 +31,7 @@ TRUTH_WAIT_S = 0.5
 MAX_TRUTHS = 4096
 """Truth samples kept (the oldest are dropped)."""
 GOSPA_CUTOFF_M = 100.0
-"""GOSPA's cut-off ``c`` for the many-target steps, as ``gcs bench multitarget``'s."""
+"""GOSPA's cut-off ``c`` for the many-target steps, as ``gcs-bench multitarget``'s."""
 
 
 @dataclass(frozen=True)

@@ -145,7 +145,7 @@ class UnscentedInformationFilter:
     """Add the linearisation's second-order variance to ``R`` (see :meth:`noise_variance`). True, the
     default, is the filter: the daemon, ``gcs replay --process`` and every bench's closed loop run it, and
     it keeps a vehicle right above the target from throwing the track off (docs/benchmarks.md). False gives
-    eq. (12)-(13) as printed, for comparison with the paper (``gcs bench estimation`` reports both)."""
+    eq. (12)-(13) as printed, for comparison with the paper (``gcs-bench estimation`` reports both)."""
 
     def predict(self, estimate: GaussianEstimate, stamp_ns: int) -> GaussianEstimate:
         """Predict to ``stamp_ns`` (integer nanoseconds; eq. 9, 11, 16); the same stamp returns the estimate

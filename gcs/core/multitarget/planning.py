@@ -13,7 +13,7 @@ weight ``w_k = (1 + u_k / tau) / sum_l (1 + u_l / tau)`` grows with the seconds 
 it has gone without a detection (:func:`gcs.core.planners.shared.target_weights`), so
 that no target is starved. The team plan is made by assignment: each UAV is given one
 target, and each target is planned for with its own UAVs
-(:meth:`gcs.core.planners.sequential.SightPlanner.solve_assigned`; ``gcs bench
+(:meth:`gcs.core.planners.sequential.SightPlanner.solve_assigned`; ``gcs-bench
 sharing`` measured it against the summed objective and chose it). Like
 :func:`gcs.core.tracker.plan`, the plan is then kept out of restricted airspace by the
 guard, and its first turn rates are flown.

@@ -1,7 +1,7 @@
 """feng2019's switching Kalman filter for a vehicle's own position: INS, GPS and route matching, centralised.
 
 One call of :func:`nav_update` per navigation report (the daemon's per-vehicle
-filter, the ``gcs bench skf`` experiment):
+filter, the ``gcs-bench skf`` experiment):
 
 1. each mode's posterior is predicted by the INS increments, eq. (1) (or, with
    none, by eq. (6)'s constant-velocity model);
@@ -326,8 +326,8 @@ def nav_update(params: NavParams, estimate: NavEstimate, measurement: NavMeasure
     for a commanded path laid out from the vehicle's estimate, that estimate's
     ``cov[:3, :3]`` when the path was planned. Such a path says how far the vehicle moved,
     not where it is: even with ``route_cov`` every update takes it for new information
-    and the covariance shrinks below the true error (``gcs bench urban --gps-denied``
-    measured it). A route laid out afresh at every plan restarts its keys, so give the
+    and the covariance shrinks below the true error (in a straight-line check without GPS,
+    a 4 m standard deviation against a 66 m error after two minutes). A route laid out afresh at every plan restarts its keys, so give the
     filter ``TransitionModel(stay=1, advance=1, jump=1)``: no topology between plans.
     Raises ValueError for a measurement older than the estimate.
     """
