@@ -4,7 +4,7 @@ Each 1 s step (the ASRTP loop): the truth target moves; the UAVs fly the
 command chosen at the previous step (eq. 1); every UAV senses the target unless
 a building blocks the line of sight or it is out of range
 (:mod:`sim_vehicles.truth.sensor`); the tracker fuses the detections
-(:func:`gcs.core.tracker.fuse`), then predicts and plans
+(:func:`gcs.core.tracker.fuse`; the road tracker also the UAVs that saw nothing), then predicts and plans
 (:func:`gcs.core.tracker.plan`) the next commands.
 
 Planners compared over paired runs (same seed: same city, same target path,
@@ -48,7 +48,7 @@ from gcs.config import Scenario
 from gcs.core.filters.uif import NS_PER_S
 from gcs.core.kinematics import VehicleState, rollout, step_vehicles
 from gcs.core.models.sensor import SensorModel
-from gcs.core.tracker import Detection, TrackerState, fuse, plan
+from gcs.core.tracker import Detection, Sensing, TrackerState, fuse, plan
 from gcs.core.world import World
 from gcs.engine.tracker_factory import FROM_SCENARIO, filter_sensor_models, tracker_config
 from gcs.core.planner_names import URBAN_PLANNERS as PLANNERS
@@ -139,6 +139,8 @@ def run_closed_loop(
     sensor_rng = np.random.default_rng([seed, 2])
     plan_rng = np.random.default_rng([seed, 3])
     config = tracker_config(scenario, world, planner, generations, stall)
+    if config.road is not None:  # the road tracker's draws: the run's own, seeded by the run's seed
+        config = replace(config, road=replace(config.road, seed=seed))
     _, truth_sensors = sensor_models(scenario)
     model = target_model(scenario, world, motion)
     target = start_state(model, scenario, truth_rng)
@@ -174,7 +176,7 @@ def run_closed_loop(
                 detections.append(Detection(i, believed.xyz[i], obs.values[0],
                                             None if nav is None else nav.covariance(i)))
                 seen[k, i] = True
-        estimate = fuse(config, state.estimate, stamp_ns, detections)
+        estimate = fuse(config, state.estimate, stamp_ns, detections, Sensing(believed.xyz, seen[k].copy()))
         started = clock() if clock is not None else 0.0
         state, _, diagnostics = plan(config, replace(state, estimate=estimate), believed, plan_rng)
         if diagnostics.plan is not None and clock is not None:
