@@ -65,6 +65,9 @@ def summarise(records: Sequence[RunRecord]) -> dict:
         "seen_any_min": int(min(r.seen_any for r in records)),
         "seen_per_uav_mean": [float(x) for x in np.mean([r.seen_per_uav for r in records], axis=0)],
         "rmse_m": float(np.sqrt(np.mean(errors**2))) if errors.size else float("nan"),
+        "rmse_per_run_m": [r.rmse_m for r in records],
+        "max_error_per_run_m": [float(np.nanmax(r.errors_m)) if np.isfinite(r.errors_m).any() else float("nan")
+                                for r in records],
         "lost_runs": int(sum(r.lost for r in records)),
         "violations": int(sum(r.violation_steps for r in records)),
         "decision_ms_median": float(np.median(decisions)) if decisions.size else float("nan"),
