@@ -232,12 +232,13 @@ class SightModel:
         dy = xy[:, :, None, 1] - self.samples[None, :, :, 1]
         horizontal2 = dx * dx + dy * dy
         rise = altitude_m - self.table.target_height_m
-        bins = self.table.bin_of(dx, dy)
-        rows = np.arange(t * s).reshape(1, t, s)
-        inverse = self.inverse_slopes[rows, bins]
         reach = self.problem.max_range_m
-        in_range = (horizontal2 + rise * rise <= reach * reach) & (horizontal2 <= self.table.reach_m ** 2)
-        return in_range & (np.sqrt(horizontal2) * inverse <= rise)
+        seen = (horizontal2 + rise * rise <= reach * reach) & (horizontal2 <= self.table.reach_m ** 2)
+        near = np.flatnonzero(seen)  # the roofs are asked about the pairs in range only
+        rows = np.broadcast_to(np.arange(t * s).reshape(1, t, s), seen.shape).ravel()[near]
+        inverse = self.inverse_slopes[rows, self.table.bin_of(dx.ravel()[near], dy.ravel()[near])]
+        seen.ravel()[near] = np.sqrt(horizontal2.ravel()[near]) * inverse <= rise
+        return seen
 
 
 @dataclass(frozen=True, eq=False)
