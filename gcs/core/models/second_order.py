@@ -31,10 +31,22 @@ from numpy.typing import NDArray
 
 from gcs.core.models.components import AZIMUTH, RANGE
 
-__all__ = ["MIN_HORIZONTAL_M2", "second_order_variance"]
+__all__ = ["MIN_HORIZONTAL_M2", "off_the_vertical", "second_order_variance"]
 
 MIN_HORIZONTAL_M2 = 1e-6
 """Floor of ``rho_h^2`` (a vehicle right above the target)."""
+
+
+def off_the_vertical(dx: NDArray[np.float64], dy: NDArray[np.float64]) -> tuple[NDArray[np.float64],
+                                                                                  NDArray[np.float64]]:
+    """``(dx, rho_h^2)`` with ``rho_h^2`` at least :data:`MIN_HORIZONTAL_M2`: straight above the target there is
+    no horizontal line of sight to speak of, and any direction will do (``dx`` is moved 1 mm east)."""
+    h2 = dx * dx + dy * dy
+    straight_below = h2 < MIN_HORIZONTAL_M2
+    if np.any(straight_below):
+        dx = np.where(straight_below, 1e-3, dx)
+        h2 = np.maximum(h2, MIN_HORIZONTAL_M2)
+    return dx, h2
 
 
 def second_order_variance(components: Sequence[str], dx: NDArray[np.float64], dy: NDArray[np.float64],
@@ -44,11 +56,7 @@ def second_order_variance(components: Sequence[str], dx: NDArray[np.float64], dy
     ``dx, dy, dz`` (...): the target's position relative to the vehicle; ``position_cov``
     (..., 2, 2): the covariance of that relative horizontal position.
     """
-    h2 = dx * dx + dy * dy
-    straight_below = h2 < MIN_HORIZONTAL_M2
-    if straight_below.any():  # no line of sight to speak of: any horizontal direction will do
-        dx = np.where(straight_below, 1e-3, dx)
-        h2 = np.maximum(h2, MIN_HORIZONTAL_M2)
+    dx, h2 = off_the_vertical(dx, dy)
     h = np.sqrt(h2)
     ux, uy = dx / h, dy / h
     r2 = h2 + dz * dz

@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 from gcs.core.geometry import wrap_angle
 from gcs.core.models.components import AZIMUTH, ELEVATION, RANGE
 from gcs.core.models.components import KNOWN_COMPONENTS as _KNOWN
-from gcs.core.models.second_order import MIN_HORIZONTAL_M2, second_order_variance
+from gcs.core.models.second_order import MIN_HORIZONTAL_M2, off_the_vertical, second_order_variance
 
 __all__ = ["RANGE", "AZIMUTH", "ELEVATION", "DetectionGroup", "SensorModel"]
 
@@ -276,7 +276,7 @@ class SensorModel:
             Entries of the symmetric 2 x 2 matrix.
         """
         dx, dy, dz = self._relative(target_xy, vehicle_xyz)
-        h2 = dx * dx + dy * dy
+        dx, h2 = off_the_vertical(dx, dy)  # straight above: finite, the azimuth's term very large
         r2 = h2 + dz * dz
         if extra_variance is None:
             inv_var = self.noise_information(None, target_xy, vehicle_xyz)
