@@ -7,7 +7,8 @@ liveliness, ``NavReport``, ``SensorReport`` and the targets' ``TargetTruth``), e
 the wire, goes in as an :class:`~gcs.engine.events.Arrived` input received at its stamp. The clock is the
 simulation's: it advances in ticks of :data:`SUBSTEP_S`, and at each tick a :class:`~gcs.engine.events.Tick`
 releases the decision steps that are ready (a step is complete once every vehicle alive has reported for
-it; the first one waits for its reorder window, ``max_wait_s``, as live) and a
+it; the first one waits for its reorder window, ``max_wait_s``, as live, unless the benchmark sets it to 0, as
+``gcs-bench urban`` does: in process every report arrives at its own tick) and a
 :class:`~gcs.engine.events.PlannerFree` hands the newest fused step to the planner, which plans it at once
 with no deadline (:func:`gcs.engine.plan_at_once.plan_at_once`): the figures depend on the seeds alone,
 never on the machine or on the process a run is in. The paths of the finished plans

@@ -135,7 +135,10 @@ def run_closed_loop(
         raise ValueError(f"unknown navigation {nav!r}; expected one of {', '.join(NAVIGATIONS)}")
     dt = scenario.time.step_s
     steps = int(round((duration_s or scenario.time.duration_s) / dt))
-    options = EngineOptions(planner=planner, navigation="skf" if nav == "skf" else "reported", plan_every_step=True)
+    # every report reaches the engine at its own tick: no reorder window, so the first step is planned at its
+    # stamp as every later one is (live, the engine waits max_wait_s for the first step's late reports)
+    options = EngineOptions(planner=planner, navigation="skf" if nav == "skf" else "reported", plan_every_step=True,
+                            max_wait_s=0.0)
     loop = EngineLoop(scenario, world, np.random.default_rng([seed, 3]), options, clock=clock)
     scene = UrbanScene(scenario, world, seed, steps, motion, nav)
     config = loop.engine.tracker
