@@ -1,9 +1,9 @@
 """The ``gcs`` command line: the composition root for users.
 
 This module parses arguments, sets up logging and loads the frozen scenario;
-the work itself lives in ``gcs.daemon.app`` (the daemon) and ``gcs.bench``. Only
+the work itself lives in the shells (``gcs.daemon``, ``gcs.recordings``). Only
 subcommands that exist are registered, so ``gcs --help`` lists exactly what
-works.
+works. The benchmarks are a command of their own, ``gcs-bench`` (``benchmarks/``).
 """
 
 from __future__ import annotations
@@ -68,7 +68,6 @@ SUBCOMMANDS: tuple[Subcommand, ...] = (
     Subcommand("replay", "gcs.recordings.replay_cli:add_replay", "summarise, republish or process a recording"),
     Subcommand("router", "gcs.daemon.router:add_router", "a Zenoh router for clients (no zenohd needed)"),
     Subcommand("scenario", "gcs.cli:_add_scenario", "list, show, check or build scenario files (from OpenStreetMap)"),
-    Subcommand("bench", "gcs.bench.cli:add_bench", "reproduce the papers' experiments and measure speed"),
 )
 """Each subcommand, in the order ``--help`` lists them; only the one named is imported (:mod:`gcs.cli_commands`):
 ``gcs --help`` loads none, ``gcs status`` (Docker's healthcheck) need not load SciPy."""
@@ -83,7 +82,24 @@ requested_command = COMMAND_LINE.requested_command
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``gcs`` console script; returns the process exit code (2 for bad input, with one
     line on stderr naming it; 130 on Ctrl-C: :mod:`gcs.cli_errors`)."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if _first_word(argv) == "bench":
+        rest = argv[argv.index("bench") + 1:]
+        print(f"gcs: error: the benchmarks are a command of their own: gcs-bench {' '.join(rest) or '--help'}",
+              file=sys.stderr)
+        return 2
     return COMMAND_LINE.main(argv, known=(ScenarioError,))
+
+
+def _first_word(argv: Sequence[str]) -> str | None:
+    """The first argument that is neither an option nor ``--log-level``'s value."""
+    tokens = iter(argv)
+    for token in tokens:
+        if token == "--log-level":
+            next(tokens, None)
+        elif not token.startswith("-"):
+            return token
+    return None
 
 
 if __name__ == "__main__":  # pragma: no cover

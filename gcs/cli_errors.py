@@ -25,7 +25,7 @@ import signal
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import NoReturn
+from typing import NoReturn, overload
 
 __all__ = ["UsageError", "OneLineParser", "one_line", "run_command", "set_command", "writable_file",
            "existing_file", "positive", "stop_on_signals", "stopped_by", "guard_console", "INTERRUPTED_STATUS",
@@ -70,9 +70,10 @@ def run_command(args: argparse.Namespace, known: tuple[type[BaseException], ...]
     returns 128 + its number (130 for Ctrl-C) unless it failed otherwise (its own status then)."""
     prog = getattr(args, "command_prog", None) or Path(sys.argv[0]).name
     _signals_received.clear()
+    caught: tuple[type[BaseException], ...] = (UsageError, *known)
     try:
         status = args.handler(args)
-    except (UsageError, *known) as error:
+    except caught as error:
         print(f"{prog}: error: {one_line(error)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
@@ -125,6 +126,12 @@ def existing_file(path: Path, option: str) -> Path:
     if not os.access(path, os.R_OK):
         raise UsageError(f"{option} {path}: not readable")
     return path
+
+
+@overload
+def positive(value: float, option: str) -> float: ...
+@overload
+def positive(value: float | None, option: str) -> float | None: ...
 
 
 def positive(value: float | None, option: str) -> float | None:

@@ -21,11 +21,12 @@ from __future__ import annotations
 
 import math
 import re
+from typing import TypeVar, overload
 
 import msgspec
 
 from protocols.errors import ProtocolError
-from protocols.legacy import LEGACY_VERSIONS, LegacyVersion
+from protocols.legacy import LEGACY_VERSIONS, AnyLegacyVersion
 from protocols.messages import MESSAGE_TYPES, Message
 
 __all__ = [
@@ -45,12 +46,14 @@ MAX_PAYLOAD_BYTES = 64 * 1024
 ENCODING_MEDIA_TYPE = "application/json"
 SCHEMA_NAMESPACE = "gcs."
 
+M = TypeVar("M", bound=Message)
+
 _TYPES_BY_NAME: dict[str, type[Message]] = {tp.__name__: tp for tp in MESSAGE_TYPES}
-_DECODERS: dict[type[Message], msgspec.json.Decoder] = {
+_DECODERS: dict[type[Message], msgspec.json.Decoder[Message]] = {
     tp: msgspec.json.Decoder(tp) for tp in MESSAGE_TYPES
 }
-_LEGACY: dict[tuple[type[Message], int], LegacyVersion] = {(old.current, old.version): old for old in LEGACY_VERSIONS}
-_LEGACY_DECODERS: dict[type[Message], msgspec.json.Decoder] = {
+_LEGACY: dict[tuple[type[Message], int], AnyLegacyVersion] = {(old.current, old.version): old for old in LEGACY_VERSIONS}
+_LEGACY_DECODERS: dict[type[Message], msgspec.json.Decoder[Message]] = {
     old.struct: msgspec.json.Decoder(old.struct) for old in LEGACY_VERSIONS
 }
 _ENCODER = msgspec.json.Encoder()
@@ -191,7 +194,7 @@ def _field_of(exc: msgspec.ValidationError) -> str | None:
 
 
 def _decode_as(payload: bytes | bytearray | memoryview, tp: type[Message], name: str | None = None,
-               decoder: msgspec.json.Decoder | None = None) -> Message:
+               decoder: msgspec.json.Decoder[Message] | None = None) -> Message:
     name = name or tp.__name__
     try:
         return (decoder or _DECODERS[tp]).decode(payload)
@@ -211,11 +214,11 @@ def _decode_as(payload: bytes | bytearray | memoryview, tp: type[Message], name:
         ) from exc
 
 
-def _decode_legacy(payload: bytes | bytearray | memoryview, old: LegacyVersion) -> Message:
+def _decode_legacy(payload: bytes | bytearray | memoryview, old: AnyLegacyVersion) -> Message:
     """Decode an earlier version by its own rules and upgrade it to the current type."""
     message = _decode_as(payload, old.struct, f"{old.current.__name__}/{old.version}", _LEGACY_DECODERS[old.struct])
     try:
-        return old.upgrade(message)
+        return old.upgraded(message)
     except ProtocolError as exc:
         raise ProtocolError(f"cannot upgrade {old.current.__name__}/{old.version}: {exc.message}",
                             field=exc.field) from exc
@@ -276,6 +279,12 @@ def encode(msg: Message) -> tuple[bytes, str]:
     return payload, encoding_for(tp)
 
 
+@overload
+def decode(payload: bytes | bytearray | memoryview, encoding: str | None, expected: type[M]) -> M: ...
+@overload
+def decode(payload: bytes | bytearray | memoryview, encoding: str | None = None, expected: None = None) -> Message: ...
+
+
 def decode(
     payload: bytes | bytearray | memoryview,
     encoding: str | None = None,
@@ -297,7 +306,7 @@ def decode(
     Returns
     -------
     Message
-        A valid instance of the named type.
+        A valid instance of the named type (of ``expected``, when given).
 
     Raises
     ------

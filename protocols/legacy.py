@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Annotated, ClassVar
+from typing import Annotated, ClassVar, Generic, TypeVar
 
 import msgspec
 from msgspec import Meta
@@ -33,6 +33,7 @@ from protocols.status import DaemonStatus, VehicleStatus
 
 __all__ = [
     "LEGACY_VERSIONS",
+    "AnyLegacyVersion",
     "DaemonStatusV3",
     "LegacyVersion",
     "SensorReportV1",
@@ -83,7 +84,8 @@ class SensorReportV1(Message, frozen=True, forbid_unknown_fields=True, kw_only=T
 def upgrade_sensor_report_v1(old: SensorReportV1) -> SensorReport:
     """The version-2 report equal to a version-1 one: no detection, or its one measurement."""
     detections: tuple[Measurement, ...] = ()
-    if old.detected:
+    # A detection has an azimuth and its standard deviation (SensorReportV1.__post_init__).
+    if old.detected and old.azimuth_rad is not None and old.azimuth_std_rad is not None:
         detections = (Measurement(range_m=old.range_m, azimuth_rad=old.azimuth_rad, elevation_rad=old.elevation_rad,
                                   range_std_m=old.range_std_m, azimuth_std_rad=old.azimuth_std_rad,
                                   elevation_std_rad=old.elevation_std_rad),)
@@ -112,8 +114,11 @@ def upgrade_daemon_status_v3(old: DaemonStatusV3) -> DaemonStatus:
     return DaemonStatus(**msgspec.structs.asdict(old), tracks=())
 
 
+Old = TypeVar("Old", bound=Message)
+
+
 @dataclass(frozen=True)
-class LegacyVersion:
+class LegacyVersion(Generic[Old]):
     """An earlier ``version`` of ``current``: decoded as ``struct``, then ``upgrade``\\ d.
 
     ``marker`` is a JSON key only that version has: a payload that arrives without an
@@ -126,12 +131,21 @@ class LegacyVersion:
 
     current: type[Message]
     version: int
-    struct: type[Message]
-    upgrade: Callable[[Message], Message]
+    struct: type[Old]
+    upgrade: Callable[[Old], Message]
     marker: bytes | None
 
+    def upgraded(self, message: Message) -> Message:
+        """``upgrade(message)`` for a message decoded as ``struct``; ProtocolError for any other."""
+        if not isinstance(message, self.struct):
+            raise ProtocolError(f"{type(message).__name__} is not a {self.struct.__name__}", reason="unexpected_type")
+        return self.upgrade(message)
 
-LEGACY_VERSIONS: tuple[LegacyVersion, ...] = (
+
+AnyLegacyVersion = LegacyVersion[SensorReportV1] | LegacyVersion[DaemonStatusV3]
+"""The legacy versions the codec reads, one member per earlier Struct."""
+
+LEGACY_VERSIONS: tuple[AnyLegacyVersion, ...] = (
     LegacyVersion(SensorReport, 1, SensorReportV1, upgrade_sensor_report_v1, b'"detected"'),
     LegacyVersion(DaemonStatus, 3, DaemonStatusV3, upgrade_daemon_status_v3, None),
 )

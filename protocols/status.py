@@ -14,7 +14,10 @@ from protocols.base import Message
 from protocols.fields import (CommandAgeMs, Count, CounterName, Ident, PositionM, SpeedMps, StampNs, StdOrZeroM,
                               Text, UptimeS)
 
-__all__ = ["MAX_STATUS_TRACKS", "DaemonStatus", "TrackSummary", "VehicleStatus"]
+__all__ = ["MAX_STATUS_TRACKS", "DaemonStatus", "LinkState", "TrackSummary", "VehicleStatus"]
+
+LinkState = Literal["ok", "lost", "unknown"]
+"""A vehicle's link: ``ok``, ``lost`` (it was heard, and is no longer) or ``unknown`` (never heard)."""
 
 
 MAX_STATUS_TRACKS = 256
@@ -47,12 +50,12 @@ class VehicleStatus(Message, frozen=True, forbid_unknown_fields=True, kw_only=Tr
 
     vehicle_id: Ident
     sysid: Annotated[int, Meta(ge=1, le=250)] | None = None
-    link: Literal["ok", "lost", "unknown"]
+    link: LinkState
     last_report_stamp_ns: StampNs | None = None
     reports: Count
     autopilot: Text | None = None
-    heartbeat: Literal["ok", "lost", "unknown"] | None = None
-    liveliness: Literal["ok", "lost", "unknown"] | None = None
+    heartbeat: LinkState | None = None
+    liveliness: LinkState | None = None
     control: Text | None = None
 
 

@@ -122,7 +122,7 @@ class ArduPlaneAutopilot(SimAutopilot):
         self.altitude_override_m = None
         self.pid.reset()
         super()._enter_mode(mode, state)
-        self.guidance = replace(self.guidance, airspeed_mps=self.cruise_airspeed_mps)
+        self.guidance = replace(self._flying(), airspeed_mps=self.cruise_airspeed_mps)
 
     def _command(self, msg, command: int, p: tuple, frame: int | None, state: AirframeState, now_s: float) -> list:
         if command == mavlink.MAV_CMD_GUIDED_CHANGE_SPEED:
@@ -144,7 +144,7 @@ class ArduPlaneAutopilot(SimAutopilot):
             return mavlink.MAV_RESULT_DENIED  # only SPEED_TYPE_AIRSPEED
         if not self.params["AIRSPEED_MIN"] <= p[1] <= self.params["AIRSPEED_MAX"]:
             return mavlink.MAV_RESULT_FAILED
-        self.guidance = replace(self.guidance, airspeed_mps=float(p[1]))
+        self.guidance = replace(self._flying(), airspeed_mps=float(p[1]))
         return mavlink.MAV_RESULT_ACCEPTED
 
     def _guided_altitude(self, p: tuple, frame: int | None) -> int:
@@ -167,7 +167,7 @@ class ArduPlaneAutopilot(SimAutopilot):
     def _clear_heading(self) -> None:
         if self.heading_target is not None:
             self.heading_target = None
-            self.guidance = replace(self.guidance, roll_command_rad=None)
+            self.guidance = replace(self._flying(), roll_command_rad=None)
 
     def _change_heading(self, p: tuple, state: AirframeState) -> int:
         if self.mode != GUIDED:
@@ -199,7 +199,7 @@ class ArduPlaneAutopilot(SimAutopilot):
         if altitude is None:
             self.counters["position_target_bad_frame"] += 1
             return []
-        self.guidance = replace(self.guidance, altitude_m=altitude)
+        self.guidance = replace(self._flying(), altitude_m=altitude)
         return []
 
     def _goto(self, state: AirframeState, lat_e7: int, lon_e7: int, altitude_m: float,

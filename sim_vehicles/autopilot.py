@@ -2,7 +2,7 @@
 
 :class:`SimAutopilot` holds what a flight controller holds (mode, arming, the
 active guidance, home, stream rates) and speaks the send/accept set of
-reference/mavlink.md. It is also the base of the personalities that behave as
+docs/mavlink.md. It is also the base of the personalities that behave as
 the real autopilots do (:mod:`sim_vehicles.arduplane`, :mod:`sim_vehicles.px4`),
 which override the hooks named below.
 
@@ -56,7 +56,7 @@ from sim_vehicles.streams import STREAMED_MESSAGES, MessageSchedule
 from sim_vehicles.autopilot_params import ParameterTable
 from sim_vehicles.egress import Egress
 from sim_vehicles.ground import GroundStart
-from sim_vehicles.truth.fixed_wing import AirframeState, Guidance
+from sim_vehicles.truth.fixed_wing import AirframeState, Guidance, GuidanceKind
 
 __all__ = ["SimAutopilot", "HEADING_HOLD_MODES", "LOITER_MODES", "HOME_MODES"]
 
@@ -158,10 +158,13 @@ class SimAutopilot(GroundStart, Egress, ParameterTable):
             return
         self._enter_mode(self.mode, state)
 
-    def _hold(self, kind: str, state: AirframeState, **changes) -> Guidance:
-        base = self.guidance or Guidance(kind="loiter", altitude_m=self.cruise_altitude_m,
+    def _flying(self) -> Guidance:
+        """The guidance flown, or before :meth:`start` a loiter at the cruise altitude and airspeed."""
+        return self.guidance or Guidance(kind="loiter", altitude_m=self.cruise_altitude_m,
                                          airspeed_mps=self.cruise_airspeed_mps, radius_m=self.airframe.loiter_radius_m)
-        return replace(base, kind=kind, max_turn_rate_rad_s=None, roll_command_rad=None, **changes)
+
+    def _hold(self, kind: GuidanceKind, state: AirframeState, **changes) -> Guidance:
+        return replace(self._flying(), kind=kind, max_turn_rate_rad_s=None, roll_command_rad=None, **changes)
 
     def _loiter_here(self, state: AirframeState) -> Guidance:
         point = (float(state.position_enu_m[0]), float(state.position_enu_m[1]))
@@ -341,9 +344,10 @@ class SimAutopilot(GroundStart, Egress, ParameterTable):
         if not mask & _MASK_Z and altitude is None:
             self.counters["position_target_bad_frame"] += 1
             return []
-        altitude = altitude if altitude is not None else self.guidance.altitude_m
+        flying = self._flying()
+        altitude = altitude if altitude is not None else flying.altitude_m
         if not mask & (_MASK_X | _MASK_Y):
-            self._goto(state, msg.lat_int, msg.lon_int, altitude, radius_m=self.guidance.radius_m)
+            self._goto(state, msg.lat_int, msg.lon_int, altitude, radius_m=flying.radius_m)
         elif not mask & (_MASK_VX | _MASK_VY) and math.hypot(msg.vx, msg.vy) > 0:
             course = math.atan2(msg.vx, msg.vy)  # NED (north, east) velocity -> ENU course
             self.guided_target_enu_m = None
@@ -353,7 +357,7 @@ class SimAutopilot(GroundStart, Egress, ParameterTable):
             self.guidance = self._hold("heading", state, direction_rad=ned_yaw_from_enu_heading(msg.yaw),
                                        altitude_m=altitude)
         else:
-            self.guidance = replace(self.guidance, altitude_m=altitude)
+            self.guidance = replace(flying, altitude_m=altitude)
         return []
 
     def _on_mission_item_int(self, msg, now_s: float, state: AirframeState) -> list:

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODES, mavlink
+from gcs.core.geometry import LocalFrame
 from sim_vehicles import telemetry_messages
 from sim_vehicles.truth.fixed_wing import AirframeState
+from sim_vehicles.streams import MessageSchedule
 from sim_vehicles.truth.gps import GpsReading
 
 __all__ = ["Egress"]
@@ -16,6 +18,14 @@ GUIDED = ARDUPLANE_MODES["GUIDED"]
 class Egress:
     """The outgoing messages of :class:`~sim_vehicles.autopilot.SimAutopilot` (a mixin: it uses the autopilot's
     encoder, frame, mode, arming, guided target and stream schedule)."""
+
+    sysid: int
+    frame: LocalFrame
+    encoder: mavlink.MAVLink
+    mode: int
+    armed: bool
+    guided_target_enu_m: tuple[float, float, float] | None
+    schedule: MessageSchedule
 
     def _message(self, message_id: int, now_s: float, state: AirframeState):
         if message_id == mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION:

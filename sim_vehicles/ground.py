@@ -13,9 +13,11 @@ rising with the airframe's time constant.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import replace
 
 from gcs.adapters.mavlink_wire import mavlink
+from gcs.config.simulation import AirframeConfig
 from sim_vehicles.truth.fixed_wing import AirframeState, Guidance
 
 __all__ = ["GroundStart"]
@@ -27,17 +29,32 @@ class GroundStart:
     """The on-ground behaviour of :class:`~sim_vehicles.autopilot.SimAutopilot` (a mixin: it uses the
     autopilot's mode, arming, guidance, parameters and ``takeoff_mode``/``takeoff_altitude_param``)."""
 
+    sysid: int
+    airframe: AirframeConfig
+    cruise_airspeed_mps: float
+    mode: int
+    armed: bool
+    on_ground: bool
+    guidance: Guidance | None
+    guided_target_enu_m: tuple[float, float, float] | None
+    params: dict[str, float]
+    takeoff_mode: int
+    takeoff_altitude_param: str
+    disarm_in_flight_result: int
+    _loiter_here: Callable[[AirframeState], Guidance]
+
     def _takeoff_update(self, state: AirframeState) -> None:
         """A take-off that has reached its altitude loiters there."""
         if self.mode != self.takeoff_mode or self.on_ground or self.guidance is None or self.guidance.kind == "loiter":
             return
         if state.position_enu_m[2] >= self.guidance.altitude_m - 1.0:
             log.info("vehicle %d: take-off complete at %.0f m", self.sysid, state.position_enu_m[2])
-            self._takeoff_done(state)
+            self._takeoff_done(state, self.guidance.altitude_m)
 
-    def _takeoff_done(self, state: AirframeState) -> None:
-        """ArduPlane's TAKEOFF mode loiters at the take-off altitude once there (and stays in TAKEOFF)."""
-        self.guidance = replace(self._loiter_here(state), altitude_m=self.guidance.altitude_m)
+    def _takeoff_done(self, state: AirframeState, altitude_m: float) -> None:
+        """ArduPlane's TAKEOFF mode loiters at the take-off altitude (``altitude_m``) once there (and stays in
+        TAKEOFF)."""
+        self.guidance = replace(self._loiter_here(state), altitude_m=altitude_m)
 
     def _parked(self) -> Guidance:
         return Guidance(kind="parked", altitude_m=0.0, airspeed_mps=0.0)

@@ -182,6 +182,8 @@ def wait_for_vehicles(session: zenoh.Session, prefix: str, vehicles: Iterable[st
                     vehicle = parse_key(str(sample.key_expr), prefix).ident
                 except ProtocolError:
                     continue
+                if vehicle is None:  # a key of no vehicle (under the selector, every one names its vehicle)
+                    continue
                 (up.add if sample.kind == zenoh.SampleKind.PUT else up.discard)(vehicle)
             missing = wanted - up
             if not missing or not keep_waiting():

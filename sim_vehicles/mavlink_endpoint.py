@@ -5,7 +5,7 @@ like vehicles behind one radio hub: each sends with its own system id (its own
 encoder, sequence numbers and signing state) and received messages are handed
 to the vehicle their ``target_system`` names (``0``, or no target, goes to
 every vehicle on the link). Sharing the socket avoids pymavlink's ``udpin``
-pitfall (reference/mavlink.md): a GCS listening on one port answers the last
+pitfall (docs/mavlink.md): a GCS listening on one port answers the last
 address it heard from, so vehicles on separate sockets would receive each
 other's commands. Vehicles given their own connection string get their own link.
 

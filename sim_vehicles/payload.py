@@ -57,7 +57,7 @@ import numpy as np
 from gcs.config import Scenario
 from gcs.core.geometry import wrap_angle
 from gcs.core.world import World
-from protocols.messages import GpsFix, InsIncrement, Message, NavReport, SensorReport
+from protocols.messages import GpsFix, InsIncrement, NavReport, SensorReport, TargetTruth
 from sim_vehicles.payload_telemetry import BadTelemetry, GpsStatus, Pose, VehicleTelemetry
 from sim_vehicles.scene import Scene
 from sim_vehicles.truth.fixed_wing import AirframeState
@@ -76,7 +76,7 @@ class Publication:
 
     ident: str
     kind: str
-    message: Message
+    message: SensorReport | NavReport | TargetTruth
 
 
 @dataclass(frozen=True)
@@ -238,7 +238,8 @@ class PayloadBridge:
             fix = self._gps_fix(bridged.telemetry.gps, pose)
             velocity = None
             if fix is not None or ins is None:
-                velocity = tuple(float(v) for v in pose.velocity_enu_mps)
+                velocity = (float(pose.velocity_enu_mps[0]), float(pose.velocity_enu_mps[1]),
+                            float(pose.velocity_enu_mps[2]))
             bridged.nav_seq += 1
             bridged.counts["nav_reports"] += 1
             out.append(Publication(vehicle_id, "nav", NavReport(

@@ -30,6 +30,9 @@ import time
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import zenoh
 
 from gcs.adapters.mavlink_wire import GCS_SYSID, check_connection, mavlink, open_connection
 from gcs.adapters.zenoh_session import (DEFAULT_ENDPOINT, ZenohSettings, add_zenoh_arguments, open_session, publish,
@@ -42,6 +45,9 @@ from protocols.keys import alive_key, validate_prefix
 from sim_vehicles.payload import Liveliness, PayloadBridge, Publication, summary_line
 from sim_vehicles.run_command import add_scenario_argument
 from sim_vehicles.zenoh_out import ScenarioAnnouncer, close_zenoh, declare_vehicle_publishers
+
+if TYPE_CHECKING:  # pymavlink has no type information: a link checks as Any
+    from pymavlink.mavutil import mavfile
 
 __all__ = ["add_payload", "check_payload", "PayloadRunner", "BRIDGE_COMPONENT", "TELEMETRY"]
 
@@ -86,10 +92,10 @@ class PayloadRunner:
         """Per connection string, the vehicles it carries by sysid."""
         for vehicle_id, connection in options.connections.items():
             self._by_sysid.setdefault(connection, {})[self.sysids[vehicle_id]] = vehicle_id
-        self.links: dict[str, object] = {}
-        self.session = None
-        self.publishers: dict[tuple[str, str], object] = {}
-        self.tokens: dict[str, object] = {}
+        self.links: dict[str, mavfile] = {}
+        self.session: zenoh.Session | None = None
+        self.publishers: dict[tuple[str, str], zenoh.Publisher] = {}
+        self.tokens: dict[str, zenoh.LivelinessToken] = {}
         self.counters: Counter = Counter()
         self.opened = threading.Event()
         """Set once the links and the Zenoh session are open (tests wait on it)."""
@@ -114,8 +120,8 @@ class PayloadRunner:
             self.links[connection] = open_connection(connection, GCS_SYSID, BRIDGE_COMPONENT)
         log.info("MAVLink: %s", ", ".join(f"{vid} (sysid {self.sysids[vid]}) <- {c}{self._bound(c)}"
                                           for vid, c in self.options.connections.items()))
-        self.session = open_session(self.options.zenoh)
-        self.publishers = declare_vehicle_publishers(self.session, self.bridge.vehicles, self.options.prefix,
+        session = self.session = open_session(self.options.zenoh)
+        self.publishers = declare_vehicle_publishers(session, self.bridge.vehicles, self.options.prefix,
                                                      [t.id for t in self.bridge.scenario.all_targets])
         log.info("Zenoh: %s session, prefix %r", self.options.zenoh.mode, self.options.prefix)
         self.opened.set()
@@ -181,12 +187,14 @@ class PayloadRunner:
                     self.counters["other_systems"] += 1
                     continue
                 self.bridge.ingest(vehicle_id, message, now_s)
-                if self.options.request_rate_hz is not None and vehicle_id not in self._requested:
-                    self._request_rates(link, vehicle_id)
+                rate = self.options.request_rate_hz
+                if rate is not None and vehicle_id not in self._requested:
+                    self._request_rates(link, vehicle_id, rate)
 
-    def _request_rates(self, link, vehicle_id: str) -> None:
-        """SET_MESSAGE_INTERVAL for each telemetry message, and REQUEST_DATA_STREAM for its ArduPilot group."""
-        rate, sysid = self.options.request_rate_hz, self.sysids[vehicle_id]
+    def _request_rates(self, link: mavfile, vehicle_id: str, rate: float) -> None:
+        """SET_MESSAGE_INTERVAL for each telemetry message at ``rate`` Hz, and REQUEST_DATA_STREAM for its ArduPilot
+        group."""
+        sysid = self.sysids[vehicle_id]
         for message_id, stream in TELEMETRY.items():
             link.mav.command_long_send(sysid, _AUTOPILOT_COMPONENT, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
                                        message_id, 1e6 / rate, 0, 0, 0, 0, 0)
@@ -199,7 +207,8 @@ class PayloadRunner:
         if isinstance(action, Liveliness):
             key = alive_key(action.vehicle_id, self.options.prefix)
             if action.alive:
-                self.tokens[action.vehicle_id] = self.session.liveliness().declare_token(key)
+                if self.session is not None:  # (open since _open(): the bridge runs after it)
+                    self.tokens[action.vehicle_id] = self.session.liveliness().declare_token(key)
             else:
                 token = self.tokens.pop(action.vehicle_id, None)
                 if token is not None:

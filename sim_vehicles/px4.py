@@ -1,7 +1,7 @@
 """The ``px4`` autopilot personality: what PX4 fixed-wing does with the ground station's commands.
 
 Differences from the ``ideal`` autopilot (:mod:`sim_vehicles.autopilot`), each from
-PX4's sources (paths under ``src/modules/``) or reference/mavlink.md:
+PX4's sources (paths under ``src/modules/``) or docs/mavlink.md:
 
 * **HEARTBEAT** says MAV_AUTOPILOT_PX4 (12); ``custom_mode`` is PX4's
   ``px4_custom_mode`` union, ``main_mode << 16 | sub_mode << 24`` (MANUAL 1,
@@ -146,7 +146,7 @@ class Px4Autopilot(SimAutopilot):
         if mode == OFFBOARD and self.last_setpoint is not None:
             self._apply_setpoint(self.last_setpoint, state)
 
-    def _takeoff_done(self, state: AirframeState) -> None:
+    def _takeoff_done(self, state: AirframeState, altitude_m: float) -> None:
         """PX4 switches to Hold (AUTO.LOITER) at the take-off altitude."""
         self._enter_mode(HOLD, state)
 
@@ -220,10 +220,13 @@ class Px4Autopilot(SimAutopilot):
 
     def _apply_setpoint(self, msg, state: AirframeState) -> None:
         altitude = self._altitude_from(msg.coordinate_frame, msg.alt)
+        if altitude is None:  # (not one of _SETPOINT_FRAMES, which are all global)
+            self.counters["position_target_bad_frame"] += 1
+            return
         if not msg.type_mask & _MASK_XYZ:
             self._goto(state, msg.lat_int, msg.lon_int, altitude, radius_m=self.params["NAV_LOITER_RAD"])
         else:
             self.guided_target_enu_m = None
             course = math.atan2(msg.vx, msg.vy)  # NED (north, east) velocity -> ENU course
             self.guidance = replace(self._hold("course", state, direction_rad=course),
-                                    altitude_m=self.guidance.altitude_m if msg.type_mask & 4 else altitude)
+                                    altitude_m=self._flying().altitude_m if msg.type_mask & 4 else altitude)

@@ -41,7 +41,9 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from gcs.adapters.zenoh_session import open_session, publish
+import zenoh
+
+from gcs.adapters.zenoh_session import has_subscribers, open_session, publish
 from gcs.config import Scenario
 from gcs.core.world import World
 from protocols.errors import ProtocolError
@@ -105,9 +107,9 @@ class Runner:
         self.stop_event = threading.Event()
         self.endpoints: MavlinkEndpoints | None = None
         self.autopilots: dict[str, SimAutopilot] = {}
-        self.session = None
-        self.publishers: dict[tuple[str, str], object] = {}
-        self.tokens: list = []
+        self.session: zenoh.Session | None = None
+        self.publishers: dict[tuple[str, str], zenoh.Publisher] = {}
+        self.tokens: list[zenoh.LivelinessToken] = []
         self.peers: PeerClock | None = None
         self.plans: PlanClock | None = None
         self.announcer = ScenarioAnnouncer(scenario)
@@ -130,17 +132,17 @@ class Runner:
                 self.autopilots[vehicle.id] = autopilot
             log.info("MAVLink: %s", ", ".join(f"{by_sysid[s]} (sysid {s}) -> {c}" for s, c in connections.items()))
         if self.options.zenoh is not None:
-            self.session = open_session(self.options.zenoh)
+            session = self.session = open_session(self.options.zenoh)
             prefix = self.options.prefix
-            self.publishers = declare_vehicle_publishers(self.session, [v.id for v in self.vehicles], prefix,
+            self.publishers = declare_vehicle_publishers(session, [v.id for v in self.vehicles], prefix,
                                                          [t.id for t in self.scenario.all_targets]
                                                          if self.publishes_truth else ())
             if self.options.lockstep:
                 wall_period_s = self._report_period_ns / NS_PER_S / self.options.rate
-                self.peers = PeerClock(self.session, prefix, [v.id for v in self.vehicles], wall_period_s,
+                self.peers = PeerClock(session, prefix, [v.id for v in self.vehicles], wall_period_s,
                                        self.clock)
             if self.options.wait_for_plans:
-                self.plans = PlanClock(self.session, prefix, [v.id for v in self.vehicles], self._report_period_ns,
+                self.plans = PlanClock(session, prefix, [v.id for v in self.vehicles], self._report_period_ns,
                                        self.options.epoch_ns, clock=self.clock)
             log.info("Zenoh: %s session, prefix %r, %d vehicles", self.options.zenoh.mode, prefix, len(self.vehicles))
             self._wait_for_subscriber()
@@ -157,7 +159,7 @@ class Runner:
         if not publishers or self.options.wait_for_subscriber_s <= 0:
             return
         deadline = self.clock() + self.options.wait_for_subscriber_s
-        while publishers and not all(p.matching_status.matching for p in publishers):
+        while publishers and not all(has_subscribers(p) for p in publishers):
             if self.clock() >= deadline or self.stop_event.is_set():
                 log.info("not every key has a subscriber yet; flying anyway")
                 return
@@ -203,10 +205,11 @@ class Runner:
         reports, navs = _Timer(sim.report_rate_hz), _Timer(sim.nav_rate_hz)
         progress = _Timer(1.0 / 30.0)
         skipped = 0
-        ahead_s = None if self.options.start_at_ns is None else (self.options.start_at_ns - self.unix_ns()) / 1e9
-        if ahead_s is not None and ahead_s <= 0:  # the clock started already: join it where it is now
-            skipped = self._join(dt, (heartbeat, reports, navs, progress))
-            wall_start = self.clock() - (self.unix_ns() - self.options.start_at_ns) / 1e9
+        start_at_ns = self.options.start_at_ns
+        ahead_s = None if start_at_ns is None else (start_at_ns - self.unix_ns()) / 1e9
+        if start_at_ns is not None and ahead_s is not None and ahead_s <= 0:  # the clock started: join it now
+            skipped = self._join(dt, (heartbeat, reports, navs, progress), start_at_ns)
+            wall_start = self.clock() - (self.unix_ns() - start_at_ns) / 1e9
             self._declare_tokens()
         else:
             self._declare_tokens()
@@ -261,7 +264,7 @@ class Runner:
         self.summary.modes = {vid: (self.autopilots[vid].mode_name if vid in self.autopilots else "LOITER")
                               for vid in scene.vehicles}
 
-    def _join(self, dt: float, timers: tuple[_Timer, ...]) -> int:
+    def _join(self, dt: float, timers: tuple[_Timer, ...], start_at_ns: int) -> int:
         """Join a run whose clock started before now (``start_at_ns`` in the past, e.g. a vehicle process
         restarted after a crash): move the target, publishing nothing, to the shared clock's time (with
         lockstep, to the median of the others' newest reports when some are heard), taking the time the move
@@ -279,7 +282,7 @@ class Runner:
             middle = self.peers.middle_ns() if self.peers is not None else None
             if middle is not None:
                 return middle - self.scene.epoch_ns + dt_ns
-            return round((self.unix_ns() - self.options.start_at_ns) * self.options.rate)
+            return round((self.unix_ns() - start_at_ns) * self.options.rate)
 
         steps = 0
         while self.scene.elapsed_ns + dt_ns <= (goal := goal_ns()):
@@ -304,6 +307,8 @@ class Runner:
         """``start_with``: hold the clock at zero until each of those vehicles has its liveliness token up (or the
         run is stopped)."""
         others = self.options.start_with
+        if self.session is None:  # (start_with needs zenoh: RunOptions says so)
+            return
         if not wait_for_vehicles(self.session, self.options.prefix, others, lambda: not self.stop_event.is_set(),
                                  self.clock):
             log.info("%s up: the clock starts", ", ".join(others))
@@ -311,10 +316,13 @@ class Runner:
     def _wait_for_peers(self) -> None:
         """Before joining: up to two report periods (at least 0.5 s) of wall time for the report of every
         other vehicle whose token is up."""
+        peers = self.peers
+        if peers is None:
+            return
         deadline = self.clock() + max(0.5, 2.0 * self._report_period_ns / NS_PER_S / self.options.rate)
         while self.clock() < deadline and not self.stop_event.is_set():
-            self.peers.poll()
-            if self.peers.alive and self.peers.alive <= self.peers.newest_ns.keys():
+            peers.poll()
+            if peers.alive and peers.alive <= peers.newest_ns.keys():
                 return
             self.stop_event.wait(0.01)
 
@@ -322,6 +330,8 @@ class Runner:
         """Lockstep: hold this step while the scene is more than one report period ahead of the slowest other
         vehicle (see :mod:`sim_vehicles.lockstep`)."""
         peers, stamp = self.peers, self.scene.stamp_ns
+        if peers is None:
+            return
         peers.poll()
         if not peers.ahead(stamp, self._report_period_ns):
             return
@@ -337,13 +347,13 @@ class Runner:
         """Hold this step until the ground station's plan of the decision step reached has come, for at most
         :data:`~sim_vehicles.plan_clock.STALE_AFTER_S` of wall time (see :mod:`sim_vehicles.plan_clock`); the
         wall seconds held."""
-        stamp = self.scene.stamp_ns
-        if not self.plans.behind(stamp):
+        stamp, plans = self.scene.stamp_ns, self.plans
+        if plans is None or not plans.behind(stamp):
             return 0.0
         self.summary.plan_held_steps += 1
         start = self.clock()
         while not self.stop_event.wait(HOLD_POLL_S):
-            if not self.plans.behind(stamp):
+            if not plans.behind(stamp):
                 break
             if self.clock() - start >= PLAN_STALE_AFTER_S:
                 self.summary.plan_waits_timed_out += 1

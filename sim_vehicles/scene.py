@@ -32,6 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 from gcs.config import Scenario, SensorConfig, VehicleConfig
 from gcs.core.geometry import LocalFrame, wrap_angle
@@ -45,7 +46,8 @@ from sim_vehicles.truth.clutter import clutter_points, ground_disc_radius
 from sim_vehicles.truth.sensor import TargetSensor
 from sim_vehicles.truth.target import TargetModel, TargetState, start_state, target_model
 
-__all__ = ["Scene", "SimTarget", "SimVehicle", "DEAD_RECKONING_GROWTH", "simple_navigation"]
+__all__ = ["Scene", "SimTarget", "SimVehicle", "DEAD_RECKONING_GROWTH", "simple_navigation", "gps_fix",
+           "wire_measurement"]
 
 DEAD_RECKONING_GROWTH = 0.05
 """Growth of the dead-reckoned position's 1-sigma per metre flown without GPS (ours)."""
@@ -120,15 +122,15 @@ class Scene:
         self.epoch_ns = int(epoch_ns)
         self.frame = LocalFrame(scenario.origin.lat_deg, scenario.origin.lon_deg, scenario.origin.height_m)
         sim = scenario.simulation
-        self.wind = tuple(sim.wind_enu_mps)
+        self.wind = (float(sim.wind_enu_mps[0]), float(sim.wind_enu_mps[1]))
         self.elapsed_ns = 0
         vehicles = len(scenario.vehicles)
         streams = np.random.SeedSequence(seed).spawn(1 + 3 * vehicles + len(scenario.targets))
         self.targets: list[SimTarget] = []
-        for index, cfg in enumerate(scenario.all_targets):
+        for index, target_cfg in enumerate(scenario.all_targets):
             rng = np.random.default_rng(streams[0 if index == 0 else 3 * vehicles + index])
-            model = target_model(scenario, world, base_dir=base_dir, target=cfg)
-            self.targets.append(SimTarget(cfg.id, model, start_state(model, scenario, rng, cfg), rng))
+            model = target_model(scenario, world, base_dir=base_dir, target=target_cfg)
+            self.targets.append(SimTarget(target_cfg.id, model, start_state(model, scenario, rng, target_cfg), rng))
         gps_model = GpsModel.from_scenario(scenario)
         self.vehicles: dict[str, SimVehicle] = {}
         unknown = sorted(set(only or ()) - {v.id for v in scenario.vehicles})
@@ -168,7 +170,8 @@ class Scene:
         """Loiter about the start point at the scenario's altitude and speed (no autopilot attached)."""
         cfg = self.vehicles[vehicle_id].config
         return Guidance(kind="loiter", altitude_m=cfg.altitude_m, airspeed_mps=cfg.speed_mps,
-                        point_enu_m=tuple(cfg.start_enu_m), radius_m=self.scenario.simulation.airframe.loiter_radius_m)
+                        point_enu_m=(cfg.start_enu_m[0], cfg.start_enu_m[1]),
+                        radius_m=self.scenario.simulation.airframe.loiter_radius_m)
 
     def advance(self, dt: float, guidance: dict[str, Guidance]) -> None:
         """Fly every vehicle ``dt`` seconds under its guidance, move the target, sample GPS."""
@@ -233,7 +236,7 @@ class Scene:
             found += list(zip(values, stds))
         if len(found) > 1:
             found = [found[i] for i in rng.permutation(len(found))]
-        return [_measurement(sensor.components, values, stds) for values, stds in found]
+        return [wire_measurement(sensor.components, values, stds) for values, stds in found]
 
     def sensor_report(self, vehicle_id: str) -> SensorReport:
         """The vehicle's sensor scans now: its detections of the targets and of clutter (module docstring)."""
@@ -242,7 +245,7 @@ class Scene:
         vehicle.report_seq += 1
         return SensorReport(
             vehicle_id=vehicle_id, seq=vehicle.report_seq, stamp_ns=self.stamp_ns,
-            vehicle_position_enu_m=tuple(float(v) for v in vehicle.nav_position_enu_m),
+            vehicle_position_enu_m=_xyz(vehicle.nav_position_enu_m),
             vehicle_position_std_m=float(vehicle.nav_std_m), detections=tuple(detections))
 
     def nav_report(self, vehicle_id: str) -> NavReport:
@@ -254,17 +257,11 @@ class Scene:
             ins = InsIncrement(dt_s=dt, distance_m=max(vehicle.ins_distance_m, 0.0),
                                heading_change_rad=vehicle.ins_turn_rad)
         vehicle.last_nav_ns, vehicle.ins_distance_m, vehicle.ins_turn_rad = self.elapsed_ns, 0.0, 0.0
-        gps = None
-        if vehicle.gps.position_enu_m is not None:
-            lat, lon, _ = self.frame.to_geodetic(vehicle.gps.position_enu_m)
-            gps = GpsFix(lat_deg=float(lat), lon_deg=float(lon),
-                         alt_m=self.frame.height_m + float(vehicle.gps.position_enu_m[2]),
-                         fix_type=vehicle.gps.fix_type, h_acc_m=vehicle.gps.horizontal_std_m,
-                         v_acc_m=vehicle.gps.vertical_std_m, satellites=vehicle.gps.satellites)
+        gps = gps_fix(self.frame, vehicle.gps)
         vehicle.nav_seq += 1
         velocity = None
         if gps is not None or ins is None:  # GNSS velocity (accurate to centimetres per second: truth)
-            velocity = tuple(float(v) for v in vehicle.state.ground_velocity(self.wind))
+            velocity = _xyz(vehicle.state.ground_velocity(self.wind))
         return NavReport(vehicle_id=vehicle_id, seq=vehicle.nav_seq, stamp_ns=self.stamp_ns, gps=gps, ins=ins,
                          velocity_enu_mps=velocity, heading_rad=wrap_angle(vehicle.nav_heading_rad),
                          turn_rate_rad_s=float(vehicle.state.turn_rate_rad_s))
@@ -297,13 +294,23 @@ _FIELDS = {"range": ("range_m", "range_std_m"), "azimuth": ("azimuth_rad", "azim
 """The ``Measurement`` fields of each sensor component: its value and its standard deviation."""
 
 
-def _measurement(components: tuple[str, ...], values: np.ndarray, stds: np.ndarray) -> Measurement:
+def wire_measurement(components: tuple[str, ...], values: np.ndarray, stds: np.ndarray) -> Measurement:
     """The wire form of one detection's measured components and their standard deviations."""
     fields: dict[str, float] = {}
     for component, value, std in zip(components, values, stds):
         name, std_name = _FIELDS[component]
         fields[name], fields[std_name] = float(value), float(std)
     return Measurement(**fields)
+
+
+def gps_fix(frame: LocalFrame, reading: GpsReading) -> GpsFix | None:
+    """The wire form of a GPS reading (geodetic, about the scenario's origin ``frame``); None without a fix."""
+    if reading.position_enu_m is None:
+        return None
+    lat, lon, _ = frame.to_geodetic(reading.position_enu_m)
+    return GpsFix(lat_deg=float(lat), lon_deg=float(lon), alt_m=frame.height_m + float(reading.position_enu_m[2]),
+                  fix_type=reading.fix_type, h_acc_m=reading.horizontal_std_m, v_acc_m=reading.vertical_std_m,
+                  satellites=reading.satellites)
 
 
 def simple_navigation(position_enu_m: np.ndarray, heading_rad: float, std_m: float, gps: GpsReading,
@@ -322,3 +329,8 @@ def simple_navigation(position_enu_m: np.ndarray, heading_rad: float, std_m: flo
     position = position_enu_m + np.array([distance_m * math.cos(mid), distance_m * math.sin(mid), 0.0])
     position[2] = true_altitude_m
     return position, heading_rad + turn_rad, std_m + DEAD_RECKONING_GROWTH * distance_m
+
+
+def _xyz(vector: NDArray[np.float64]) -> tuple[float, float, float]:
+    """An ENU vector (3,) as three Python floats, as the wire messages hold it."""
+    return float(vector[0]), float(vector[1]), float(vector[2])

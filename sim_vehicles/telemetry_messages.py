@@ -1,6 +1,6 @@
 """The messages a simulated vehicle sends about itself, built from its truth state (no sending here).
 
-Units at this edge follow reference/mavlink.md: lat/lon as 1e7 integers, altitude
+Units at this edge follow docs/mavlink.md: lat/lon as 1e7 integers, altitude
 in mm (MSL and relative to home), velocities in cm/s NED, yaw NED from north; the
 vehicle's state is ENU inside. :func:`stream_message` builds one streamed message
 by id (:data:`sim_vehicles.streams.STREAMED_MESSAGES`).

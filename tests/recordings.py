@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from gcs.adapters.recording import Recorder, read_recording
-from gcs.bench.replay import make_recording
+from sim_vehicles.recording import record_scene
 from gcs.config import Scenario
 from gcs.core.world import World
 from gcs.recordings.replay import process
@@ -22,7 +22,7 @@ NS = 1_000_000_000
 def run_recording(folder: Path, scenario: Scenario, world: World, duration_s: float, seed: int) -> Path:
     """Simulated inputs (receive time = stamp) and the daemon's tracks (1 ms after their step) in one file."""
     inputs, path = folder / "inputs.mcap", folder / "run.mcap"
-    make_recording(scenario, world, inputs, duration_s=duration_s, seed=seed)
+    record_scene(scenario, world, inputs, duration_s=duration_s, seed=seed)
     tracks, _, _ = process(inputs, scenario)
     assert tracks, "the simulated run should give tracks"
     rows = [(r.log_time_ns, r.key, r.payload, r.encoding) for r in read_recording(inputs)]

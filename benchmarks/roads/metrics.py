@@ -23,23 +23,19 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from scipy.stats import chi2, wilcoxon
+from scipy.stats import wilcoxon
 
+from benchmarks import lost_track
+from benchmarks.lost_track import NEES_BAND, error_figures, nees_inside
 from benchmarks.roads.estimators import Trace
 from benchmarks.roads.scene import Run
 
 __all__ = ["run_figures", "summary", "paired", "longest_unseen", "NEES_BAND"]
 
-NEES_BAND = (float(chi2.ppf(0.025, 2)), float(chi2.ppf(0.975, 2)))
-
 
 def longest_unseen(run: Run) -> int:
     """Most consecutive steps at which no UAV saw the car."""
-    longest = current = 0
-    for seen in run.seen.any(axis=1):
-        current = 0 if seen else current + 1
-        longest = max(longest, current)
-    return longest
+    return lost_track.longest_unseen(run.seen.any(axis=1))
 
 
 def run_figures(run: Run, trace: Trace) -> dict:
@@ -48,7 +44,7 @@ def run_figures(run: Run, trace: Trace) -> dict:
     error = trace.mean[tracked, :2] - run.truth_xy[tracked]
     distance = np.hypot(error[:, 0], error[:, 1])
     nees = np.einsum("ka,ka->k", error, np.linalg.solve(trace.cov[tracked, :2, :2], error[..., None])[..., 0])
-    return {"errors_m": distance, "nees_inside": (nees >= NEES_BAND[0]) & (nees <= NEES_BAND[1]),
+    return {"errors_m": distance, "nees_inside": nees_inside(nees),
             "step_ms": 1e3 * (trace.fuse_s[tracked] + trace.horizon_s[tracked]),
             "rmse_m": float(np.sqrt(np.mean(distance**2))) if distance.size else float("nan")}
 
@@ -60,13 +56,7 @@ def summary(figures: Sequence[dict]) -> dict:
     return {
         "rmse_pooled_m": float(np.sqrt(np.mean(errors**2))),
         "rmse_mean_m": float(np.mean([f["rmse_m"] for f in figures])),
-        "p95_m": float(np.percentile(errors, 95)),
-        "max_m": float(errors.max()),
-        "steps_over_50": int((errors > 50.0).sum()),
-        "steps_over_100": int((errors > 100.0).sum()),
-        "runs_over_50": int(sum((f["errors_m"] > 50.0).any() for f in figures)),
-        "runs_over_100": int(sum((f["errors_m"] > 100.0).any() for f in figures)),
-        "steps": int(errors.size),
+        **error_figures([f["errors_m"] for f in figures]),
         "nees_inside": float(np.concatenate([f["nees_inside"] for f in figures]).mean()),
         "ms_median": float(np.median(times)),
         "ms_p10": float(np.percentile(times, 10)),

@@ -34,12 +34,18 @@ import argparse
 import json
 import logging
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import NDArray
 
 from gcs.core.geometry import LocalFrame
+
+if TYPE_CHECKING:
+    from foxglove.channels import GeoJsonChannel, LocationFixChannel
 
 __all__ = ["FoxgloveOptions", "FoxgloveOut", "FoxgloveMissing", "WORLD_EVERY_NS", "add_foxglove_arguments",
            "foxglove_options"]
@@ -48,6 +54,8 @@ log = logging.getLogger(__name__)
 
 NS_PER_S = 1_000_000_000
 WORLD_EVERY_NS = 5 * NS_PER_S
+Points = Sequence[Sequence[float]] | NDArray[np.float64]
+"""ENU ground points (k, 2), metres."""
 """The static world is logged again this often, so that a viewer that connects late gets it."""
 COLOURS = [(0.12, 0.53, 0.90), (0.26, 0.63, 0.28), (0.56, 0.14, 0.67), (0.96, 0.32, 0.12), (0.0, 0.67, 0.76)]
 ELLIPSE_POINTS = 36
@@ -137,8 +145,8 @@ class FoxgloveOut:
         from foxglove.channels import GeoJsonChannel, LocationFixChannel
 
         self._location_fix, self._geojson = LocationFixChannel, GeoJsonChannel
-        self._fixes: dict[str, object] = {}
-        self._maps: dict[str, object] = {}
+        self._fixes: dict[str, LocationFixChannel] = {}
+        self._maps: dict[str, GeoJsonChannel] = {}
         self._status = foxglove.Channel("/gcs/status", message_encoding="json", context=self.context)
         self._world_geojson = json.dumps(self._world_features())
         self._world_logged_ns: int | None = None
@@ -146,12 +154,12 @@ class FoxgloveOut:
 
     # ------------------------------------------------------------ conversion
 
-    def _geodetic(self, xy: list) -> np.ndarray:
+    def _geodetic(self, xy: Points) -> NDArray[np.float64]:
         """(k, 2) ENU metres on the ground -> (k, 3) latitude, longitude, height."""
         enu = np.column_stack([np.asarray(xy, dtype=np.float64).reshape(-1, 2), np.zeros(len(xy))])
         return np.column_stack(self.frame.to_geodetic(enu))
 
-    def _lonlat(self, xy: list) -> list[list[float]]:
+    def _lonlat(self, xy: Points) -> list[list[float]]:
         return [[round(float(lon), 8), round(float(lat), 8)] for lat, lon, _ in self._geodetic(xy)]
 
     def _world_features(self) -> dict:
@@ -176,7 +184,7 @@ class FoxgloveOut:
                      for z in self.world["no_fly"]]
         return {"type": "FeatureCollection", "features": features}
 
-    def _ring(self, polygon: list) -> list[list[float]]:
+    def _ring(self, polygon: Points) -> list[list[float]]:
         ring = self._lonlat(polygon)
         return ring + ring[:1]  # GeoJSON rings are closed
 

@@ -45,14 +45,15 @@ def connections_from_arguments(args: argparse.Namespace, vehicle_ids: list[str])
         default = None if args.mavlink.lower() == "none" else check_connection(args.mavlink)
     except ValueError as error:
         raise ValueError(f"--mavlink: {error}") from None
-    overrides = dict(args.vehicle)
+    overrides: dict[str, str] = dict(args.vehicle)
     unknown = sorted(set(overrides) - set(vehicle_ids))
     if unknown:
         raise ValueError(f"--vehicle names unknown vehicles {unknown}; the scenario has {vehicle_ids}")
-    missing = [v for v in vehicle_ids if v not in overrides and default is None]
+    endpoints = {v: overrides[v] if v in overrides else default for v in vehicle_ids}
+    missing = [v for v, endpoint in endpoints.items() if endpoint is None]
     if missing:
         raise ValueError(f"--mavlink none leaves {missing} without an endpoint; give --vehicle for each")
-    return {v: overrides.get(v, default) for v in vehicle_ids}
+    return {v: endpoint for v, endpoint in endpoints.items() if endpoint is not None}
 
 
 def signing_key_from_arguments(args: argparse.Namespace) -> bytes | None:

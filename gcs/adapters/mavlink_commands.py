@@ -1,6 +1,6 @@
 """What the daemon sends each vehicle, and when (pure): :func:`due_actions`.
 
-The encoding (reference/mavlink.md, "The encoding this project uses"), chosen
+The encoding (docs/mavlink.md, "What the daemon sends"), chosen
 from the autopilot the vehicle's HEARTBEAT names:
 
 * to every vehicle with a recent HEARTBEAT, once its link is up and again every
@@ -22,7 +22,7 @@ from the autopilot the vehicle's HEARTBEAT names:
     the last one sent, and ``GUIDED_CHANGE_SPEED`` / ``GUIDED_CHANGE_ALTITUDE``
     when those change; all three are sent again after the vehicle (re-)enters
     GUIDED or its link comes back. No carrots: ArduPlane takes only their
-    altitude (reference/mavlink.md);
+    altitude (docs/mavlink.md);
   - to any other peer (PX4), the carrot ``SET_POSITION_TARGET_GLOBAL_INT``
     (frame ``GLOBAL_RELATIVE_ALT_INT``, type_mask ``0x09F8``) at
     ``carrot_rate_hz``: the latest position plus ``D`` metres along the commanded
@@ -76,8 +76,8 @@ STREAM_ARRIVAL_FRACTION = 0.8
 def carrot_distance_m(speed_mps: float, max_turn_rate_rad_s: float) -> float:
     """How far ahead the carrot goes: ``D = max(3 R, 15 s V)`` with turn radius ``R = V / omega_max``.
 
-    reference/mavlink.md asks for at least three turn radii and 10-20 s of flight,
-    so that a vehicle never reaches (and loiters about) a carrot between sends.
+    At least three turn radii and 15 s of flight (docs/mavlink.md), so that a
+    vehicle never reaches (and loiters about) a carrot between sends.
     """
     return max(CARROT_TURN_RADII * speed_mps / max_turn_rate_rad_s, CARROT_LOOKAHEAD_S * speed_mps)
 

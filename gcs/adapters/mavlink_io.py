@@ -93,7 +93,7 @@ class MavlinkCommander:
     signing_key : bytes or None
         32-byte MAVLink 2 signing key: sign outgoing, reject unsigned incoming.
     carrot_rate_hz : float
-        Carrot re-send rate (2-5 Hz per reference/mavlink.md).
+        Carrot re-send rate (2-5 Hz: PX4 leaves OFFBOARD 1 s after the last; docs/mavlink.md).
     max_turn_rate_rad_s : dict of vehicle id -> rad/s, or None
         For the carrot distance and the heading command's acceleration limit;
         ``DEFAULT_MAX_TURN_RATE_RAD_S`` for vehicles not listed.

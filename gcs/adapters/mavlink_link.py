@@ -26,7 +26,7 @@ __all__ = ["GUIDED", "MAX_ABS_ALTITUDE_M", "PX4_OFFBOARD_MAIN_MODE", "STREAMED_T
 
 GUIDED = ARDUPLANE_MODES["GUIDED"]
 PX4_OFFBOARD_MAIN_MODE = 6
-"""PX4 main mode OFFBOARD: HEARTBEAT.custom_mode bits 16-23; DO_SET_MODE param2 (reference/mavlink.md)."""
+"""PX4 main mode OFFBOARD: HEARTBEAT.custom_mode bits 16-23; DO_SET_MODE param2 (docs/mavlink.md)."""
 MAX_ABS_ALTITUDE_M = 100_000.0
 """Altitudes relative to home beyond this are not a fixed-wing's (telemetry rejected as ``bad_telemetry``)."""
 STREAMED_TELEMETRY: dict[str, int] = {"GLOBAL_POSITION_INT": mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT,

@@ -4,7 +4,7 @@ Importing this module selects MAVLink 2 in pymavlink (``MAVLINK20=1`` must be se
 before ``pymavlink.mavutil`` is first imported; signing needs MAVLink 2) and
 exposes pymavlink's default MAVLink 2 module as :data:`mavlink` (the ``all``
 dialect, a superset of ``ardupilotmega`` with the GUIDED_CHANGE_* commands;
-reference/mavlink.md). Connections parse with ``ardupilotmega``; the message
+docs/mavlink.md). Connections parse with ``ardupilotmega``; the message
 ids and enums are the same, but each module has its own ``MAVError`` class.
 
 Conventions at this edge (docs/design.md, frames, units and time): latitude and longitude are
@@ -22,6 +22,7 @@ import os
 import socket
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 if "pymavlink.mavutil" in sys.modules and os.environ.get("MAVLINK20") != "1":  # pragma: no cover
     raise ImportError("pymavlink.mavutil was imported before MAVLINK20=1 was set; import "
@@ -32,6 +33,9 @@ from pymavlink import mavutil  # noqa: E402
 
 mavlink = mavutil.mavlink
 """pymavlink's MAVLink 2 module (``all`` dialect: message classes, enums, ``MAVLink``)."""
+
+if TYPE_CHECKING:  # the class of mavlink.MAVLink (pymavlink has no type information: it checks as Any)
+    from pymavlink.dialects.v20.all import MAVLink
 
 __all__ = [
     "ARDUPLANE_MODES",
@@ -54,7 +58,7 @@ if mavlink.WIRE_PROTOCOL_VERSION != "2.0":  # pragma: no cover
     raise ImportError("pymavlink did not load the MAVLink 2 dialect")
 
 GCS_SYSID = 255
-"""System id of a ground station (reference/mavlink.md)."""
+"""System id of a ground station (docs/mavlink.md)."""
 
 ARDUPLANE_MODE_NAMES: dict[int, str] = dict(mavutil.mode_mapping_apm)
 """ArduPlane custom_mode numbers to names (pymavlink's table: 12 LOITER, 15 GUIDED, ...)."""
@@ -200,7 +204,7 @@ def read_signing_key(path: str | Path) -> bytes:
     return key
 
 
-def sign_outgoing(mav: mavlink.MAVLink, key: bytes, link_id: int, timestamp_10us: int) -> None:
+def sign_outgoing(mav: MAVLink, key: bytes, link_id: int, timestamp_10us: int) -> None:
     """Sign every message ``mav`` sends with ``key`` (pymavlink's ``setup_signing`` for a bare encoder).
 
     ``timestamp_10us`` is the MAVLink signing timestamp (10 us units since

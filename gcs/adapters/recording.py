@@ -32,7 +32,7 @@ import io
 import logging
 import struct
 import zlib
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -199,7 +199,7 @@ class _CountingReader(io.RawIOBase):
 
 
 def read_recording(path: str | Path, warn: Callable[[str], None] = log.warning,
-                   on_metadata: Callable[[str, dict[str, str]], None] | None = None) -> Iterator[Recorded]:
+                   on_metadata: Callable[[str, dict[str, str]], None] | None = None) -> Generator[Recorded, None, None]:
     """Every message of a recording in file order; see the module docstring for errors and recovery.
     ``on_metadata(name, data)`` is called with each metadata record as it is read.
 

@@ -61,12 +61,12 @@ class ZenohIO:
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._latest: dict[str, tuple[bytes, str]] = {}
         self._samples: list = []
-        self._liveliness = None
+        self._liveliness: zenoh.Subscriber[zenoh.handlers.Handler[zenoh.Sample]] | None = None
         self._held: list[Received] = []
 
-    def open(self) -> None:
-        """Open the session and declare every subscriber and queryable."""
-        self.session = open_session(self.settings)
+    def open(self) -> zenoh.Session:
+        """Open the session and declare every subscriber and queryable; the session."""
+        session = self.session = open_session(self.settings)
         for selector in (reports_selector(self.prefix), navs_selector(self.prefix), truth_selector(self.prefix),
                          scenarios_selector(self.prefix)):
             self._samples.append(self.session.declare_subscriber(selector, zenoh.handlers.FifoChannel(INBOX_CAPACITY)))
@@ -75,6 +75,7 @@ class ZenohIO:
         self._tracks = self.session.declare_queryable(tracks_selector(self.prefix))
         self._status = self.session.declare_queryable(status_key(self.prefix))
         self._entities += [*self._samples, self._liveliness, self._tracks, self._status]
+        return session
 
     def wait(self, timeout_s: float, until: Callable[[], bool] | None = None) -> bool:
         """Wait until something is received, ``until()`` (if given) is true, or ``timeout_s`` passes
@@ -95,12 +96,12 @@ class ZenohIO:
 
     def _take(self, limit: int) -> list[Received]:
         out: list[Received] = []
-        if self.session is None:
+        if self.session is None or self._liveliness is None:
             return out
         now = self.clock_ns()
         while len(out) < limit and (sample := self._liveliness.try_recv()) is not None:
-            kind = "alive" if sample.kind == zenoh.SampleKind.PUT else "gone"
-            out.append(Received(kind, str(sample.key_expr), b"", "", now))
+            out.append(Received("alive" if sample.kind == zenoh.SampleKind.PUT else "gone", str(sample.key_expr),
+                                b"", "", now))
         for subscriber in self._samples:
             while len(out) < limit and (sample := subscriber.try_recv()) is not None:
                 out.append(Received("sample", str(sample.key_expr), sample.payload.to_bytes(), str(sample.encoding),
@@ -111,6 +112,8 @@ class ZenohIO:
         payload, encoding = encode(message)
         publisher = self._publishers.get(key)
         if publisher is None:
+            if self.session is None:
+                raise RuntimeError(f"cannot publish on {key}: the Zenoh session is not open (call open() first)")
             publisher = self._publishers[key] = declare_publisher(self.session, key, type(message))
         publisher.put(payload)  # the publisher was declared with this type's encoding
         self._latest[key] = (payload, encoding)

@@ -1,4 +1,4 @@
-"""Opening Zenoh sessions the same way everywhere (reference/zenoh.md).
+"""Opening Zenoh sessions the same way everywhere (docs/protocol.md#zenoh).
 
 Every session this project opens has multicast scouting off (two runs on one
 host would otherwise find each other) and no scouting delay. A session is a
@@ -41,7 +41,8 @@ import zenoh
 from protocols.codec import encode, encoding_for
 from protocols.messages import Message
 
-__all__ = ["DEFAULT_ENDPOINT", "ZenohSettings", "open_session", "declare_publisher", "publish", "add_zenoh_arguments",
+__all__ = ["DEFAULT_ENDPOINT", "ZenohSettings", "open_session", "declare_publisher", "publish", "has_subscribers",
+           "add_zenoh_arguments",
            "settings_from_arguments", "required_settings", "query", "load_config_file", "listening_endpoints",
            "check_endpoint", "clean_error"]
 
@@ -190,6 +191,12 @@ def publish(publisher: zenoh.Publisher, message: Message) -> int:
     payload, encoding = encode(message)
     publisher.put(payload, encoding=zenoh.Encoding(encoding))
     return len(payload)
+
+
+def has_subscribers(publisher: zenoh.Publisher) -> bool:
+    """Whether some subscriber matches the publisher's key expression."""
+    # eclipse-zenoh 1.10's stub types matching_status as bool; it is a MatchingStatus, whose .matching says it
+    return bool(publisher.matching_status.matching)  # type: ignore[attr-defined]
 
 
 def add_zenoh_arguments(parser, listen: Sequence[str], connect: Sequence[str], mode: str = "peer",

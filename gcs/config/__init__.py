@@ -47,7 +47,7 @@ class ScenarioError(ValueError):
     """A scenario file that cannot be used; the message names the file and the key."""
 
 
-class Origin(_Config):
+class Origin(_Config, frozen=True):
     """Geodetic origin of the local ENU frame (WGS84 degrees, metres above the ellipsoid)."""
 
     lat_deg: Annotated[float, msgspec.Meta(ge=-90.0, le=90.0)]
@@ -55,14 +55,14 @@ class Origin(_Config):
     height_m: Metres = 0.0
 
 
-class TimeConfig(_Config):
+class TimeConfig(_Config, frozen=True):
     """Decision step and run length, seconds."""
 
     step_s: Positive = 1.0
     duration_s: Positive = 300.0
 
 
-class RestrictedAirspace(_Config):
+class RestrictedAirspace(_Config, frozen=True):
     """A no-fly zone (wang2012 eq. 5): a polygon in ENU metres with an altitude band."""
 
     name: Identifier
@@ -71,7 +71,7 @@ class RestrictedAirspace(_Config):
     ceiling_m: Metres = 10_000.0
 
 
-class SensorConfig(_Config):
+class SensorConfig(_Config, frozen=True):
     """Target sensor on a vehicle (wang2012 eq. 3-4; zuo2021 eq. 2 for distance-dependent noise).
 
     ``kind``: ``range_bearing`` measures range, azimuth and elevation;
@@ -115,7 +115,7 @@ class SensorConfig(_Config):
         return ("azimuth", "elevation"), (self.azimuth_std_rad, self.elevation_std_rad)
 
 
-class VehicleConfig(_Config):
+class VehicleConfig(_Config, frozen=True):
     """One fixed-wing UAV (wang2012 eq. 1: constant speed and altitude, bounded turn rate)."""
 
     id: Identifier
@@ -131,7 +131,7 @@ class VehicleConfig(_Config):
     """Overrides ``[simulation] autopilot`` for this vehicle when given."""
 
 
-class TargetConfig(_Config):
+class TargetConfig(_Config, frozen=True):
     """The ground target's truth model (wang2012 eq. 2).
 
     ``white_noise_acceleration``: continuous white-noise acceleration of power
@@ -159,7 +159,7 @@ class TargetConfig(_Config):
     """``streets``: probability of leaving the straight road at an intersection."""
 
 
-class EstimatorConfig(_Config):
+class EstimatorConfig(_Config, frozen=True):
     """Target estimator. ``duif``: wang2012 section 3 (range-bearing sensors); ``vgukf``:
     zuo2021's ML initialisation and variable-gain UKF (bearing-only sensors); ``imm``: an IMM
     of constant velocity (``accel_psd_m2_s3``) and coordinated turn, each mode updated by the
@@ -182,7 +182,7 @@ class EstimatorConfig(_Config):
     """``imm``: probability per step of leaving constant velocity (twice that of leaving the turn)."""
 
 
-class Scenario(_Config, kw_only=True):
+class Scenario(_Config, frozen=True, kw_only=True):
     """A whole experiment; the default is wang2012 section 5."""
 
     name: Identifier
@@ -233,14 +233,14 @@ def _check_autopilot(name: str | None, path: str) -> list[str]:
     return [f"{path}: unknown autopilot {name!r}; expected one of: {', '.join(AUTOPILOT_PERSONALITIES)}"]
 
 
-def _outside(point: tuple[float, float], size: tuple[float, float] | None) -> bool:
-    """Whether ``point`` lies outside the city rectangle ``[0, width] x [0, depth]`` (never, without one)."""
-    return size is not None and not (0.0 <= point[0] <= size[0] and 0.0 <= point[1] <= size[1])
+def _outside(point: tuple[float, float], size: tuple[float, float]) -> bool:
+    """Whether ``point`` lies outside the city rectangle ``[0, width] x [0, depth]``."""
+    return not (0.0 <= point[0] <= size[0] and 0.0 <= point[1] <= size[1])
 
 
 def _check_target(target: TargetConfig, path: str, size: tuple[float, float] | None) -> list[str]:
     problems = []
-    if _outside(target.start_enu_m, size):
+    if size is not None and _outside(target.start_enu_m, size):
         width, height = size
         problems.append(f"{path}.start_enu_m: {target.start_enu_m} is outside the city [0, {width}] x [0, {height}]")
     if target.motion == "scripted" and not target.path_file and not target.path:
@@ -275,7 +275,7 @@ def validate_scenario(scenario: Scenario) -> Scenario:
         if vehicle.sysid in seen_sysids:
             problems.append(f"{path}.sysid: duplicate MAVLink system id {vehicle.sysid} (also $.vehicles[{seen_sysids[vehicle.sysid]}])")
         seen_sysids.setdefault(vehicle.sysid, index)
-        if _outside(vehicle.start_enu_m, size):
+        if size is not None and _outside(vehicle.start_enu_m, size):
             problems.append(f"{path}.start_enu_m: {vehicle.start_enu_m} is outside the city "
                             f"[0, {size[0]}] x [0, {size[1]}]")
         if vehicle.sensor is not None:

@@ -18,7 +18,7 @@ from gcs.config.base import NonNegative, Positive
 __all__ = ["CityConfig", "SourceConfig"]
 
 
-class CityConfig(_Config):
+class CityConfig(_Config, frozen=True):
     """Box buildings: generated from a seed, or read from a GeoJSON file of footprints.
 
     ``kind = "generated"``: ``buildings`` boxes in a ``size_m`` rectangle whose
@@ -53,7 +53,7 @@ class CityConfig(_Config):
         return self.kind == "geojson" or (self.kind == "empty" and self.roads_geojson is not None)
 
 
-class SourceConfig(_Config):
+class SourceConfig(_Config, frozen=True):
     """Where a scenario's city data came from, and the notice its licence asks for (``[source]``).
 
     A city built from OpenStreetMap (``gcs scenario from-osm``) is derived data

@@ -6,7 +6,7 @@ multi-target tracker (GNN or JPDA association, M-of-N confirmation, deletion), e
 confirmed track is published on ``<prefix>/track/t<id>``, and the UAVs are shared
 between the tracks by assignment (:mod:`gcs.core.multitarget.planning`). The sensor's
 ``detection_probability`` and ``clutter_rate`` (``[sensor]``) are the tracker's ``P_D``
-and clutter. The defaults are those ``gcs bench multitarget`` and ``gcs bench sharing``
+and clutter. The defaults are those ``gcs-bench multitarget`` and ``gcs-bench sharing``
 measure.
 """
 
@@ -25,7 +25,7 @@ __all__ = ["MultiTargetConfig", "check_multitarget"]
 Window = Annotated[int, msgspec.Meta(ge=1, le=62)]
 
 
-class MultiTargetConfig(Config):
+class MultiTargetConfig(Config, frozen=True):
     """The multi-target tracker and the sharing of the UAVs between its tracks.
 
     ``association``: ``gnn`` or ``jpda``; ``accel_psd_m2_s3``: the tracks' constant-velocity

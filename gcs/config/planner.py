@@ -13,7 +13,7 @@ from gcs.core.planner_names import DEFAULT_PLANNER, PLANNERS
 __all__ = ["SightConfig", "PlannerConfig", "check_planner"]
 
 
-class SightConfig(Config):
+class SightConfig(Config, frozen=True):
     """The sight planner (``[planner.sight]``): objective weights and search budget.
 
     The objective (:mod:`gcs.core.planners.sight`) counts, in seen steps, the
@@ -47,7 +47,7 @@ class SightConfig(Config):
     deadline_s: Positive = 0.5
 
 
-class PlannerConfig(Config):
+class PlannerConfig(Config, frozen=True):
     """Heading planner: ``kind`` names it as ``gcs run --planner`` does (:mod:`gcs.core.planner_names`).
     ``sight`` (the default): the probability that at least one UAV sees the target over the
     predicted distribution, searched vehicle by vehicle (``[planner.sight]``); ``sight_k0``: the

@@ -18,7 +18,7 @@ AUTOPILOT_PERSONALITIES = ("ideal", "arduplane", "px4")
 """How a simulated vehicle's autopilot behaves (``sim_vehicles.personalities``)."""
 
 
-class AirframeConfig(_Config):
+class AirframeConfig(_Config, frozen=True):
     """Autopilot-driven fixed-wing response used by the simulated vehicles (``sim_vehicles``).
 
     Bank follows its command as a first-order lag of ``roll_time_constant_s``;
@@ -39,7 +39,7 @@ class AirframeConfig(_Config):
     loiter_radius_m: Positive = 150.0
 
 
-class GpsConfig(_Config):
+class GpsConfig(_Config, frozen=True):
     """Simulated GPS: white noise plus a slowly varying (first-order Gauss-Markov) bias, per axis."""
 
     horizontal_std_m: Positive = 2.0
@@ -49,7 +49,7 @@ class GpsConfig(_Config):
     satellites: Annotated[int, msgspec.Meta(ge=0, le=255)] = 12
 
 
-class InsConfig(_Config):
+class InsConfig(_Config, frozen=True):
     """Simulated INS/odometry increments (feng2019 eq. 1): distance and heading change per interval.
 
     Distance gets a scale-factor error and white noise; the heading change gets a
@@ -62,14 +62,14 @@ class InsConfig(_Config):
     heading_std_rad: NonNegative = 0.002
 
 
-class GpsDeniedZone(_Config):
+class GpsDeniedZone(_Config, frozen=True):
     """A horizontal polygon (ENU metres) inside which simulated vehicles have no GPS fix."""
 
     name: Identifier
     polygon_enu_m: Annotated[list[Point2], msgspec.Meta(min_length=3)]
 
 
-class SimulationConfig(_Config):
+class SimulationConfig(_Config, frozen=True):
     """How ``sim-vehicles`` simulates the scenario: airframe, navigation sensors, wind and rates.
 
     Rates are in simulation time; ``sim-vehicles run --rate R`` scales them all.

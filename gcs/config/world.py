@@ -98,6 +98,7 @@ def build_world(scenario: Scenario, base_dir: Path | None = None) -> World:
     else:
         buildings = Buildings.empty()
     airspace = airspace_from_config(scenario.restricted, source=scenario.name)
+    roads: RoadGraph | None
     if city.roads_geojson:
         roads = load_roads_geojson(city, scenario.origin, base_dir)
     else:
@@ -123,6 +124,8 @@ def load_city_geojson(city: CityConfig, origin: Origin, base_dir: Path | None = 
 
 def load_roads_geojson(city: CityConfig, origin: Origin, base_dir: Path | None = None) -> RoadGraph:
     """Read ``city.roads_geojson``: the road graph of its LineStrings (same coordinate convention)."""
+    if not city.roads_geojson:
+        raise ScenarioError("$.city.roads_geojson: no roads file to read")
     path, document = _read_geojson(city.roads_geojson, base_dir, "GeoJSON roads")
     try:
         return roads_from_geojson(document, to_enu=_converter(document, origin),

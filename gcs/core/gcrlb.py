@@ -128,7 +128,7 @@ def fisher_information(
     vehicle_xyz = np.asarray(vehicle_xyz, dtype=np.float64)
     if vehicle_xyz.shape[-2] != len(sensors):
         raise ValueError(f"{len(sensors)} sensors for {vehicle_xyz.shape[-2]} positions")
-    info = 0.0
+    info: NDArray[np.float64] | float = 0.0
     for i, sensor in enumerate(sensors):
         xyz = vehicle_xyz[..., i, :]
         xx, xy, yy = sensor.fisher_information_xy(target_xy, xyz)  # J_1 = H^T R^-1 H, eq. (16)
@@ -143,7 +143,7 @@ def gcrlb(
     sensors: Sequence[SensorModel], target_xy: NDArray[np.float64], vehicle_xyz: NDArray[np.float64]
 ) -> NDArray[np.float64]:
     """The bound ``J^-1`` on the position error covariance (eq. 23), shape (..., 2, 2)."""
-    return np.linalg.inv(fisher_information(sensors, target_xy, vehicle_xyz))
+    return np.linalg.inv(fisher_information(sensors, target_xy, vehicle_xyz)).astype(np.float64, copy=False)
 
 
 def gcrlb_trace(
@@ -200,7 +200,8 @@ def trace_from_angles(
     upper = np.triu(np.ones(phi.shape[-2:], dtype=bool), k=1)
     pair = a[..., :, None] * b[..., None, :] + a[..., None, :] * b[..., :, None]
     pair = pair + d[..., :, None] * d[..., None, :] * np.sin(phi) ** 2
-    return c.sum(-1) / ((a * b).sum(-1) + np.where(upper, pair, 0.0).sum((-1, -2)))
+    information: NDArray[np.float64] = c.sum(-1) / ((a * b).sum(-1) + np.where(upper, pair, 0.0).sum((-1, -2)))
+    return information
 
 
 def optimal_trace(sensor_count: int, range_m: float, sigma0_rad: float, reference_range_m: float) -> float:

@@ -18,6 +18,7 @@ altitudes.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -41,6 +42,14 @@ WGS84_E2 = WGS84_F * (2.0 - WGS84_F)
 """First eccentricity squared e^2 = f (2 - f)."""
 _EP2 = (WGS84_A**2 - WGS84_B**2) / WGS84_B**2
 """Second eccentricity squared e'^2 = (a^2 - b^2) / b^2."""
+
+
+@overload
+def wrap_angle(angle: float) -> float: ...
+@overload
+def wrap_angle(angle: NDArray[np.float64]) -> NDArray[np.float64]: ...
+@overload
+def wrap_angle(angle: ArrayLike) -> NDArray[np.float64] | float: ...
 
 
 def wrap_angle(angle: ArrayLike) -> NDArray[np.float64] | float:
@@ -181,7 +190,8 @@ class LocalFrame:
     def to_enu(self, lat_deg: ArrayLike, lon_deg: ArrayLike, height_m: ArrayLike) -> NDArray[np.float64]:
         """Geodetic (degrees, metres above the ellipsoid) to ENU metres, shape (..., 3)."""
         delta = geodetic_to_ecef(lat_deg, lon_deg, height_m) - self._origin_ecef
-        return delta @ self._rotation.T
+        enu: NDArray[np.float64] = delta @ self._rotation.T
+        return enu
 
     def to_enu_each(self, lat_deg: ArrayLike, lon_deg: ArrayLike, height_m: ArrayLike) -> NDArray[np.float64]:
         """:meth:`to_enu` with each point computed by itself, shape (..., 3).

@@ -24,6 +24,7 @@ x vehicles x horizon is one call.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal, overload
 
 import numpy as np
 from numpy.typing import NDArray
@@ -48,12 +49,22 @@ class VehicleState:
         return np.column_stack([self.xy, self.altitude])
 
     def __len__(self) -> int:
-        return self.heading.shape[0]
+        return len(self.heading)
 
     def subset(self, index: int) -> VehicleState:
         """Vehicle ``index`` alone, as a team of one."""
         s = slice(index, index + 1)
         return VehicleState(self.xy[s], self.heading[s], self.speed[s], self.altitude[s])
+
+
+@overload
+def rollout(state: VehicleState, turn_rates: NDArray[np.float64], dt: float,
+            max_turn_rate: NDArray[np.float64] | float,
+            headings: Literal[True] = True) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
+@overload
+def rollout(state: VehicleState, turn_rates: NDArray[np.float64], dt: float,
+            max_turn_rate: NDArray[np.float64] | float,
+            headings: Literal[False]) -> tuple[NDArray[np.float64], None]: ...
 
 
 def rollout(
@@ -97,11 +108,12 @@ def rollout(
     # (np.sinc(x) = sin(pi x) / (pi x)); positions are the running sums of the chords.
     chord = np.sinc(half / np.pi) * (state.speed[:, None] * dt)
     chords = chord * np.exp(1j * (psi_end - half))
-    xy = np.cumsum(chords, axis=-1).view(np.float64).reshape(chords.shape + (2,))
+    xy: NDArray[np.float64] = np.cumsum(chords, axis=-1).view(np.float64).reshape(chords.shape + (2,))
     return xy + state.xy[:, None, :], (wrap_angle(psi_end) if headings else None)
 
 
-def step_vehicles(state: VehicleState, turn_rates: NDArray[np.float64], dt: float, max_turn_rate) -> VehicleState:
+def step_vehicles(state: VehicleState, turn_rates: NDArray[np.float64], dt: float,
+                  max_turn_rate: NDArray[np.float64] | float) -> VehicleState:
     """Fly every vehicle one step with its turn-rate command (V,)."""
     xy, heading = rollout(state, np.asarray(turn_rates, dtype=np.float64)[:, None], dt, max_turn_rate)
     return VehicleState(xy[:, 0], heading[:, 0], state.speed, state.altitude)

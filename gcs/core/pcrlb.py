@@ -73,7 +73,8 @@ def measurement_information(
         r_inv = sensor.noise_information(None, states, vehicles[..., v, :])
         contribution = h.swapaxes(-1, -2) @ (h * np.asarray(r_inv)[..., None])
         info += np.where(seen[..., v, None, None], contribution, 0.0)
-    return info.mean(axis=0)
+    mean_info: NDArray[np.float64] = info.mean(axis=0)
+    return mean_info
 
 
 def pcrlb(
@@ -98,7 +99,7 @@ def pcrlb(
     n = motion.dim
     f, q = motion.matrices(step_s)
     j_z = measurement_information(sensors, vehicle_xyz, detected, target_states, n)
-    return information_recursion(f, q, np.linalg.inv(initial_cov), j_z)
+    return information_recursion(f, q, np.linalg.inv(initial_cov).astype(np.float64, copy=False), j_z)
 
 
 def information_recursion(f: NDArray[np.float64], q: NDArray[np.float64], initial_information: NDArray[np.float64],

@@ -1,5 +1,5 @@
 """The names of the planners, one scheme for the scenarios (``[planner] kind``) and the command line
-(``gcs run --planner``, ``gcs bench``): what a user types.
+(``gcs run --planner``, ``gcs-bench``): what a user types.
 
 The planners themselves are :mod:`gcs.core.planners` (:data:`gcs.core.planners.PLANNER_CLASSES` maps each name
 to the class that plans); the tracker a scenario describes is built with one by
@@ -30,7 +30,7 @@ __all__ = ["DEFAULT_PLANNER", "URBAN_PLANNERS", "SEARCH_VARIANTS", "SIGHT_PLANNE
 
 DEFAULT_PLANNER = "sight"
 URBAN_PLANNERS = ("sight", "sight_k0", "ga_k5", "ga_k0", "orbit", "pursuit")
-"""The planners of the city (``gcs bench urban`` runs these by default)."""
+"""The planners of the city (``gcs-bench urban`` runs these by default)."""
 SEARCH_VARIANTS = ("sight_cem", "sight_ga")
 """The sight objective searched otherwise, to compare searches."""
 SIGHT_PLANNERS = ("sight", "sight_k0") + SEARCH_VARIANTS

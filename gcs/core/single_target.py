@@ -17,6 +17,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
+from numpy.typing import NDArray
 
 from gcs.core.filters.uif import GaussianEstimate
 from gcs.core.models.sensor import RANGE, SensorModel
@@ -78,8 +79,8 @@ def choose_detections(config: TrackerConfig, estimate: GaussianEstimate | None, 
     return tuple(chosen)
 
 
-def choose_measurement(candidates: Sequence[np.ndarray], sensor: SensorModel, track: GaussianEstimate,
-                       vehicle_xyz: np.ndarray, vehicle_cov: np.ndarray) -> int:
+def choose_measurement(candidates: Sequence[NDArray[np.float64]], sensor: SensorModel, track: GaussianEstimate,
+                       vehicle_xyz: NDArray[np.float64], vehicle_cov: NDArray[np.float64]) -> int:
     """Index of the candidate measurement nearest the track: least ``nu^T S^-1 nu``.
 
     ``nu = z - h(x)`` is the innovation (azimuth wrapped) about the track's mean position and

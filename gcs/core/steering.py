@@ -9,7 +9,7 @@ works out the turn rate the vehicle needs now and encodes it as the course that
 makes the autopilot's loop turn at that rate.
 
 **The course loop's model** (:class:`CourseLoop`, identified from step responses
-by ``gcs bench autopilots --identify``): small course errors ``e`` are closed at
+by ``gcs-bench autopilots --identify``): small course errors ``e`` are closed at
 ``omega = K e`` through a first-order lag ``tau`` (bank dynamics),
 
 .. math::
@@ -91,8 +91,9 @@ COURSE_LOOPS: dict[str, CourseLoop] = {
     "arduplane": CourseLoop(gain_per_s=0.347, lag_s=0.505, max_turn_rate_rad_s=0.2, airspeed_mps=25.0,
                             bank_to_turn=True),
 }
-"""The course loops of the simulated autopilots, as ``gcs bench autopilots --identify`` measures them on a
-25 m/s airframe (tests/unit/test_steering.py identifies them again and compares). A vehicle is steered
+"""The course loops of the simulated autopilots, as ``gcs-bench autopilots --identify`` measures them on a
+25 m/s airframe (benchmarks/tests identifies them again and compares; tests/unit/test_steering.py holds
+them to their closed forms). A vehicle is steered
 with the loop of the autopilot its scenario names; ``px4`` flies toward its carrot with the airframe's
 own course loop, ``ideal``'s, which an autopilot without an entry takes too."""
 

@@ -14,13 +14,11 @@
 4. return the first command of the plan for every vehicle (Step 5), and the
    plan itself to warm-start the next step.
 
-The daemon, ``gcs replay --process`` and ``gcs bench autopilots`` drive the engine
-(:mod:`gcs.engine`), which calls this function's halves apart: :func:`fuse` on every
+The daemon, ``gcs replay --process`` and the benchmarks' closed loops (``gcs-bench``) drive
+the engine (:mod:`gcs.engine`), which calls this function's halves apart: :func:`fuse` on every
 decision step as it is released, :func:`plan` on the newest fused step when the
-planner is free (docs/design.md, the layers). ``gcs bench urban`` (:mod:`gcs.bench.urban`)
-calls :func:`fuse` then :func:`plan` on every step of its own loop on the true
-kinematics (detections made in process, no reports to decode, no autopilot);
-:func:`step` is the two in one, for callers that plan every step.
+planner is free (docs/design.md, the layers); :func:`step` is the two in one, for
+callers that plan every step.
 """
 
 from __future__ import annotations
@@ -38,9 +36,9 @@ from gcs.core.filters.prediction import HorizonPrediction, predict_horizon
 from gcs.core.filters.uif import NS_PER_S, GaussianEstimate, UnscentedInformationFilter
 from gcs.core.filters.vgukf import VariableGainUKF
 from gcs.core.kinematics import VehicleState
-from gcs.core.models.sensor import AZIMUTH, ELEVATION, RANGE, SensorModel
+from gcs.core.models.sensor import AZIMUTH, ELEVATION, RANGE, DetectionGroup, SensorModel
 from gcs.core.planners.airspace_guard import AirspaceGuard
-from gcs.core.planners.problem import PlanningProblem, PlanResult, RhcWeights, Visibility
+from gcs.core.planners.problem import Planner, PlanningProblem, PlanResult, RhcWeights, Visibility
 from gcs.core.world.sight_table import SightTable
 
 __all__ = ["Detection", "TrackerConfig", "TrackerState", "StepInputs", "StepDiagnostics", "fuse", "iterated_update",
@@ -107,7 +105,7 @@ class TrackerConfig:
 
     uif: UnscentedInformationFilter
     sensors: tuple[SensorModel, ...]
-    planner: object
+    planner: Planner
     max_turn_rate: NDArray[np.float64]
     step_s: float = 1.0
     horizon_steps: int = 5
@@ -151,7 +149,7 @@ class StepDiagnostics:
     prediction: HorizonPrediction | None
     plan: PlanResult | None
     detections: int
-    extras: dict = field(default_factory=dict)
+    extras: dict[str, object] = field(default_factory=dict)
 
 
 def initial_estimate(detection: Detection, sensor: SensorModel, stamp_ns: int, position_std_m: float,
@@ -186,7 +184,7 @@ def fuse(config: TrackerConfig, estimate: GaussianEstimate | None, stamp_ns: int
     --process`` rely on it). None while nothing has been seen.
     """
     if config.bearing_filter is not None:
-        return _fuse_bearings(config, estimate, stamp_ns, detections)
+        return _fuse_bearings(config, config.bearing_filter, estimate, stamp_ns, detections)
     if estimate is None:
         if not detections:
             return None
@@ -212,7 +210,8 @@ RELINEARISE_SIGMA = 3.0
 MAX_RELINEARISATIONS = 3
 
 
-def iterated_update(uif: UnscentedInformationFilter, prior: GaussianEstimate, stacked) -> GaussianEstimate:
+def iterated_update(uif: UnscentedInformationFilter, prior: GaussianEstimate,
+                    stacked: Sequence[DetectionGroup]) -> GaussianEstimate:
     """The DUIF update (eq. 12-15), linearised again about its own result when the detections moved it far.
 
     Eq. (12) linearises the measurement about the prior. When the prior is wide
@@ -252,21 +251,21 @@ def _vehicle_covs(group: Sequence[Detection]) -> NDArray[np.float64] | None:
     return np.stack([d.position_cov for d in group])
 
 
-def _fuse_bearings(config: TrackerConfig, estimate: GaussianEstimate | None, stamp_ns: int,
-                   detections: Sequence[Detection]) -> GaussianEstimate | None:
+def _fuse_bearings(config: TrackerConfig, bearing_filter: VariableGainUKF, estimate: GaussianEstimate | None,
+                   stamp_ns: int, detections: Sequence[Detection]) -> GaussianEstimate | None:
     """zuo2021's estimator for bearing-only sensors: ML initialisation from the first scan of at
     least two bearings (section 2.3 (1)), then the variable-gain UKF (eq. 5-14) on every scan."""
     sensors = [config.sensors[d.vehicle] for d in detections]
     values = [d.values for d in detections]
-    positions = np.stack([d.vehicle_xyz for d in detections]) if detections else None
+    positions = np.stack([d.vehicle_xyz for d in detections]) if detections else np.zeros((0, 3))
     if estimate is None:
         if len(detections) < 2:
             return None
         return ml_initialise(sensors, values, positions, stamp_ns, config.initial_velocity_std_mps)
-    prior = config.bearing_filter.predict(estimate, stamp_ns)
+    prior = bearing_filter.predict(estimate, stamp_ns)
     if not detections:
         return prior
-    return config.bearing_filter.update(prior, sensors, values, positions)
+    return bearing_filter.update(prior, sensors, values, positions)
 
 
 def prediction(config: TrackerConfig, estimate: GaussianEstimate) -> HorizonPrediction:

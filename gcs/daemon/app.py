@@ -163,10 +163,9 @@ class Daemon:
                 log.error("live map off: %s", error)
         if self.options.record is not None:
             self.recorder = Recorder(self.options.record, library=f"gcs {__version__}", scenario=self.scenario)
-        self.zenoh.open()
+        session = self.zenoh.open()
         listen = list(self.options.zenoh.listen)
-        self.zenoh_listening = listening_endpoints(self.zenoh.session) if any(e.endswith(":0") for e in listen) \
-            else listen
+        self.zenoh_listening = listening_endpoints(session) if any(e.endswith(":0") for e in listen) else listen
         self.mavlink_bound = self.commander.bound_connections() if self.commander is not None else {}
         log.info("daemon up: scenario %s, planner %s, zenoh %s listen %s connect %s, MAVLink %s",
                  self.scenario.name, self.planner_name, self.options.zenoh.mode, self.zenoh_listening,
@@ -210,12 +209,19 @@ class Daemon:
                     next_status = now + 1.0
                 heap.turn(now, busy)
                 if not busy:  # wake for input, or for a finished plan to command at once
-                    self.zenoh.wait(idle_s, until=self.plan_runner.finished)
+                    self.zenoh.wait(idle_s, until=self._runner.finished)
         finally:
             self.close()
             heap.stop()
 
     # ------------------------------------------------------------------ loop
+
+    @property
+    def _runner(self) -> PlanRunner:
+        """The plan runner, which :meth:`open` starts."""
+        if self.plan_runner is None:
+            raise RuntimeError("the daemon is not open: it has no plan runner")
+        return self.plan_runner
 
     def turn(self, now: float) -> bool:
         """One pass of the loop; True when something was received, fused or planned.
@@ -243,10 +249,10 @@ class Daemon:
                 activity += self._release(now, timeouts=False)
         if self.commander is not None:
             self.commander.poll(now)  # heartbeats
-            self._heartbeats()
+            self._heartbeats(self.commander)
         activity += self._release(now)
         activity += self._apply_finished_plans()
-        if not self.plan_runner.planning:
+        if not self._runner.planning:
             self._carry_out(self.engine.feed(PlannerFree(now)))
         if now >= self._next_steer_s:
             self._steer(now)
@@ -281,10 +287,10 @@ class Daemon:
         self._carry_out(self.engine.feed(Arrived(item.kind, item.key, item.payload, item.encoding,
                                                  item.received_ns, now)))
 
-    def _heartbeats(self) -> None:
+    def _heartbeats(self, commander: MavlinkCommander) -> None:
         """Hand the engine each heartbeat heard since the last pass (and record it)."""
         for vehicle_id in self.roster:
-            heard = self.commander.link(vehicle_id).last_heartbeat_s
+            heard = commander.link(vehicle_id).last_heartbeat_s
             if heard is not None and heard != self._heard.get(vehicle_id):
                 self._heard[vehicle_id] = heard
                 self.engine.feed(Heartbeat(vehicle_id, heard))
@@ -293,7 +299,7 @@ class Daemon:
 
     def _apply_finished_plans(self) -> int:
         """Hand the engine what the planner has finished (checked several times a pass, so that a plan waits little)."""
-        outcomes = self.plan_runner.take()
+        outcomes = self._runner.take()
         for outcome in outcomes:
             self._carry_out(self.engine.feed(PlanDone(outcome)))
         return len(outcomes)
@@ -311,7 +317,7 @@ class Daemon:
                 if self.live is not None:
                     self.live.observe(action.message)
             elif isinstance(action, SubmitPlan):
-                self.plan_runner.submit(action.job)
+                self._runner.submit(action.job)
             elif isinstance(action, LetGo) and self.commander is not None:
                 for vehicle_id in action.vehicle_ids:
                     self.commander.let_go(vehicle_id, action.why)

@@ -10,7 +10,7 @@ from gcs.daemon.plan_runners import PlanRunner
 from gcs.daemon.track_summary import summarise_track
 from gcs.engine.engine import Engine
 from gcs.engine.registry import LOST_AFTER_S
-from protocols.status import MAX_STATUS_TRACKS, DaemonStatus, VehicleStatus
+from protocols.status import MAX_STATUS_TRACKS, DaemonStatus, LinkState, VehicleStatus
 
 __all__ = ["daemon_status", "AUTOPILOT_NAMES"]
 
@@ -24,10 +24,11 @@ def daemon_status(engine: Engine, scenario: str, commander: MavlinkCommander | N
     :data:`~protocols.status.MAX_STATUS_TRACKS`)."""
     vehicles = []
     for vehicle_id, entry in engine.registry.entries.items():
-        autopilot = heartbeat = control = None
+        autopilot = control = None
+        heartbeat: LinkState | None = None
         if commander is not None:
             link = commander.link(vehicle_id)
-            autopilot = AUTOPILOT_NAMES.get(link.autopilot)
+            autopilot = None if link.autopilot is None else AUTOPILOT_NAMES.get(link.autopilot)
             heartbeat = "unknown" if link.last_heartbeat_s is None else (
                 "ok" if link.alive(now, LOST_AFTER_S) else "lost")
             control = commander.control(vehicle_id, now)

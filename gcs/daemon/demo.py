@@ -30,7 +30,7 @@ from gcs.daemon.cli import add_daemon_arguments, build_daemon
 from gcs.daemon.demo_summary import Progress, print_summary, summarise
 
 DEFAULT_RATE = 10.0
-"""Simulation speed-up of ``gcs demo`` (and of ``make demo`` and ``gcs bench demo``).
+"""Simulation speed-up of ``gcs demo`` (and of ``make demo`` and ``gcs-bench demo``).
 
 At R times real time a decision step of 1 s lasts 1/R s of wall time, and the
 planner's deadline is a share of it (``gcs.daemon.plan_runners``): at 10x its search is

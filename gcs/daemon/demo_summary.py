@@ -5,7 +5,7 @@ the track's error is the fused position RMSE against the simulator's truth; with
 (``[multitarget]``) it is the GOSPA mean: each decision step's GOSPA of the confirmed
 tracks against every target's truth (cut-off :data:`~gcs.engine.records.GOSPA_CUTOFF_M`,
 p = 2, alpha = 2), averaged over the scored steps, the figure ``gcs replay --process`` and
-``gcs bench multitarget`` give under the same name. The steering commands' age is judged
+``gcs-bench multitarget`` give under the same name. The steering commands' age is judged
 against the decision period (:func:`gcs.daemon.status_text.keeps_up`).
 """
 

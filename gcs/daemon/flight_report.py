@@ -36,12 +36,12 @@ class FlightReport:
         self.steps = self.seen = 0
         self.first_ns: int | None = None
         self.last_ns: int | None = None
-        self._next_ns: int | None = None
+        self._next_ns = 0
 
     @property
     def flown_s(self) -> float:
         """Seconds of the vehicles' time from the first decision step to the last."""
-        return 0.0 if self.first_ns is None else (self.last_ns - self.first_ns) / NS_PER_S
+        return 0.0 if self.first_ns is None or self.last_ns is None else (self.last_ns - self.first_ns) / NS_PER_S
 
     def __call__(self, record: StepRecord) -> None:
         self.steps += 1

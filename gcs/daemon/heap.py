@@ -8,7 +8,7 @@ it. Nothing built before the loop becomes cyclic garbage while it runs. What the
 loop keeps (records, estimates, registry entries) is frozen too, every
 :data:`FREEZE_EVERY_S`: at 100 vehicles its older-generation collections otherwise
 took 5-11 ms, a few times a minute. The loop makes no cyclic garbage (none was
-collected over whole ``gcs bench daemon`` runs); in case some path does, the young
+collected over whole ``gcs-bench daemon`` runs); in case some path does, the young
 generations are collected before each freeze, and every :data:`FULL_COLLECT_EVERY_S`
 the loop collects everything it froze: when idle, or after twice that if never idle.
 The heap is given back to the collector (``gc.unfreeze``) when the loop ends.

@@ -1,7 +1,7 @@
 """Helper processes below the priority of the process that starts them: one range, one check, one call.
 
 The daemon's planner process (``gcs run --planner-nice``) and the load process of
-``gcs bench daemon`` (``--load-nice``) lower their own scheduling priority by a
+``gcs-bench daemon`` (``--load-nice``) lower their own scheduling priority by a
 niceness of 0-19 once started. Kept free of heavy imports: the command-line
 parsers use it.
 """

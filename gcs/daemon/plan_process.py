@@ -17,7 +17,8 @@ import select
 import signal
 import threading
 import time
-from dataclasses import replace
+from multiprocessing.connection import Connection
+from multiprocessing.process import BaseProcess
 
 import numpy as np
 
@@ -58,8 +59,9 @@ def _serve(conn, scenario: Scenario, world: World, planner_name: str, seed: int,
         if config is None:
             config = configs[job.indices] = subset_config(tracker, job.indices)
         outcome = run_job(job, config, rng)
-        try:
-            conn.send(replace(outcome, job=None))  # the daemon has the job already
+        try:  # the outcome's fields after its job, which the daemon has already
+            conn.send((outcome.state, outcome.turn_rates, outcome.result, outcome.started_s, outcome.finished_s,
+                       outcome.finished_ns, outcome.error))
         except (BrokenPipeError, EOFError):
             return
 
@@ -90,8 +92,11 @@ class ProcessPlanRunner(PlanRunner):
 
     def _begin(self) -> None:
         """Start a child in the background; :meth:`take` notices when it is ready."""
-        self._ready, self._conn, self._process = False, None, None
-        self._poller, self._poller_conn = None, None
+        self._ready = False
+        self._conn: Connection | None = None
+        self._process: BaseProcess | None = None
+        self._poller: select.poll | None = None
+        self._poller_conn: Connection | None = None
         self._begin_s = time.monotonic()
         self._launcher = threading.Thread(target=self._launch, name="gcs-planner-start", daemon=True)
         self._launcher.start()
@@ -110,15 +115,15 @@ class ProcessPlanRunner(PlanRunner):
         if self._ready:
             return True
         try:
-            answered = not self._launcher.is_alive() and self._conn is not None and self._conn.poll()
-            if answered:
-                kind, detail = self._conn.recv()
+            conn = None if self._launcher.is_alive() else self._conn
+            reply = conn.recv() if conn is not None and conn.poll() else None
         except (EOFError, ConnectionResetError):
             raise RuntimeError("the planner process died while starting") from None
-        if not answered:
+        if reply is None:
             if time.monotonic() - self._begin_s > START_TIMEOUT_S:
                 raise RuntimeError(f"the planner process did not start within {START_TIMEOUT_S:.0f} s")
             return False
+        kind, detail = reply
         if kind != "ready":
             raise RuntimeError(f"the planner process could not build its tracker: {detail}")
         self._ready = True
@@ -129,16 +134,24 @@ class ProcessPlanRunner(PlanRunner):
         """Whether the child has written to the pipe (or closed it): ``select.poll`` on its descriptor,
         registered once per pipe. ``Connection.poll`` builds a selector on every call, which at
         hundreds of steps a second cost the loop tens of microseconds a step."""
+        conn = self._pipe()
         if not hasattr(select, "poll"):  # not on Linux or macOS
-            return self._conn.poll()
-        if self._poller_conn is not self._conn:
+            return conn.poll()
+        if self._poller is None or self._poller_conn is not conn:
             self._poller = select.poll()
-            self._poller.register(self._conn.fileno(), select.POLLIN)
-            self._poller_conn = self._conn
+            self._poller.register(conn.fileno(), select.POLLIN)
+            self._poller_conn = conn
         return bool(self._poller.poll(0))
 
+    def _pipe(self) -> Connection:
+        """The pipe to the child (there is one once the child said it is ready)."""
+        if self._conn is None:
+            raise RuntimeError("the planner process has not started")
+        return self._conn
+
     def _restart(self) -> None:
-        log.error("the planner process died (exit code %s)%s; starting it again", self._process.exitcode,
+        log.error("the planner process died (exit code %s)%s; starting it again",
+                  None if self._process is None else self._process.exitcode,
                   f" planning step {self._in_flight.index}" if self._in_flight else "")
         self.restarts += 1
         self._in_flight = None
@@ -159,7 +172,7 @@ class ProcessPlanRunner(PlanRunner):
             return
         job, self._pending = self._pending, None
         try:
-            self._conn.send(job)
+            self._pipe().send(job)
         except (BrokenPipeError, ConnectionResetError, EOFError):
             self._pending = job
             self._restart()
@@ -172,7 +185,7 @@ class ProcessPlanRunner(PlanRunner):
             return done
         try:
             while self._in_flight is not None and self._readable():
-                done.append(replace(self._conn.recv(), job=self._in_flight))
+                done.append(PlanOutcome(self._in_flight, *self._pipe().recv()))
                 self._in_flight = None
                 self._send_pending()
         except (EOFError, BrokenPipeError, ConnectionResetError):
@@ -202,16 +215,17 @@ class ProcessPlanRunner(PlanRunner):
 
     def _stop(self, timeout_s: float) -> None:
         self._launcher.join(timeout_s)
-        if self._process is None:
+        process, conn = self._process, self._conn
+        if process is None or conn is None:
             return
-        if self._process.is_alive():
+        if process.is_alive():
             try:
-                self._conn.send(None)
+                conn.send(None)
             except (BrokenPipeError, OSError):
                 pass
-            self._process.join(timeout_s)
-        if self._process.is_alive():
+            process.join(timeout_s)
+        if process.is_alive():
             log.warning("the planner process did not stop within %.0f s; terminating it", timeout_s)
-            self._process.terminate()
-            self._process.join(5.0)
-        self._conn.close()
+            process.terminate()
+            process.join(5.0)
+        conn.close()

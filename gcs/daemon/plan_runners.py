@@ -59,7 +59,7 @@ PLAN_PROCESS_NICENESS = 5
 Two things pull in opposite directions. The loop (reports, tracks, commands)
 should not wait for a CPU while plans are made; the planner's search has a
 wall-clock deadline, and what it does not get by then is lost to the plan.
-Measured on 2 cores: ``gcs bench daemon`` (the planner busy all the time) gave a
+Measured on 2 cores: ``gcs-bench daemon`` (the planner busy all the time) gave a
 report-to-command p99 at 5,000 reports/s of 35-38 ms with the planner 5 lower and
 7-38 ms with it 19 lower; but in the closed loop against three simulated vehicle
 processes (``tests/e2e/test_daemon_closed_loop.py``) the target RMSE was 8.4, 9.6 and
@@ -198,9 +198,10 @@ class ThreadPlanRunner(PlanRunner):
             with self._wakeup:
                 while self._pending is None and not self._closing:
                     self._wakeup.wait()
-                if self._closing:
+                job = self._pending
+                if self._closing or job is None:
                     return
-                job, self._pending, self._running = self._pending, None, True
+                self._pending, self._running = None, True
             outcome = run_job(job, self.configs(job.indices), self.rng)
             with self._wakeup:
                 self._done.append(outcome)

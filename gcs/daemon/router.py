@@ -2,7 +2,7 @@
 
 ``zenohd`` is on neither PyPI nor Debian; a session opened in ``router`` mode
 routes between its clients and peers, keeps their liveliness tokens and adds
-timestamps (reference/zenoh.md). It takes the same ``--zenoh-config`` file as
+timestamps (docs/protocol.md#zenoh). It takes the same ``--zenoh-config`` file as
 every other command, so user/password authentication (a ``dictionary_file``)
 and TLS are configured the same way. Stop with Ctrl-C or SIGTERM.
 """

@@ -210,9 +210,9 @@ def flight_line(status: DaemonStatus, flown_s: float, steps: int, seen: int, ste
     tracks = ", ".join(f"{t.target_id} 1-sigma {t.position_std_m:.0f} m" for t in status.tracks[:3]) or "none"
     if len(status.tracks) > 3:
         tracks += f" and {len(status.tracks) - 3} more"
-    age = "-" if status.command_age_ms_p99 is None else (
-        f"{status.command_age_ms_median / 1000:.1f}/{status.command_age_ms_p99 / 1000:.1f} s "
-        + ("ok" if keeps_up(status.command_age_ms_median, step_s) else "LATE"))
+    median, p99 = status.command_age_ms_median, status.command_age_ms_p99
+    age = "-" if median is None or p99 is None else (
+        f"{median / 1000:.1f}/{p99 / 1000:.1f} s " + ("ok" if keeps_up(median, step_s) else "LATE"))
     control = f", {steered} steered" if any(vehicle.control is not None for vehicle in status.vehicles) else ""
     return (f"flown {flown_s:.0f} s: vehicles {linked}/{len(status.vehicles)} linked{control}; steps {steps}, "
             f"target seen in {seen}/{steps}; plans {counters.get('decisions', 0)}; tracks: {tracks}; "

@@ -6,7 +6,7 @@ the vehicle's autopilot (the one its scenario names) turn at the rate wanted: th
 an ArduPilot peer is told, and the direction of a PX4 peer's carrot. Following the path from where the vehicle
 is *now* absorbs the delay between the reports a plan was made from and the moment it
 is flown. Without telemetry the plan's course one step on is commanded. The engine measures each
-command's age (:class:`~gcs.engine.memory.CommandAges`), without MAVLink too (``gcs bench daemon``):
+command's age (:class:`~gcs.engine.memory.CommandAges`), without MAVLink too (``gcs-bench daemon``):
 the age of the plan a vehicle would be steered along.
 """
 

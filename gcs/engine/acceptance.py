@@ -75,11 +75,13 @@ class Acceptance:
             except ValueError:
                 self.ingest.reject("key", f"liveliness key {item.key!r}")
                 return None
-            if parsed.kind == "alive" and parsed.ident in self.registry.entries:
+            if parsed.kind != "alive" or parsed.ident is None:  # (parse_key names every alive key's vehicle)
+                return None
+            if parsed.ident in self.registry.entries:
                 self.registry.on_liveliness(parsed.ident, item.kind == "alive", now)
                 self._alive_now = None
                 log.info("vehicle %s %s", parsed.ident, "joined" if item.kind == "alive" else "left")
-            elif parsed.kind == "alive" and self.options.accept_unlisted:
+            elif self.options.accept_unlisted:
                 self._observer_token(parsed.ident, item.kind == "alive")
             return None
         admitted = len(self.ingest.unlisted)

@@ -1,7 +1,7 @@
 """The one loop of the ground station, as an object fed time-stamped inputs that returns actions.
 
 The daemon (:mod:`gcs.daemon.app`), ``gcs replay --process/--plan`` (:mod:`gcs.recordings.replay`) and the
-in-process closed loop of ``gcs bench autopilots`` (:mod:`gcs.bench.autopilots`) all drive an
+benchmarks' closed loops (``gcs-bench``, a simulated scene in one process) all drive an
 :class:`Engine`; only where the inputs come from (Zenoh and MAVLink, a recording, a simulated
 scene) and where the actions go differ (docs/design.md, the layers: "one engine"). Everything that
 decides lives here, so that live and replayed runs cannot drift apart:
@@ -40,6 +40,7 @@ from collections import Counter, deque
 from collections.abc import Callable
 
 from gcs.config import Scenario
+from gcs.core.filters.estimate import GaussianEstimate
 from gcs.core.multitarget.planning import plans_targets
 from gcs.core.planner_names import MULTITARGET_PLANNERS
 from gcs.core.steering import PlannedPath
@@ -80,7 +81,7 @@ class Engine:
         self.tracker: TrackerConfig = tracker_config(scenario, world, self.planner_name)
         self._observer_sensor = observer_sensor_model(scenario)
         self.loop = LoopMemory()
-        self.counters: Counter = Counter()
+        self.counters: Counter[str] = Counter()
         self.plan_hand_over = PlanHandOver(scenario, options, self.tracker, self.planner_name, self.loop,
                                            self.counters)
         self.subset = self.plan_hand_over.subset
@@ -199,8 +200,9 @@ class Engine:
         return Planning(ready, tuple(active), self.registry.snapshot(active), estimate, predicted, scale,
                         tick.monotonic_s, targets)
 
-    def _record(self, ready: ReadyStep, active: list[str], estimate, wall_ns: int,
-                detected: dict[str, bool] | None = None, tracks_xy: tuple | None = None) -> bool:
+    def _record(self, ready: ReadyStep, active: list[str], estimate: GaussianEstimate | None, wall_ns: int,
+                detected: dict[str, bool] | None = None,
+                tracks_xy: tuple[tuple[float, float], ...] | None = None) -> bool:
         """Note what the step did; it is scored against the simulator's truth once that is in (:class:`StepScorer`).
 
         A vehicle saw the target when one of its reports has a detection, or, given ``detected`` (many
@@ -271,7 +273,7 @@ class Engine:
         """Emit every step record still waiting for its truth (the run is over)."""
         self.scorer.score(flush=True)
 
-    def counters_now(self) -> Counter:
+    def counters_now(self) -> Counter[str]:
         """Every counter of the engine's parts: ingest, steps, navigation and its own."""
         counters = Counter(self.ingest.counters) + self.steps.counters + self.counters
         if self.navigator is not None:

@@ -9,8 +9,8 @@ times gives the decisions the live run made.
 
 Actions are what the engine asks its shell to do: publish, plan, give vehicles back,
 show a message on the live map. The daemon (:mod:`gcs.daemon.app`) carries them out on Zenoh
-and MAVLink; ``gcs replay --process`` (:mod:`gcs.recordings.replay`) collects them; the benches
-(:mod:`gcs.bench.autopilots`) fly them.
+and MAVLink; ``gcs replay --process`` (:mod:`gcs.recordings.replay`) collects them; the benchmarks'
+closed loops (``gcs-bench``) fly them.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from gcs.engine.plan_jobs import PlanJob, PlanOutcome
-from protocols.messages import NavReport, PlanCommand, SensorReport, TargetTruth, TrackEstimate
+from protocols.messages import NavReport, PlanCommand, SensorReport, TargetTruth, TrackEstimate, VehicleScenario
 
 __all__ = ["Arrived", "Heartbeat", "Tick", "PlanDone", "PlannerFree", "Observed", "PublishTrack", "PublishPlan",
            "SubmitPlan", "LetGo", "Action", "Input"]
@@ -88,9 +88,9 @@ Input = Arrived | Heartbeat | Tick | PlanDone | PlannerFree
 
 @dataclass(frozen=True)
 class Observed:
-    """An accepted input message, for the live map."""
+    """An accepted input message (a vehicle's scenario announcement too), for the live map."""
 
-    message: SensorReport | NavReport | TargetTruth
+    message: SensorReport | NavReport | TargetTruth | VehicleScenario
 
 
 @dataclass(frozen=True)

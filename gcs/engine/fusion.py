@@ -21,6 +21,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from numpy.typing import NDArray
 
 from gcs.core.filters.prediction import HorizonPrediction
 from gcs.core.filters.uif import GaussianEstimate, NotPositiveDefinite
@@ -43,7 +44,7 @@ _REPORT_FIELD = {"range": "range_m", "azimuth": "azimuth_rad", "elevation": "ele
 """The ``SensorReport`` field of each sensor model component."""
 
 
-def _measurements(report: SensorReport, components: tuple[str, ...]) -> list[np.ndarray]:
+def _measurements(report: SensorReport, components: tuple[str, ...]) -> list[NDArray[np.float64]]:
     """The report's detections that have every component of the sensor model, as value vectors
     in the model's component order (report order kept)."""
     fields = [_REPORT_FIELD[c] for c in components]
@@ -113,9 +114,10 @@ def with_observers(config: TrackerConfig, roster: Sequence[str], observers: Sequ
     return [*roster, *observers], replace(config, sensors=config.sensors + (sensor,) * len(observers))
 
 
-def _symmetric(matrix: np.ndarray) -> np.ndarray:
+def _symmetric(matrix: NDArray[np.float64]) -> NDArray[np.float64]:
     """Exactly symmetric copy (the wire checks symmetry)."""
-    return 0.5 * (matrix + matrix.T)
+    symmetric: NDArray[np.float64] = 0.5 * (matrix + matrix.T)
+    return symmetric
 
 
 def track_message(config: TrackerConfig, estimate: GaussianEstimate, target_id: str, model: str, seq: int,
@@ -158,7 +160,8 @@ def check_estimate(estimate: GaussianEstimate | None) -> None:
         raise FusionDiverged("the fused covariance is not positive definite") from error
 
 
-def _vehicle_position(report: SensorReport, navigator: FleetNavigator | None) -> tuple[np.ndarray, np.ndarray | float | None]:
+def _vehicle_position(report: SensorReport, navigator: FleetNavigator | None
+                      ) -> tuple[NDArray[np.float64], NDArray[np.float64] | float | None]:
     """Where the vehicle was at the report's stamp (3,) and the covariance of that (see :func:`step_detections`)."""
     xyz = np.array(report.vehicle_position_enu_m, dtype=np.float64)
     navigated = None if navigator is None else navigator.position_at(report.vehicle_id, report.stamp_ns)
@@ -169,7 +172,7 @@ def _vehicle_position(report: SensorReport, navigator: FleetNavigator | None) ->
 
 
 def scan_detections(ready: ReadyStep, roster: Sequence[str], sensors: Sequence[SensorModel],
-                    navigator: FleetNavigator | None = None) -> tuple[dict[int, list[Detection]], np.ndarray]:
+                    navigator: FleetNavigator | None = None) -> tuple[dict[int, list[Detection]], NDArray[np.float64]]:
     """Every detection of the step by roster index (a vehicle's first report of the step counts), for the
     multi-target tracker, and where each vehicle that reported was (R, 3), detections or not.
 
@@ -209,8 +212,8 @@ def fuse_step(config: TrackerConfig, estimate: GaussianEstimate | None, ready: R
     return fused, scanned.detections
 
 
-def plan_commands(vehicles: VehicleState, configs: Sequence[VehicleConfig], controls: np.ndarray,
-                  max_turn_rate: np.ndarray, step_s: float, stamp_ns: int, first_seq: int, planner: str
+def plan_commands(vehicles: VehicleState, configs: Sequence[VehicleConfig], controls: NDArray[np.float64],
+                  max_turn_rate: NDArray[np.float64], step_s: float, stamp_ns: int, first_seq: int, planner: str
                   ) -> list[PlanCommand]:
     """One ``PlanCommand`` per planned vehicle: the heading at the end of the step
     (``psi + u T``), the first turn rate and the planned path over the horizon."""
@@ -229,16 +232,16 @@ class PlanMemory:
     """Each vehicle's last planned row (the GA's warm start) and the turn rate it is flying,
     kept by vehicle id so that a planning subset can change from step to step."""
 
-    rows: dict[str, np.ndarray] = field(default_factory=dict)
+    rows: dict[str, NDArray[np.float64]] = field(default_factory=dict)
     turn_rate: dict[str, float] = field(default_factory=dict)
 
     def state_for(self, active: Sequence[str], estimate: GaussianEstimate | None) -> TrackerState:
         """The tracker state for the vehicles planned now (a warm start only if every one has a row)."""
-        rows = [self.rows.get(v) for v in active]
-        warm = np.stack(rows) if all(r is not None for r in rows) else None
+        rows = [self.rows[v] for v in active if v in self.rows]
+        warm = np.stack(rows) if len(rows) == len(active) else None
         return TrackerState(estimate, warm, np.array([self.turn_rate.get(v, 0.0) for v in active]))
 
-    def remember(self, active: Sequence[str], state: TrackerState, turn_rates: np.ndarray) -> None:
+    def remember(self, active: Sequence[str], state: TrackerState, turn_rates: NDArray[np.float64]) -> None:
         """Keep the new plan's rows and commands."""
         for slot, vehicle_id in enumerate(active):
             if state.plan is not None:

@@ -11,7 +11,10 @@ vehicles were given back on a lost target).
 
 from __future__ import annotations
 
+from collections import Counter
+
 import numpy as np
+from numpy.typing import NDArray
 
 from gcs.config import Scenario
 from gcs.core.kinematics import VehicleState
@@ -32,7 +35,7 @@ class PlanHandOver:
     """The plans of one scenario's roster (see the module docstring); ``loop`` and ``counters`` are the engine's."""
 
     def __init__(self, scenario: Scenario, options: EngineOptions, tracker: TrackerConfig, planner_name: str,
-                 loop: LoopMemory, counters) -> None:
+                 loop: LoopMemory, counters: Counter[str]) -> None:
         self.scenario, self.options, self.tracker, self.planner_name = scenario, options, tracker, planner_name
         self.loop, self.counters = loop, counters
         self.roster = [v.id for v in scenario.vehicles]
@@ -66,18 +69,18 @@ class PlanHandOver:
     def finished(self, outcome: PlanOutcome) -> tuple[list[Action], PlanRecord | None]:
         """A finished plan: keep it as the warm start, publish the plans, steer the vehicles along them; the
         actions and the plan's record (None for a plan that failed)."""
-        job = outcome.job
-        if outcome.error is not None:
+        job, state, turn_rates, result = outcome.job, outcome.state, outcome.turn_rates, outcome.result
+        if outcome.error is not None or state is None or turn_rates is None or result is None:
             self.counters["errors.planning"] += 1
             return [], None
-        self.loop.memory.remember(job.active, outcome.state, outcome.turn_rates)
+        self.loop.memory.remember(job.active, state, turn_rates)
         self.counters["decisions"] += 1
-        actions = self._command(list(job.active), job.vehicles, self.subset(job.indices), outcome.result.controls,
+        actions = self._command(list(job.active), job.vehicles, self.subset(job.indices), result.controls,
                                 job.stamp_ns)
         return actions, PlanRecord(job.index, job.stamp_ns, job.active, outcome.waited_s, outcome.planning_s,
-                                   outcome.solve_s, outcome.finished_ns)
+                                   result.elapsed_s / job.clock_scale, outcome.finished_ns)
 
-    def _command(self, active: list[str], vehicles: VehicleState, config: TrackerConfig, controls: np.ndarray,
+    def _command(self, active: list[str], vehicles: VehicleState, config: TrackerConfig, controls: NDArray[np.float64],
                  stamp_ns: int) -> list[Action]:
         dt = self.scenario.time.step_s
         configs = [self.vehicle_config[v] for v in active]

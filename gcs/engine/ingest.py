@@ -48,7 +48,7 @@ from gcs.config.fingerprint import scenario_fingerprint
 from gcs.engine.events import Arrived
 from protocols.codec import decode
 from protocols.errors import ProtocolError
-from protocols.keys import MESSAGE_TYPE_BY_KIND, ParsedKey, parse_key
+from protocols.keys import ParsedKey, parse_key
 from protocols.messages import NavReport, SensorReport, TargetTruth, VehicleScenario
 
 __all__ = ["Ingest", "WARN_FIRST"]
@@ -58,7 +58,9 @@ log = logging.getLogger(__name__)
 WARN_FIRST = 5
 """Rejections of each reason logged at WARNING before the rest go to DEBUG."""
 
-_CONSUMED = {"report", "nav", "truth"}
+_CONSUMED: dict[str, type[SensorReport] | type[NavReport] | type[TargetTruth]] = {
+    "report": SensorReport, "nav": NavReport, "truth": TargetTruth}
+"""The kinds of key the engine consumes, and the message each carries (as :data:`protocols.keys.MESSAGE_TYPE_BY_KIND`)."""
 _ACCEPTED = {kind: f"accepted.{kind}" for kind in _CONSUMED}
 MAX_AHEAD_NS = 60 * 1_000_000_000
 """How far a stamp may run ahead of the newest accepted one (a minute of data time)."""
@@ -98,12 +100,12 @@ class Ingest:
         self.accept_unlisted = accept_unlisted
         self.unlisted: list[str] = []
         """Vehicles outside the roster accepted so far, in order of arrival (only with ``accept_unlisted``)."""
-        self.counters: Counter = Counter()
+        self.counters: Counter[str] = Counter()
         self.off_clock: set[str] = set()
         """Vehicles whose latest :data:`OFF_CLOCK_AFTER` reports were rejected for their stamps (``future`` or
         ``stale``: a clock gone wrong): the step assembler does not wait for them until one of their reports
         is accepted again."""
-        self._refused_in_a_row: Counter = Counter()
+        self._refused_in_a_row: Counter[str] = Counter()
         self._stamps: dict[tuple[str, str], _Recent] = {}
         self._targets: set[str] = set()
         self._keys: dict[str, ParsedKey] = {}
@@ -133,13 +135,14 @@ class Ingest:
                 return None
             if len(self._keys) < MAX_CACHED_KEYS:
                 self._keys[received.key] = parsed
-        if parsed.kind == "scenario":
+        if parsed.kind == "scenario" and parsed.ident is not None:  # (parse_key names every scenario's vehicle)
             return self._announced(received, parsed.ident)
-        if parsed.kind not in _CONSUMED:
+        expected = _CONSUMED.get(parsed.kind)
+        if expected is None:
             self.reject("unexpected_kind", f"{received.key}: the daemon does not consume {parsed.kind!r} keys")
             return None
         try:
-            message = decode(received.payload, received.encoding, MESSAGE_TYPE_BY_KIND[parsed.kind])
+            message = decode(received.payload, received.encoding, expected)
         except ProtocolError as error:
             self.reject(error.reason, f"{received.key}: {error}")
             return None
@@ -147,7 +150,7 @@ class Ingest:
         if problem is not None:
             self.reject("implausible", f"{received.key}: {problem}")
             return None
-        if parsed.kind == "truth":
+        if isinstance(message, TargetTruth):
             source = message.target_id
             if ("truth", source) not in self._stamps and len(self._targets) >= MAX_TARGETS:
                 self.reject("unknown_target", f"{received.key}: more than {MAX_TARGETS} targets")
@@ -192,7 +195,7 @@ class Ingest:
             self.counters[_ACCEPTED[parsed.kind]] += 1
         return message
 
-    def _announced(self, received: Received, vehicle_id: str) -> VehicleScenario | None:
+    def _announced(self, received: Arrived, vehicle_id: str) -> VehicleScenario | None:
         """A vehicle's scenario announcement: decoded, counted, and compared with the daemon's own scenario."""
         try:
             message = decode(received.payload, received.encoding, VehicleScenario)
@@ -232,7 +235,7 @@ class Ingest:
         return True
 
 
-def _implausible(message) -> str | None:
+def _implausible(message: SensorReport | NavReport | TargetTruth) -> str | None:
     """What makes a valid message absurd for a ground station (positions beyond :data:`MAX_ABS_POSITION_M`
     of the origin, ranges beyond :data:`MAX_RANGE_M`), or None."""
     if isinstance(message, SensorReport):

@@ -35,7 +35,7 @@ MIN_PLAN_INTERVAL_S = 0.05
 The vehicles are steered toward the newest plan :data:`STEER_RATE_HZ` times a
 second, so plans made much faster than that are never flown. Live (1 s decision
 steps) and in the demo (10x) the planner takes longer than this anyway; against
-data arriving hundreds of times faster than real time (``gcs bench daemon``) a
+data arriving hundreds of times faster than real time (``gcs-bench daemon``) a
 cheap planner (orbit, pursuit) would otherwise cost the loop more in job hand-over
 and command publication than the fusion it is there for."""
 PLAN_INTERVAL_PER_VEHICLE_S = 0.0025

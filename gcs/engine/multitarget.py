@@ -24,12 +24,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 from gcs.config import Scenario
 from gcs.core.filters.estimate import GaussianEstimate
 from gcs.core.filters.prediction import HorizonPrediction
 from gcs.core.models.motion import constant_velocity
-from gcs.core.multitarget import MultiTargetState, MultiTargetTracker, ScanDiagnostics
+from gcs.core.multitarget import MultiTargetState, MultiTargetTracker, ScanDiagnostics, TrackSet
 from gcs.core.multitarget.coverage import clutter_volume, coverage
 from gcs.core.multitarget.gating import gate_threshold
 from gcs.core.multitarget.lost import LostTargets
@@ -51,7 +52,7 @@ FOUND_PROBABILITY = 0.999
 MODEL = "cv2d"
 
 
-def _covers_nothing(points_xy: np.ndarray) -> np.ndarray:
+def _covers_nothing(points_xy: NDArray[np.float64]) -> NDArray[np.bool_]:
     """The coverage of a step in which no vehicle reported."""
     return np.zeros(len(points_xy), dtype=bool)
 
@@ -122,12 +123,13 @@ class TrackKeeper:
                 if track_id in contributing:
                     contributing[track_id].append(roster[index])
                     detected[roster[index]] = True
-        self._targets = plan = self._to_plan(confirmed)  # the confirmed tracks' rows first
+        self._targets = plan = self._to_plan(confirmed, ready.stamp_ns)  # the confirmed tracks' rows first
         messages = []
-        for row, track_id in enumerate(confirmed.ids.tolist()):
-            estimate = GaussianEstimate(confirmed.mean[row], confirmed.cov[row], ready.stamp_ns)
-            messages.append(track_message(config, estimate, track_name(track_id), MODEL, seq, contributing[track_id],
-                                          self._prediction(plan, row, ready.stamp_ns)))
+        if plan is not None:  # None only without a confirmed track or a lost target
+            for row, track_id in enumerate(confirmed.ids.tolist()):
+                estimate = GaussianEstimate(confirmed.mean[row], confirmed.cov[row], ready.stamp_ns)
+                messages.append(track_message(config, estimate, track_name(track_id), MODEL, seq,
+                                              contributing[track_id], self._prediction(plan, row, ready.stamp_ns)))
         return Scanned(tuple(messages), detected, diagnostics)
 
     def targets(self) -> TargetsToPlan | None:
@@ -135,19 +137,20 @@ class TrackKeeper:
         unseen (:func:`gcs.core.planners.shared.target_weights`); None when there are none."""
         return self._targets
 
-    def _to_plan(self, confirmed) -> TargetsToPlan | None:
-        """The confirmed tracks (a TrackSet) and the lost targets, predicted over the horizon and weighted."""
+    def _to_plan(self, confirmed: TrackSet, stamp_ns: int) -> TargetsToPlan | None:
+        """The confirmed tracks and the lost targets at ``stamp_ns`` (the scan's), predicted over the horizon and
+        weighted."""
         lost = self.lost
         if confirmed.size + lost.size == 0:
             return None
         ids = np.concatenate([confirmed.ids, lost.ids])
-        unseen = np.concatenate([self._unseen_s(confirmed.ids, self.state.stamp_ns), lost.unseen_s])
+        unseen = np.concatenate([self._unseen_s(confirmed.ids, stamp_ns), lost.unseen_s])
         config = self.tracker_config
         return targets_to_plan(tuple(track_name(i) for i in ids), np.concatenate([confirmed.mean, lost.mean]),
                                np.concatenate([confirmed.cov, lost.cov]), unseen, self.motion, config.step_s,
                                config.horizon_steps, self.config.starvation_s, config.predict_ahead)
 
-    def _unseen_s(self, ids: np.ndarray, stamp_ns: int) -> np.ndarray:
+    def _unseen_s(self, ids: NDArray[np.int64], stamp_ns: int) -> NDArray[np.float64]:
         """Seconds since each track (ids) last had a detection, at ``stamp_ns``, whether or not a sensor covered it."""
         return np.array([(stamp_ns - self._detected_ns.get(int(i), stamp_ns)) / NS_PER_S for i in ids], dtype=float)
 

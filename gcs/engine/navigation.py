@@ -48,8 +48,8 @@ altitude by barometer, whose accuracy a ``NavReport`` does not carry, and the ta
 filter takes an unreported vertical as exact, as before this filter.
 
 **Route.** No map observations: the commanded path is not given as a route. It says how far
-a vehicle moved, not where it is, and makes the filter overconfident (``gcs bench urban
---gps-denied``, ``nav_update``'s docstring); against ``sim-vehicles``, whose autopilot steers
+a vehicle moved, not where it is, and makes the filter overconfident (``nav_update``'s
+docstring); against ``sim-vehicles``, whose autopilot steers
 with its true position, it would even carry absolute information a real one in a
 GPS-denied zone would not have. The daemon's navigation is GPS + INS.
 
@@ -73,7 +73,7 @@ from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
 from gcs.engine.ingest import MAX_ABS_POSITION_M
 from gcs.core.navigation.fleet_ekf import gaussian_updates
-from gcs.core.navigation.skf import (NavGaussian, NavParams, initial, nav_measurements,
+from gcs.core.navigation.skf import (NavGaussian, NavMeasurement, NavParams, initial, nav_measurements,
                                      position_at)
 from protocols.messages import NavReport
 
@@ -118,7 +118,7 @@ class FleetNavigator:
         self.roster = tuple(roster)
         self.params, self.frame = params, frame
         self.gps_bias_var_m2 = float(gps_bias_std_m) ** 2
-        self.counters: Counter = Counter()
+        self.counters: Counter[str] = Counter()
         self.advanced_ns: int | None = None
         self.senders: set[str] = set()
         self._pending: dict[str, list[tuple[int, int, int, NavReport]]] = {v: [] for v in self.roster}
@@ -193,10 +193,11 @@ class FleetNavigator:
             new = updated.get(i)
             try:
                 if new is None:
-                    if measurement.gps_xy is None:
+                    gps_fix = measurement.gps_fix
+                    if gps_fix is None:
                         self.counters["nav.waiting_for_fix"] += 1
                         continue
-                    new = self._initial(nav, measurement)
+                    new = self._initial(nav, measurement, gps_fix)
                 if isinstance(new, Exception):
                     raise new
                 if not (np.all(np.isfinite(new.mean)) and np.all(np.isfinite(new.cov))):
@@ -209,14 +210,15 @@ class FleetNavigator:
             self._estimates[nav.vehicle_id] = new
             fix = measurement.gps_xy is not None  # nav_measurement keeps a fix of MIN_GPS_FIX or better
             self._fix[nav.vehicle_id] = fix
-            self._vertical_var[nav.vehicle_id] = float(nav.gps.v_acc_m) ** 2 if fix else 0.0
+            self._vertical_var[nav.vehicle_id] = float(nav.gps.v_acc_m) ** 2 if fix and nav.gps is not None else 0.0
             self.counters["nav.applied"] += 1
 
     def _refused(self, nav: NavReport, error: Exception) -> None:
         self.counters["rejected.nav_update"] += 1
         log.debug("nav report %s/%d at %d ns refused: %s", nav.vehicle_id, nav.seq, nav.stamp_ns, error)
 
-    def _initial(self, nav: NavReport, measurement) -> NavGaussian:
+    def _initial(self, nav: NavReport, measurement: NavMeasurement,
+                 gps_fix: tuple[NDArray[np.float64], float]) -> NavGaussian:
         """The first estimate: the fix, the reported heading or the velocity's direction (else unknown)."""
         params, heading = self.params, nav.heading_rad
         velocity = measurement.velocity_xy
@@ -224,7 +226,7 @@ class FleetNavigator:
             heading = math.atan2(velocity[1], velocity[0])
         if heading is None:  # no idea which way it points: a heading spread of pi
             params, heading = replace(params, initial_heading_std_rad=math.pi), 0.0
-        first = initial(params, measurement.stamp_ns, measurement.gps_xy, measurement.gps_std_m, heading, velocity)
+        first = initial(params, measurement.stamp_ns, gps_fix[0], gps_fix[1], heading, velocity)
         return NavGaussian(first.stamp_ns, first.mean, first.cov)
 
     # ----------------------------------------------------------------- output

@@ -15,6 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 from gcs.core.filters.prediction import HorizonPrediction
 from gcs.core.kinematics import VehicleState
@@ -81,7 +82,7 @@ class PlanOutcome:
 
     job: PlanJob
     state: TrackerState | None
-    turn_rates: np.ndarray | None
+    turn_rates: NDArray[np.float64] | None
     result: PlanResult | None
     started_s: float
     finished_s: float
@@ -103,10 +104,13 @@ class PlanOutcome:
 
 
 def plan_job(job: PlanJob, config: TrackerConfig, rng: np.random.Generator,
-             now: Callable[[], float] | None = None) -> tuple[TrackerState, np.ndarray, PlanResult | None]:
+             now: Callable[[], float] | None = None) -> tuple[TrackerState, NDArray[np.float64], PlanResult]:
     """The job's plan: the new state, first turn rates and the planner's result (``now`` None: no deadline).
-    One target: :func:`gcs.core.tracker.plan`; many: :func:`gcs.core.multitarget.planning.plan_targets`."""
+    One target: :func:`gcs.core.tracker.plan`; many: :func:`gcs.core.multitarget.planning.plan_targets`.
+    ValueError for a job with neither an estimate nor targets: there is nothing to plan for."""
     if job.targets is not None:
         return plan_targets(config, job.state, job.vehicles, job.targets, rng, now)
     state, turn_rates, diagnostics = plan(config, job.state, job.vehicles, rng, now=now, predicted=job.predicted)
+    if diagnostics.plan is None:
+        raise ValueError(f"plan job {job.index} has neither an estimate nor targets: nothing to plan")
     return state, turn_rates, diagnostics.plan

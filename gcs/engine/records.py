@@ -15,6 +15,7 @@ import math
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import TypeVar
 
 import numpy as np
 
@@ -30,7 +31,7 @@ TRUTH_WAIT_S = 0.5
 MAX_TRUTHS = 4096
 """Truth samples kept (the oldest are dropped)."""
 GOSPA_CUTOFF_M = 100.0
-"""GOSPA's cut-off ``c`` for the many-target steps, as ``gcs bench multitarget``'s."""
+"""GOSPA's cut-off ``c`` for the many-target steps, as ``gcs-bench multitarget``'s."""
 
 
 @dataclass(frozen=True)
@@ -86,7 +87,11 @@ def step_error_m(record: StepRecord) -> float | None:
     return record.error_m if record.tracks_xy is None else record.gospa_m
 
 
-def keep_newest(records: list, limit: int = MAX_RECORDS) -> None:
+Kept = TypeVar("Kept")
+Found = TypeVar("Found")
+
+
+def keep_newest(records: list[Kept], limit: int = MAX_RECORDS) -> None:
     """Drop the older half of ``records`` once it holds more than ``limit``."""
     if len(records) > limit:
         del records[: limit // 2]
@@ -143,7 +148,7 @@ class StepScorer:
             if waiting and not flush:
                 return
             self._unscored.popleft()
-            if truth is not None:
+            if truth is not None and record.estimate_xy is not None:
                 error = math.hypot(record.estimate_xy[0] - truth[0], record.estimate_xy[1] - truth[1])
                 record = replace(record, error_m=error)
             if truths:
@@ -157,7 +162,7 @@ class StepScorer:
         """The truth at a stamp (within a tenth of a step), if it was published."""
         return self._near(self.truth, stamp_ns)
 
-    def _near(self, by_stamp: dict, stamp_ns: int):
+    def _near(self, by_stamp: dict[int, Found], stamp_ns: int) -> Found | None:
         """``by_stamp``'s entry at a stamp, or within a tenth of a step of it; None without one."""
         found = by_stamp.get(stamp_ns)
         if found is None and by_stamp:

@@ -18,10 +18,12 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 from gcs.config import VehicleConfig
 from gcs.core.kinematics import VehicleState
 from protocols.messages import NavReport, SensorReport
+from protocols.status import LinkState
 
 __all__ = ["VehicleEntry", "Registry", "VehicleSnapshot", "LOST_AFTER_S"]
 
@@ -44,7 +46,7 @@ class VehicleEntry:
     position_enu_m: tuple[float, float, float] | None = None
     position_stamp_ns: int | None = None
     heading_rad: float | None = None
-    velocity_enu_mps: np.ndarray | None = None
+    velocity_enu_mps: NDArray[np.float64] | None = None
     nav_stamp_ns: int | None = None
     was_alive: bool = False
 
@@ -104,14 +106,14 @@ class Registry:
             return False
         return entry.token_changed_s is None or now_s - age > entry.token_changed_s + AFTER_WITHDRAWAL_S
 
-    def liveliness_state(self, vehicle_id: str) -> str:
+    def liveliness_state(self, vehicle_id: str) -> LinkState:
         """The Zenoh liveliness token alone: ``ok`` (declared), ``lost`` (withdrawn) or ``unknown`` (never seen)."""
         entry = self.entries[vehicle_id]
         if entry.token:
             return "ok"
         return "unknown" if entry.token_changed_s is None else "lost"
 
-    def link_state(self, vehicle_id: str, now_s: float) -> str:
+    def link_state(self, vehicle_id: str, now_s: float) -> LinkState:
         """``ok``, ``lost`` (was alive, is not) or ``unknown`` (never heard of)."""
         entry = self.entries[vehicle_id]
         if self.alive(vehicle_id, now_s):
@@ -132,18 +134,24 @@ class Registry:
     def snapshot(self, vehicle_ids: Sequence[str]) -> VehicleSnapshot:
         """What is known of these vehicles now, to make their :meth:`vehicle_state` of later (cheap:
         a reference to each entry's values, which are replaced, never changed in place)."""
-        entries = [self.entries[v] for v in vehicle_ids]
-        return VehicleSnapshot(tuple((e.config, e.position_enu_m, e.position_stamp_ns, e.velocity_enu_mps,
-                                      e.heading_rad) for e in entries))
+        rows = []
+        for vehicle_id in vehicle_ids:
+            e = self.entries[vehicle_id]
+            if e.position_enu_m is None or e.heading_rad is None:
+                raise ValueError(f"{vehicle_id} has reported no position and heading yet: it cannot be planned for")
+            rows.append((e.config, e.position_enu_m, e.position_stamp_ns, e.velocity_enu_mps, e.heading_rad))
+        return VehicleSnapshot(tuple(rows))
 
-    def position_at(self, vehicle_id: str, stamp_ns: int) -> np.ndarray:
+    def position_at(self, vehicle_id: str, stamp_ns: int) -> NDArray[np.float64]:
         """Position (3,) at ``stamp_ns``: the last reported one, moved on with the velocity if older."""
         entry = self.entries[vehicle_id]
+        if entry.position_enu_m is None:
+            raise ValueError(f"{vehicle_id} has reported no position yet")
         return _moved(entry.position_enu_m, entry.position_stamp_ns, entry.velocity_enu_mps, stamp_ns)
 
 
-def _moved(position_enu_m, position_stamp_ns: int | None, velocity_enu_mps: np.ndarray | None,
-           stamp_ns: int) -> np.ndarray:
+def _moved(position_enu_m: tuple[float, float, float], position_stamp_ns: int | None,
+           velocity_enu_mps: NDArray[np.float64] | None, stamp_ns: int) -> NDArray[np.float64]:
     """A reported position (3,) moved on to ``stamp_ns`` with the velocity, when it is older by at most 5 s."""
     position = np.array(position_enu_m, dtype=np.float64)
     if velocity_enu_mps is not None and position_stamp_ns is not None:
@@ -158,7 +166,7 @@ class VehicleSnapshot:
     """Vehicles as the registry knew them at one moment (:meth:`Registry.snapshot`): per vehicle its
     configuration, last reported position and its stamp, nav velocity and heading."""
 
-    rows: tuple[tuple[VehicleConfig, tuple[float, float, float], int | None, np.ndarray | None, float], ...]
+    rows: tuple[tuple[VehicleConfig, tuple[float, float, float], int | None, NDArray[np.float64] | None, float], ...]
 
     def at(self, stamp_ns: int) -> VehicleState:
         """:meth:`Registry.vehicle_state` at ``stamp_ns`` from what was known then."""

@@ -57,6 +57,7 @@ long as every report arrives within the window.
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass, field
 
 from protocols.messages import SensorReport
@@ -94,7 +95,7 @@ class StepAssembler:
     max_wait_s: float = 0.5
     origin_ns: int | None = None
     reorder_steps: int = REORDER_STEPS
-    counters: Counter = field(default_factory=Counter)
+    counters: Counter[str] = field(default_factory=Counter)
     _open: dict[int, list[SensorReport]] = field(default_factory=dict)
     _arrived_s: dict[int, dict[str, float]] = field(default_factory=dict)
     _latest_step: dict[str, int] = field(default_factory=dict)
@@ -142,7 +143,7 @@ class StepAssembler:
         for report, seen_s in sorted(reports, key=lambda item: item[1]):
             self.add(report, seen_s)
 
-    def _complete(self, index: int, expected: set[str]) -> bool:
+    def _complete(self, index: int, expected: AbstractSet[str]) -> bool:
         """Whether step ``index`` waits for nothing more: every expected vehicle has reported for it (and,
         if it sends nav, sent nav stamped at or after it) or has reported for a step past the reorder window."""
         if index != self._next:  # the first step, or a gap before it: wait for the timeout
@@ -159,7 +160,7 @@ class StepAssembler:
                 return False  # its report is in, its nav for the step not yet
         return True
 
-    def deadline_s(self, index: int, expected: set[str]) -> float:
+    def deadline_s(self, index: int, expected: AbstractSet[str]) -> float:
         """When step ``index`` times out: ``max_wait_s`` after half the expected vehicles (at least one)
         have reported for it, and at the latest :data:`HOLD_WAITS` ``max_wait_s`` after its first report."""
         arrived = self._arrived_s[index]
@@ -169,7 +170,7 @@ class StepAssembler:
         hold = first + HOLD_WAITS * self.max_wait_s
         return hold if len(times) < quorum else min(times[quorum - 1] + self.max_wait_s, hold)
 
-    def ready(self, expected: set[str], now_s: float, timeouts: bool = True) -> list[ReadyStep]:
+    def ready(self, expected: AbstractSet[str], now_s: float, timeouts: bool = True) -> list[ReadyStep]:
         """Release, in order, every step that is complete or (unless not ``timeouts``) has waited long
         enough. The daemon's loop asks without timeouts while it still holds received reports to file:
         a step's missing report may be among them."""

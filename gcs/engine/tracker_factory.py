@@ -7,11 +7,14 @@ built with the scenario's ``[planner]`` parameters (:func:`tracker_config`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
+from typing import Final, Literal
 
 import numpy as np
+from numpy.typing import NDArray
 
-from gcs.config import Scenario
+from gcs.config import Scenario, SensorConfig
 from gcs.core.filters.imm_target import ImmTargetFilter
 from gcs.core.filters.uif import UnscentedInformationFilter
 from gcs.core.filters.vgukf import VariableGainUKF
@@ -23,13 +26,15 @@ from gcs.core.planners import (CrossEntropyPlanner, GeneticPlanner, LmGcrlbPlann
                                OrbitPlanner, PursuitPlanner, RhcWeights, SightGeneticPlanner, SightPlanner,
                                SightWeights, StraightLinePlanner, crlb_planner)
 from gcs.core.planners.airspace_guard import AirspaceGuard
+from gcs.core.planners.one_step import HeadingSolver
+from gcs.core.planners.problem import Planner, Visibility
 from gcs.core.tracker import TrackerConfig
 from gcs.core.world import VisibilityMaps, World
 
 __all__ = ["FROM_SCENARIO", "horizon_steps", "sight_weights", "filter_sensor_models", "observer_sensor_model",
            "tracker_config", "target_imm", "scenario_planner", "subset_config"]
 
-FROM_SCENARIO = "scenario"
+FROM_SCENARIO: Final = "scenario"
 """Default of ``stall``: take ``planner.stall_generations`` from the scenario."""
 
 
@@ -54,7 +59,7 @@ def observer_sensor_model(scenario: Scenario) -> SensorModel:
     return _sensor_model(scenario.sensor)
 
 
-def _sensor_model(cfg) -> SensorModel:
+def _sensor_model(cfg: SensorConfig) -> SensorModel:
     components, std = cfg.layout()
     return SensorModel(components, std, distance_dependent=cfg.noise == "distance_dependent",
                        reference_range_m=cfg.reference_range_m)
@@ -68,7 +73,8 @@ def sight_weights(scenario: Scenario) -> SightWeights:
                         turn_change=cfg.turn_change_weight, samples=cfg.samples, manoeuvre=cfg.manoeuvre_spread)
 
 
-def _planner(name: str, scenario: Scenario, generations: int | None, stall: int | None | str):
+def _planner(name: str, scenario: Scenario, generations: int | None,
+             stall: int | None | Literal["scenario"]) -> Planner:
     cfg = scenario.planner
     if name == "sight_cem":
         return CrossEntropyPlanner(sight_weights(scenario), deadline_s=cfg.sight.deadline_s)
@@ -82,9 +88,11 @@ def _planner(name: str, scenario: Scenario, generations: int | None, stall: int 
     if name in GA_PLANNERS:
         return GeneticPlanner(population=cfg.population, generations=generations or cfg.generations,
                               deadline_s=cfg.deadline_s,
-                              stall=cfg.stall_generations if stall == FROM_SCENARIO else stall)
+                              stall=cfg.stall_generations if isinstance(stall, str) else stall)
     if name in AOA_PLANNERS:
-        solver = {"gcrlb_lm": LmGcrlbPlanner, "crlb_lm": crlb_planner, "straight": StraightLinePlanner}[name]()
+        solvers: dict[str, Callable[[], HeadingSolver]] = {
+            "gcrlb_lm": LmGcrlbPlanner, "crlb_lm": crlb_planner, "straight": StraightLinePlanner}
+        solver = solvers[name]()
         max_range = min(scenario.sensor_for(v).max_range_m for v in scenario.vehicles)
         return OneStepHeadingPlanner(solver, max_detection_range_m=max_range)
     if name == "orbit":
@@ -94,7 +102,8 @@ def _planner(name: str, scenario: Scenario, generations: int | None, stall: int 
     raise ValueError(f"unknown planner {name!r}; expected one of {', '.join(PLANNERS)}")
 
 
-def _visibility(world: World, planner, altitude_m: float, max_range_m: float):
+def _visibility(world: World, planner: Planner, altitude_m: float,
+                max_range_m: float) -> Callable[[NDArray[np.float64]], Visibility] | None:
     """How ``planner`` learns the visibility regions of the predicted points (wang2012 eq. 22).
 
     The GA asks thousands of positions a plan: the maps (a few milliseconds each to
@@ -116,7 +125,7 @@ def horizon_steps(scenario: Scenario, planner: str) -> int:
 
 
 def tracker_config(scenario: Scenario, world: World | None, planner: str, generations: int | None = None,
-                   stall: int | None | str = FROM_SCENARIO) -> TrackerConfig:
+                   stall: int | None | Literal["scenario"] = FROM_SCENARIO) -> TrackerConfig:
     """The tracker for a scenario and one of :data:`PLANNERS`.
 
     ``world`` None gives a tracker for estimation only (no visibility regions or
@@ -149,7 +158,8 @@ def tracker_config(scenario: Scenario, world: World | None, planner: str, genera
         bearing_filter=VariableGainUKF(motion) if scenario.estimator.kind == "vgukf" else None,
         target_imm=target_imm(scenario) if scenario.estimator.kind == "imm" else None,
         sight=None if world is None else world.sight_table(altitude, sensors[0].target_height_m, cfg.sight.reach_m),
-        guard=AirspaceGuard(world.airspace if world is not None else None, cfg.airspace_margin_m),
+        guard=AirspaceGuard(margin_m=cfg.airspace_margin_m) if world is None
+        else AirspaceGuard(world.airspace, cfg.airspace_margin_m),
         max_range_m=max_range,
     )
 

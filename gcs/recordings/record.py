@@ -166,12 +166,13 @@ class _Tally:
         kind, ident = self.kind(key)
         if kind == "alive" and payload is False:
             self.announce(f"vehicle {ident} left")  # its liveliness token withdrawn, after all it published
-        elif kind in ("report", "nav", "alive", "scenario") and ident not in self.recording.vehicles:
+        elif kind in ("report", "nav", "alive", "scenario") and ident is not None \
+                and ident not in self.recording.vehicles:
             self.recording.vehicles.append(ident)
             self.announce(f"hearing vehicle {ident}")
         if kind == "report":
             self.recording.reports += 1
-        if kind == "scenario" and encoding is not None:
+        if kind == "scenario" and encoding is not None and isinstance(payload, bytes):
             try:
                 self._scenario(decode(payload, encoding, VehicleScenario))
             except ProtocolError:

@@ -34,7 +34,7 @@ import numpy as np
 import zenoh
 
 from gcs.adapters.recording import HEARTBEAT_ENCODING, LIVELINESS_ENCODING, Recorded, Recorder, read_recording
-from gcs.adapters.zenoh_session import open_session
+from gcs.adapters.zenoh_session import has_subscribers, open_session
 from gcs.config import Scenario
 from gcs.config.world import build_world
 from gcs.core.metrics import gospa
@@ -82,7 +82,7 @@ def summarise(path: Path) -> dict:
         scenario.see(record, kind)
     return {
         "file": str(path), "messages": sum(channels.values()),
-        "duration_s": 0.0 if first is None else (last - first) / NS_PER_S,
+        "duration_s": 0.0 if first is None or last is None else (last - first) / NS_PER_S,
         "stamp_span_s": (max(stamps) - min(stamps)) / NS_PER_S if stamps else 0.0,
         "reports": len(stamps), "vehicles": sorted(vehicles),
         "scenario": None if scenario.found is None else dict(zip(("name", "fingerprint"), scenario.found)),
@@ -152,7 +152,7 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
         now = record.log_time_ns / NS_PER_S
         if kind in ("alive", "report", "nav", "truth"):
             release(now)  # what timed out before it came in: the live loop, idle, released it before
-        if kind == "alive" and record.encoding == HEARTBEAT_ENCODING:
+        if kind == "alive" and record.encoding == HEARTBEAT_ENCODING and ident is not None:
             engine.feed(Heartbeat(ident, now))
         elif kind == "alive" and record.encoding == LIVELINESS_ENCODING:  # as the daemon's registry saw it
             engine.feed(Arrived("alive" if record.payload == b"alive" else "gone", record.key, b"", "",
@@ -234,7 +234,8 @@ def write_outputs(tracks: list[TrackEstimate], plans: list[PlanCommand], out: Pa
                                  repr(t.covariance[0]), repr(t.covariance[n + 1]), " ".join(t.contributing_vehicles)])
         return
     with Recorder(out) as recorder:
-        for message in sorted([*tracks, *plans], key=lambda m: m.stamp_ns):
+        messages: list[TrackEstimate | PlanCommand] = [*tracks, *plans]
+        for message in sorted(messages, key=lambda m: m.stamp_ns):
             key = (track_key(message.target_id, prefix) if isinstance(message, TrackEstimate)
                    else plan_key(message.vehicle_id, prefix))
             payload, encoding = encode(message)
@@ -243,12 +244,18 @@ def write_outputs(tracks: list[TrackEstimate], plans: list[PlanCommand], out: Pa
 
 # -------------------------------------------------------------- republish
 
-def _inputs(path: Path) -> Iterator[tuple[Recorded, str, str]]:
+def _inputs(path: Path) -> Iterator[tuple[Recorded, str, str | None]]:
     """The recorded inputs that travel on Zenoh (MAVLink heartbeats the daemon heard do not)."""
     for record in read_recording(path):
         kind, ident = key_kind(record.key)
         if kind in INPUT_KINDS and record.encoding != HEARTBEAT_ENCODING:
             yield record, kind, ident
+
+
+def _under(prefix: str, key: str) -> str:
+    """A recorded key under ``prefix`` instead of the prefix it was recorded under."""
+    own = prefix_of(key)
+    return key if own is None else prefix + key[len(own):]
 
 
 def republish(path: Path, settings, prefix: str, rate: float | None, stop: threading.Event,
@@ -265,15 +272,14 @@ def republish(path: Path, settings, prefix: str, rate: float | None, stop: threa
     keys = sorted({key for key, kind, _ in inputs if kind != "alive"})
     alive = sorted({key for key, kind, payload in inputs if kind == "alive" and payload == b"alive"})
     with open_session(settings) as session:
-        publishers = {key: session.declare_publisher(prefix + key[len(prefix_of(key)):],
+        publishers = {key: session.declare_publisher(_under(prefix, key),
                                                      congestion_control=zenoh.CongestionControl.BLOCK)
                       for key in keys}
         # every vehicle that was alive in the recording is declared first, so that a daemon expects its
         # reports from the first step even when they are replayed as fast as possible
-        tokens = {prefix + key[len(prefix_of(key)):]: session.liveliness().declare_token(
-            prefix + key[len(prefix_of(key)):]) for key in alive}
+        tokens = {_under(prefix, key): session.liveliness().declare_token(_under(prefix, key)) for key in alive}
         deadline = time.monotonic() + wait_for_subscriber_s
-        while not all(p.matching_status.matching for p in publishers.values()) and time.monotonic() < deadline:
+        while not all(has_subscribers(p) for p in publishers.values()) and time.monotonic() < deadline:
             if stop.wait(0.02):
                 break
         if tokens:
@@ -289,7 +295,7 @@ def republish(path: Path, settings, prefix: str, rate: float | None, stop: threa
                     if stop.wait(max(0.0, due - time.monotonic())):
                         break
                 if kind == "alive":
-                    key = prefix + record.key[len(prefix_of(record.key)):]
+                    key = _under(prefix, record.key)
                     if record.payload == b"alive" and key not in tokens:
                         tokens[key] = session.liveliness().declare_token(key)
                     elif record.payload == b"gone" and key in tokens:

@@ -172,7 +172,7 @@ def _play(path: Path, clock: ReplayClock, live: LiveMap, stop: threading.Event, 
     records = read_recording(path)
     try:
         pending = next(records, None)
-        first = None if pending is None else pending.log_time_ns
+        first = 0 if pending is None else pending.log_time_ns
         while not stop.is_set() and not clock.take_restart():
             position = clock.position_ns()
             while pending is not None and pending.log_time_ns - first <= position:
@@ -192,7 +192,7 @@ def _feed(picture: Picture, record, counts: Counter) -> None:
     counts[kind or "other"] += 1
     picture.counters[f"replayed.{kind or 'other'}"] = counts[kind or "other"]
     if record.encoding == LIVELINESS_ENCODING:
-        if kind == "alive":
+        if kind == "alive" and ident is not None:
             picture.on_liveliness(ident, record.payload == b"alive")
         return
     if record.encoding == HEARTBEAT_ENCODING:  # the daemon's MAVLink heartbeats: not wire messages to draw

@@ -45,7 +45,10 @@ from numpy.typing import NDArray
 from gcs.config.simulation import AirframeConfig
 from gcs.core.geometry import wrap_angle
 
-__all__ = ["GRAVITY_MPS2", "Airframe", "AirframeState", "Guidance", "LOITER_GAIN"]
+__all__ = ["GRAVITY_MPS2", "Airframe", "AirframeState", "Guidance", "GuidanceKind", "LOITER_GAIN"]
+
+GuidanceKind = Literal["course", "heading", "goto", "loiter", "parked"]
+"""What a :class:`Guidance` flies (its docstring says how)."""
 
 GRAVITY_MPS2 = 9.80665
 LOITER_GAIN = 1.5
@@ -84,7 +87,7 @@ class Guidance:
         limit), and ``direction_rad`` is only what that controller aims at.
     """
 
-    kind: Literal["course", "heading", "goto", "loiter", "parked"]
+    kind: GuidanceKind
     altitude_m: float
     airspeed_mps: float
     direction_rad: float = 0.0

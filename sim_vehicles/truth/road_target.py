@@ -56,8 +56,11 @@ class RoadTarget:
             e, along = reverse, float(self.graph.length[reverse]) - along
         return self._state(e, along, 0.0, moving=True)
 
-    def step(self, state: RoadTargetState, dt: float, rng: np.random.Generator) -> RoadTargetState:
-        """Drive ``dt`` seconds, choosing a way on at every node passed."""
+    def step(self, state: TargetState, dt: float, rng: np.random.Generator) -> RoadTargetState:
+        """Drive ``dt`` seconds, choosing a way on at every node passed; from a :class:`RoadTargetState`
+        (:meth:`start`'s), TypeError for any other."""
+        if not isinstance(state, RoadTargetState):
+            raise TypeError(f"a road target drives on from a RoadTargetState, not a {type(state).__name__}")
         e, s = state.edge, state.s_m
         if not np.any(state.velocity):  # stopped at the end of a one-way road
             return self._state(e, s, state.elapsed_s + dt, moving=False)

@@ -110,6 +110,8 @@ class StreetTarget:
             if inside and not u_turn:
                 options.append(d)
         if not options:  # dead end: turn back
+            if heading is None:
+                raise ValueError(f"the street grid has no street from {at.tolist()}: nowhere to drive")
             return -heading
         if heading is not None:
             straight = [d for d in options if np.dot(d, heading) > 0.5]

@@ -1,6 +1,6 @@
 """Ctrl-C ends every long-running command the same way: cleanly, `<command>: interrupted`, status 130.
 
-A terminal's Ctrl-C sends SIGINT to the whole foreground process group (a benchmark's worker
+A terminal's Ctrl-C sends SIGINT to the whole foreground process group (a command's worker
 processes too): each command here runs in its own group and the group gets the signal, once
 the command shows it is at work. `gcs run`, `gcs demo`, `gcs record`, `gcs replay --view` and
 `sim-vehicles run` / `payload` are stopped the same way in their own tests.
@@ -18,8 +18,6 @@ from tests.e2e.processes import script
 from tests.loopback import ANY_PORT_ENDPOINT, Lines
 
 WORKING = {
-    "gcs bench urban": (["gcs", "bench", "urban", "--runs", "20", "--duration", "60", "--workers", "2",
-                         "--planners", "sight", "orbit", "--no-scaling"], "stderr", r"seed \d+ \w+: seen by any"),
     "gcs router": (["gcs", "router", "--zenoh-listen", ANY_PORT_ENDPOINT], "stdout", r"^router listening on tcp/"),
 }
 """Each command, and the line (on which stream) that shows it at work."""

@@ -2,8 +2,8 @@
 
 The test listens to the same Zenoh traffic as the daemon: the vehicles' reports
 say at which steps the target was seen, the simulator's truth and the daemon's
-tracks give the RMSE. It is compared with the in-process closed loop
-(``gcs bench urban``'s ``run_closed_loop``) on the same scenario and seed.
+tracks give the RMSE. It is held to what physics allows (:func:`tests.figures.track_error_window`):
+above the target's own motion over a step, below the error of one raw detection.
 """
 
 from __future__ import annotations
@@ -16,14 +16,13 @@ import subprocess
 import numpy as np
 
 from gcs.adapters.zenoh_session import ZenohSettings, listening_endpoints, open_session
-from gcs.bench.urban import run_closed_loop
-from gcs.config.world import build_world
 from gcs.daemon.cli import query_status
 from gcs.scenarios import load_scenario
 from protocols.codec import decode
 from protocols.keys import reports_selector, tracks_selector, truth_selector
 from protocols.messages import SensorReport, TargetTruth, TrackEstimate
 from tests.e2e.processes import script, stop
+from tests.figures import track_error_window
 from tests.loopback import ANY_PORT_ENDPOINT, ANY_UDP, Lines, daemon_up
 
 DURATION_S = 120
@@ -34,7 +33,7 @@ SEED = 0
 VEHICLES = ("uav1", "uav2", "uav3")
 
 
-def test_daemon_with_three_vehicle_processes_tracks_like_the_in_process_loop(tmp_path) -> None:
+def test_daemon_with_three_vehicle_processes_tracks_the_target_better_than_one_detection(tmp_path) -> None:
     daemon = subprocess.Popen(
         [script("gcs"), "run", "--seed", str(SEED), "--mavlink", ANY_UDP, "--zenoh-listen", ANY_PORT_ENDPOINT,
          "--http", "none"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
@@ -93,21 +92,18 @@ def test_daemon_with_three_vehicle_processes_tracks_like_the_in_process_loop(tmp
     seen_any = sum(seen.values())
     rmse = float(np.sqrt(np.mean(np.square(errors))))
 
-    scenario = load_scenario("wang2012_urban")
-    in_process = run_closed_loop(scenario, build_world(scenario), "ga_k5", seed=SEED, duration_s=DURATION_S,
-                                 clock=None)
+    floor, ceiling = track_error_window(load_scenario("wang2012_urban"))
     summary = {"steps": steps, "seen_any": seen_any, "rmse_m": rmse, "tracks": len(tracks),
-               "in_process_rmse_m": in_process.rmse_m, "in_process_seen_any": in_process.seen_any}
+               "rmse_floor_m": floor, "rmse_ceiling_m": ceiling}
     (tmp_path / "summary.json").write_text(json.dumps(summary))
     assert steps == DURATION_S, summary
-    # The issue's bars: the target seen in 90% of the steps, and an RMSE within 2x of the in-process loop
+    # The target seen in 90% of the steps, and the fused track better than one raw detection (14.1 m here:
+    # 10 m of range, 0.05 rad of elevation from 200 m) and no better than the target's own motion allows
     # (measured 2026-11-23 in real time, three runs: 113-120 of 120 steps, RMSE 8.2-10.0 m; at 2x, seven runs:
-    # 115-120 steps, 8.4-10.5 m, and 107 steps once on a slowed machine; in process 120 and 11.1 m. Before the
-    # filter weighed the azimuth from right above the target by its linearisation error, runs spread over
-    # 8.4-21.6 m: docs/benchmarks.md, "Right above the target").
+    # 115-120 steps, 8.4-10.5 m, and 107 steps once on a slowed machine).
     assert seen_any >= 0.9 * steps, summary
     assert len(errors) >= 0.9 * steps, summary
-    assert rmse <= 2.0 * in_process.rmse_m, summary
+    assert floor <= rmse <= ceiling, summary
     assert status is not None and {v.link for v in status.vehicles} <= {"ok", "lost"}
     assert status.counters.get("accepted.report", 0) == 3 * DURATION_S
     rejected = {k: v for k, v in status.counters.items() if k.startswith("rejected.")}

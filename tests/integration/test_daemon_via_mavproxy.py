@@ -72,7 +72,7 @@ TRACK_TOLERANCE_M = 5.0
 TRACK_WINDOW_S = 3.0
 COURSE_MEDIAN_DEG = 5.0
 """The flown course against the planned path's course at the nearest point, median after the settle (the
-issue's goal for steering; `gcs bench autopilots` measures under a degree in one process)."""
+issue's goal for steering; `gcs-bench autopilots` measures under a degree in one process)."""
 
 
 @dataclass

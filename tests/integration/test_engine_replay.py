@@ -1,7 +1,7 @@
 """The same recorded inputs through the live daemon and through ``gcs replay --process`` give the same tracks.
 
 One engine decides in both (:mod:`gcs.engine`): a synthetic recording of simulated vehicles
-(:func:`gcs.bench.replay.make_recording`: their liveliness tokens, reports, nav and truth) is
+(:func:`sim_vehicles.recording.record_scene`: their liveliness tokens, reports, nav and truth) is
 republished over loopback Zenoh to a daemon running in a thread, which records what it receives
 and publishes; processing the daemon's recording with the options the daemon ran with gives its
 tracks byte for byte. Each test changes one option that changes acceptance (``--accept-unlisted``,
@@ -14,13 +14,13 @@ from __future__ import annotations
 import threading
 from pathlib import Path
 
+import msgspec
 import pytest
 
 from gcs.adapters.recording import Recorder, read_recording
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.daemon.app import Daemon, DaemonOptions
-from gcs.bench.replay import make_recording
-from gcs.bench.urban import with_vehicles
+from sim_vehicles.recording import record_scene
 from gcs.config.world import build_world
 from gcs.recordings.replay import process, republish
 from gcs.scenarios import load_scenario
@@ -37,10 +37,18 @@ RATE = 4.0
 S = 1_000_000_000
 
 
+def _with_uav4(scenario=SCENARIO):
+    """The scenario with a fourth UAV, a copy of the first 300 m east of it."""
+    first = scenario.vehicles[0]
+    extra = msgspec.structs.replace(first, id="uav4", sysid=4, altitude_m=first.altitude_m + 30.0,
+                                    start_enu_m=(first.start_enu_m[0] + 300.0, first.start_enu_m[1]))
+    return msgspec.structs.replace(scenario, vehicles=[*scenario.vehicles, extra])
+
+
 def _inputs(folder: Path, scenario=SCENARIO, delay_s: dict[str, float] | None = None) -> Path:
     """Simulated inputs of ``scenario``'s vehicles; each listed vehicle's reports received ``delay_s`` later."""
     path = folder / "inputs.mcap"
-    make_recording(scenario, WORLD, path, duration_s=DURATION_S, seed=4)
+    record_scene(scenario, WORLD, path, duration_s=DURATION_S, seed=4)
     if not delay_s:
         return path
     rows = []
@@ -85,7 +93,7 @@ def _replayed(recording: Path, scenario=SCENARIO, **options) -> list[bytes]:
 
 
 def test_a_run_accepting_unlisted_vehicles_replays_bit_for_bit_with_accept_unlisted(tmp_path) -> None:
-    inputs = _inputs(tmp_path, with_vehicles(SCENARIO, 4))  # uav4 is not in the roster
+    inputs = _inputs(tmp_path, _with_uav4())  # uav4 is not in the roster
     recording, live, counters = _live(tmp_path, inputs, accept_unlisted=True)
     assert counters["accepted.unlisted.report"] > 0 and counters.get("rejected.late", 0) == 0, counters
     assert _replayed(recording, accept_unlisted=True) == live
@@ -100,7 +108,7 @@ def test_a_run_navigating_with_the_skf_replays_bit_for_bit_with_navigation_skf(t
 
 
 def test_a_run_with_a_smaller_roster_replays_bit_for_bit_with_the_same_roster(tmp_path) -> None:
-    pair = with_vehicles(SCENARIO, 2)  # uav3 flies, but is not the daemon's
+    pair = msgspec.structs.replace(SCENARIO, vehicles=SCENARIO.vehicles[:2])  # uav3 flies, but is not the daemon's
     recording, live, counters = _live(tmp_path, _inputs(tmp_path), pair)
     assert counters["rejected.unknown_vehicle"] > 0, counters
     assert _replayed(recording, pair) == live

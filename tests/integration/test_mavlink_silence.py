@@ -1,7 +1,7 @@
 """A MAVLink link that goes silent for 10 s: the daemon stops commanding it, and resumes when it returns.
 
 The simulated vehicles reach the daemon through a UDP relay on 127.0.0.1
-(:class:`gcs.bench.faults.UdpRelay`, the soak's) that the test can mute (both
+(:class:`sim_vehicles.radio_link.UdpRelay`, the soak's) that the test can mute (both
 directions dropped), like a radio out of range, while their Zenoh reports
 keep flowing.
 """
@@ -14,7 +14,7 @@ from contextlib import ExitStack
 
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.daemon.app import Daemon, DaemonOptions
-from gcs.bench.faults import UdpRelay
+from sim_vehicles.radio_link import UdpRelay
 from tests.integration.sim_harness import SCENARIO, WORLD, options, running_vehicles
 from tests.loopback import ANY_PORT_ENDPOINT
 

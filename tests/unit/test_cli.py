@@ -34,7 +34,7 @@ def test_gcs_help_lists_every_registered_subcommand(capsys: pytest.CaptureFixtur
 @pytest.mark.parametrize(("argv", "expected"), [
     (["status", "--timeout", "1"], "status"),
     (["--log-level", "DEBUG", "run", "--help"], "run"),
-    (["--log-level=ERROR", "bench", "daemon"], "bench"),
+    (["--log-level=ERROR", "replay", "run.mcap"], "replay"),
     (["--help"], None), (["--version"], None), ([], None), (["flyaway"], None), (["-x", "run"], None),
 ])
 def test_only_the_named_subcommand_is_loaded(argv: list[str], expected: str | None) -> None:
@@ -80,7 +80,7 @@ def test_an_unknown_subcommand_gets_the_full_list(capsys: pytest.CaptureFixture[
         gcs_cli.main(["flyaway"])
     assert info.value.code == 2
     err = capsys.readouterr().err
-    assert "invalid choice: 'flyaway'" in err and "status" in err and "bench" in err
+    assert "invalid choice: 'flyaway'" in err and "status" in err and "replay" in err
 
 
 def test_run_takes_the_planners_niceness_0_to_19(capsys: pytest.CaptureFixture[str]) -> None:

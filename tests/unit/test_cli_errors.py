@@ -112,12 +112,9 @@ TABLE = [
     ("gcs", ["router", "--zenoh-mode", "none"], "gcs router", "a router needs zenoh"),
     ("gcs", ["scenario", "check", "nosuch"], "gcs scenario", "unknown scenario 'nosuch'"),
     ("gcs", ["scenario", "show", "{scenario}"], "gcs scenario", "missing required field `lon_deg`"),
-    ("gcs", ["bench", "estimation", "--json", f"{WORK}/x.json"], "gcs bench estimation", f"no folder {WORK}"),
-    ("gcs", ["bench", "estimation", "--runs", "0"], "gcs bench estimation", "argument --runs: must be >= 1"),
-    ("gcs", ["bench", "urban", "--scenario", "nosuch"], "gcs bench urban", "unknown scenario 'nosuch'"),
-    ("gcs", ["bench", "soak", "--vehicles", "2", "--workdir", "{folder}/soak"], "gcs bench soak",
-     "--vehicles must be at least the scenario's 3"),
-    ("gcs", ["bench", "soak", "--plots", "{recording}"], "gcs bench soak", "--plots"),
+    ("gcs", ["bench", "urban", "--runs", "3"], "gcs",
+     "the benchmarks are a command of their own: gcs-bench urban --runs 3"),
+    ("gcs", ["--log-level", "ERROR", "bench"], "gcs", "a command of their own: gcs-bench --help"),
     ("gcs", ["nosuch"], "gcs", "argument COMMAND: invalid choice: 'nosuch'"),
     ("sim-vehicles", ["run", "--mavlink", "bogus:xyz"], "sim-vehicles run", "unknown scheme 'bogus'"),
     ("sim-vehicles", ["run", "--mavlink", "udpin:127.0.0.1:99999"], "sim-vehicles run", "port 99999 is outside"),
@@ -129,8 +126,6 @@ TABLE = [
     ("sim-vehicles", ["run", "--lockstep", "--zenoh-mode", "none"], "sim-vehicles run", "not with --zenoh-mode none"),
     ("sim-vehicles", ["run", "--wait-for-plans", "--zenoh-mode", "none"], "sim-vehicles run",
      "--wait-for-plans hears the plans over zenoh: not with --zenoh-mode none"),
-    ("gcs", ["bench", "demo", "--runs", "0"], "gcs bench demo", "--runs"),
-    ("gcs", ["bench", "autopilots", "--autopilot", "betaflight"], "gcs bench autopilots", "invalid choice: 'betaflight'"),
     ("sim-vehicles", ["run", "--wait-for-gcs", "-1"], "sim-vehicles run", "--wait-for-gcs must be"),
     ("sim-vehicles", ["run", "--start-at", "1e20"], "sim-vehicles run", "--start-at is a Unix time in seconds"),
     ("sim-vehicles", ["run", "--only", "uav1", "--start-with", "uav1"], "sim-vehicles run",
@@ -196,8 +191,7 @@ def _subparser(parser: argparse.ArgumentParser, path: list[str]) -> argparse.Arg
 
 
 COMMANDS = [("gcs", ["run"]), ("gcs", ["demo"]), ("gcs", ["status"]), ("gcs", ["record"]), ("gcs", ["router"]),
-            ("gcs", ["replay"]), ("gcs", ["scenario", "check"]), ("gcs", ["bench", "soak"]),
-            ("gcs", ["bench", "urban"]), ("gcs", ["bench", "estimation"]), ("sim-vehicles", ["run"]),
+            ("gcs", ["replay"]), ("gcs", ["scenario", "check"]), ("sim-vehicles", ["run"]),
             ("sim-vehicles", ["payload"])]
 PARSERS = {"gcs": gcs.cli.build_parser, "sim-vehicles": sim_vehicles.cli.build_parser}
 NEVER = {"-h", "--help", "--version"}
@@ -271,6 +265,6 @@ def test_ctrl_c_without_a_handler_is_one_line_and_130(capsys) -> None:
     def handler(args: argparse.Namespace) -> int:
         raise KeyboardInterrupt
 
-    assert run_command(argparse.Namespace(handler=handler, command_prog="gcs bench urban")) == 130
-    assert capsys.readouterr().err.splitlines() == ["gcs bench urban: interrupted"]
+    assert run_command(argparse.Namespace(handler=handler, command_prog="gcs replay")) == 130
+    assert capsys.readouterr().err.splitlines() == ["gcs replay: interrupted"]
     assert run_command(argparse.Namespace(handler=lambda args: 0, command_prog="gcs scenario")) == 0  # cleared

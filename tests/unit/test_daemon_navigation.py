@@ -243,13 +243,13 @@ def test_a_step_waits_for_the_nav_of_every_vehicle_that_sends_nav_and_times_out_
 def test_replay_processing_with_delayed_nav_gives_the_tracks_of_the_undelayed_file(tmp_path) -> None:
     """Each vehicle's nav reports arrive up to 0.4 s late (in the order it sent them): same tracks, bit for bit."""
     from gcs.adapters.recording import Recorder, read_recording
-    from gcs.bench.replay import make_recording
+    from sim_vehicles.recording import record_scene
     from gcs.config.world import build_world
     from gcs.recordings.replay import process
 
     scenario = load_scenario("wang2012_gps_denied")
     inputs, delayed = tmp_path / "inputs.mcap", tmp_path / "delayed.mcap"
-    make_recording(scenario, build_world(scenario), inputs, duration_s=40, seed=2)
+    record_scene(scenario, build_world(scenario), inputs, duration_s=40, seed=2)
     rng, last = np.random.default_rng(8), {}
     rows = []
     for record in read_recording(inputs):

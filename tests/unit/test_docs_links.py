@@ -70,11 +70,11 @@ def section_links(source: Path) -> list[tuple[Path, str]]:
 @pytest.mark.parametrize(
     ("heading", "slug"),
     [
-        ("Soak: `gcs bench soak`", "soak-gcs-bench-soak"),
-        ("Planning in the city: `gcs bench urban`", "planning-in-the-city-gcs-bench-urban"),
+        ("Soak: `gcs-bench soak`", "soak-gcs-bench-soak"),
+        ("Planning in the city: `gcs-bench urban`", "planning-in-the-city-gcs-bench-urban"),
         ("`wang2012_urban`: the paper's experiment", "wang2012_urban-the-papers-experiment"),
-        ("In the tracking loop: `gcs bench urban --gps-denied`", "in-the-tracking-loop-gcs-bench-urban---gps-denied"),
-        ("A manoeuvring target (IMM): `gcs bench imm`", "a-manoeuvring-target-imm-gcs-bench-imm"),
+        ("In the tracking loop: `gcs-bench urban --gps-denied`", "in-the-tracking-loop-gcs-bench-urban---gps-denied"),
+        ("A manoeuvring target (IMM): `gcs-bench imm`", "a-manoeuvring-target-imm-gcs-bench-imm"),
         ("In the daemon: `--navigation skf|reported`", "in-the-daemon---navigation-skfreported"),
     ],
 )

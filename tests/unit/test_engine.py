@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import ast
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +16,8 @@ from gcs.daemon.status_cli import format_status
 from gcs.engine.engine import Engine, EngineOptions
 from gcs.engine.events import Arrived, PlanDone, PlannerFree, PublishPlan, PublishTrack, SubmitPlan, Tick
 from gcs.engine.memory import CommandAges
+from gcs.engine.plan_jobs import PlanOutcome
+from gcs.core.tracker import TrackerState
 from gcs.scenarios import load_scenario
 from protocols.codec import encode
 from protocols.keys import alive_key, nav_key, report_key
@@ -83,6 +86,23 @@ def test_command_ages_are_the_vehicle_time_flown_less_the_planned_steps_stamp() 
     engine.steer()
     assert list(engine.command_ages.ages_ms) == [2000.0] * 3 + [2500.0] * 3
     assert engine.command_ages.median_ms() == 2250.0 and engine.command_ages.p99_ms() == 2500.0
+
+
+def test_a_plan_job_with_nothing_to_plan_is_a_planning_error_and_the_engine_goes_on() -> None:
+    engine = Engine(SCENARIO, WORLD, EngineOptions(planner="pursuit"))
+    for vehicle in ROSTER:
+        engine.feed(Arrived("alive", alive_key(vehicle), b"", "", 0, 0.0))
+        engine.feed(_arrived(nav_key(vehicle), _nav(vehicle, EPOCH_NS), 0.0))
+        engine.feed(_arrived(report_key(vehicle), _report(vehicle, EPOCH_NS), 0.0))
+    engine.feed(Tick(10.0))
+    (submit,) = engine.feed(PlannerFree(10.0))
+    blind = replace(submit.job, state=TrackerState.start(len(ROSTER)))  # no estimate, no targets
+    outcome = run_job(blind, engine.subset(blind.indices), np.random.default_rng(0))
+    assert outcome.result is None and "nothing to plan" in (outcome.error or "")
+    assert engine.feed(PlanDone(outcome)) == [] and engine.counters["errors.planning"] == 1
+    silent = PlanOutcome(blind, None, None, None, 0.0, 0.0, 0)  # no plan, and no error said
+    assert engine.feed(PlanDone(silent)) == [] and engine.counters["errors.planning"] == 2
+    assert engine.counters["decisions"] == 0
 
 
 def test_command_ages_keep_the_newest_and_the_p99_interpolates() -> None:

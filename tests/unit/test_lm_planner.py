@@ -3,8 +3,7 @@
 Oracles: the turn limit for any input (Hypothesis, adversarial problems included);
 a brute-force grid over the heading box for the optimum; each LM planner is best at
 its own criterion (GCRLB vs constant-noise CRLB); constraint cases built by hand,
-one active band the penalty must hold and one the turn limit cannot meet; and the
-benchmark's own path check, which must catch what it is meant to catch.
+one active band the penalty must hold and one the turn limit cannot meet.
 """
 
 from __future__ import annotations
@@ -16,7 +15,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from gcs.bench.aoa import AoaScenario, path_violations
 from gcs.core.filters.uif import GaussianEstimate
 from gcs.core.geometry import wrap_angle
 from gcs.core.models.sensor import SensorModel
@@ -248,23 +246,3 @@ def test_solve_mutates_nothing_and_times_itself_with_the_given_clock() -> None:
         np.testing.assert_array_equal(kept, now)
     # the 2M + 3 starts, then the 2M + 1 stencil points at the start and at each iteration's trial point
     assert 9 + 7 * result.iterations <= result.evaluations <= 9 + 7 * (result.iterations + 1)
-
-
-# --- the benchmark's independent check of the flown path ---------------------------------------
-
-
-def test_bench_path_check_counts_each_kind_of_violation() -> None:
-    scenario = AoaScenario(steps=3)
-    start = np.array([0.0, 0.0])
-    xy = np.array([[[0.0, 0.0], [1000.0, 0.0]], [[40.0, 0.0], [1040.0, 0.0]], [[80.0, 0.0], [1080.0, 0.0]]])
-    target = np.tile([5000.0, 0.0], (3, 1))
-    ok = path_violations(scenario, xy, np.zeros((3, 2)), start, target)
-    assert ok == {"turn": 0, "detection": 0, "too_close": 0, "too_far": 0}
-    sharp = np.array([[0.0, 0.0], [math.radians(4.5), 0.0], [0.0, 0.0]])  # 4.5 deg at step 1 (the last is not flown)
-    assert path_violations(scenario, xy, sharp, start, target)["turn"] == 1
-    assert path_violations(scenario, xy, np.zeros((3, 2)), np.array([math.radians(-4.1), 0.0]), target)["turn"] == 1
-    close = xy.copy()
-    close[2, 1] = [180.0, 0.0]
-    far_target = np.tile([30_000.0, 0.0], (3, 1))
-    assert path_violations(scenario, close, np.zeros((3, 2)), start, far_target) == {
-        "turn": 0, "detection": 4, "too_close": 1, "too_far": 0}

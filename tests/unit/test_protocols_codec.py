@@ -35,7 +35,7 @@ from protocols import (
     encode,
     encoding_for,
 )
-from protocols.legacy import SensorReportV1
+from protocols.legacy import LEGACY_VERSIONS, SensorReportV1
 
 PI = math.pi
 INT64_MAX = 2**63 - 1
@@ -291,6 +291,16 @@ def test_a_v1_report_decodes_to_the_equivalent_v2(old: SensorReportV1) -> None:
             assert (d.range_std_m, d.azimuth_std_rad, d.elevation_std_rad) == (
                 old.range_std_m, old.azimuth_std_rad, old.elevation_std_rad)
         assert encode(new)[1] == "application/json;gcs.SensorReport/2"  # always written as the current version
+
+
+def test_a_legacy_version_upgrades_only_a_message_of_its_own_struct() -> None:
+    v1, = (old for old in LEGACY_VERSIONS if old.struct is SensorReportV1)
+    report = SensorReport(vehicle_id="uav1", seq=1, stamp_ns=5, vehicle_position_enu_m=(0.0, 0.0, 100.0))
+    with pytest.raises(ProtocolError, match="SensorReport is not a SensorReportV1") as info:
+        v1.upgraded(report)
+    assert info.value.reason == "unexpected_type"
+    old = SensorReportV1(vehicle_id="uav1", seq=1, stamp_ns=5, vehicle_position_enu_m=(0.0, 0.0, 100.0), detected=False)
+    assert v1.upgraded(old) == report
 
 
 def test_a_v1_payload_is_judged_by_the_v1_rules_and_a_v2_encoding_refuses_it() -> None:

@@ -7,7 +7,7 @@ import logging
 import pytest
 
 from gcs.adapters.recording import Recorder, read_recording
-from gcs.bench.replay import make_recording
+from sim_vehicles.recording import record_scene
 from gcs.cli import main
 from gcs.cli_errors import UsageError
 from gcs.config.fingerprint import scenario_fingerprint
@@ -83,7 +83,7 @@ def test_replay_says_when_the_recorded_scenario_is_not_the_shipped_one(tmp_path)
 def test_processing_a_many_target_recording_takes_its_scenario_from_the_file(tmp_path, capsys, caplog) -> None:
     scenario = load_scenario("multitarget_urban")
     path = tmp_path / "mt.mcap"
-    make_recording(scenario, build_world(scenario), path, duration_s=20.0, seed=1)
+    record_scene(scenario, build_world(scenario), path, duration_s=20.0, seed=1)
     with caplog.at_level(logging.WARNING):
         assert main(["replay", str(path), "--process"]) == 0
     out = capsys.readouterr().out

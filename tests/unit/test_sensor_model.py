@@ -74,6 +74,14 @@ def test_distance_dependent_noise_follows_zuo2021_eq2() -> None:
     np.testing.assert_allclose(RBE.noise_information(), 1.0 / np.array([100.0, 0.0025, 0.0025]))
 
 
+def test_distance_dependent_noise_without_a_range_names_what_it_needs() -> None:
+    sensor = SensorModel.bearing_only(math.radians(1.0), distance_dependent=True)
+    with pytest.raises(ValueError, match="needs the predicted range .* or target_xy and vehicle_xyz"):
+        sensor.noise_variance(np.array([0.3]))
+    with pytest.raises(ValueError, match="target_xy and vehicle_xyz"):
+        sensor.noise_information(None, np.array([1000.0, 0.0]))
+
+
 def _numeric_hessians(sensor: SensorModel, target: np.ndarray, vehicle: np.ndarray, step: float) -> np.ndarray:
     """Second derivatives of every component with respect to the target's (x, y), central differences: (m, 2, 2)."""
     def h(dx: float, dy: float) -> np.ndarray:
@@ -118,14 +126,17 @@ def test_linearisation_variance_matters_under_the_vehicle_only() -> None:
 
 
 def test_equal_models_hash_alike_and_the_scenarios_vehicles_share_one() -> None:
-    from gcs.bench.urban import with_vehicles
-    from gcs.scenarios import load_scenario
+    import msgspec
+
     from gcs.engine.tracker_factory import filter_sensor_models
+    from gcs.scenarios import load_scenario
 
     a, b = SensorModel.range_bearing(10.0, 0.05, 0.05), SensorModel.range_bearing(10.0, 0.05, 0.05)
     c = SensorModel.range_bearing(10.0, 0.05, 0.06)
     assert a == b and hash(a) == hash(b) and a != c and len({a, b, c}) == 2
-    models = filter_sensor_models(with_vehicles(load_scenario("wang2012_urban"), 10))
+    scenario = load_scenario("wang2012_urban")
+    team = [msgspec.structs.replace(scenario.vehicles[0], id=f"uav{i}", sysid=i) for i in range(1, 11)]
+    models = filter_sensor_models(msgspec.structs.replace(scenario, vehicles=team))
     assert len(models) == 10 and all(m is models[0] for m in models)  # one group, found without comparing
 
 

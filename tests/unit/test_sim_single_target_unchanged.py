@@ -21,7 +21,7 @@ import msgspec
 import pytest
 
 from gcs.adapters.recording import Recorder, read_recording
-from gcs.bench.replay import make_recording
+from sim_vehicles.recording import record_scene
 from gcs.config.world import build_world
 from gcs.recordings.replay import process
 from gcs.scenarios import load_scenario
@@ -115,7 +115,7 @@ def _v1_copy(source: Path, target: Path) -> int:
 def test_recorded_v1_streams_replay_to_the_tracks_they_gave(tmp_path: Path) -> None:
     scenario = load_scenario("wang2012_urban")
     inputs, old = tmp_path / "in.mcap", tmp_path / "v1.mcap"
-    make_recording(scenario, build_world(scenario), inputs, duration_s=30.0, seed=4)
+    record_scene(scenario, build_world(scenario), inputs, duration_s=30.0, seed=4)
     assert _v1_copy(inputs, old) == 90  # 3 vehicles, one report a second for 30 s
     assert {r.encoding for r in read_recording(old) if r.key.endswith("/report")} == {V1_ENCODING}
     golden = GOLDEN["replay"]

@@ -1,8 +1,8 @@
 """Steering along a planned path through an autopilot's course loop (gcs/core/steering.py).
 
-Independent figures: the closed-form course-loop gains (ArduPlane's ``K = g k_p / V`` with GUIDED_P's
-default, the ideal airframe's heading gain), kinematics' own rollout for the path, and flights of the
-simulated autopilots (tests/autopilot_harness.py) steered with and without the lead.
+Independent figures: kinematics' own rollout for the path, and flights of the simulated autopilots
+(tests/autopilot_harness.py) steered with and without the lead, and the course loops' closed forms
+(ArduPlane's ``K = g k_p / V`` with GUIDED_P's default, the ideal airframe's heading gain).
 """
 
 from __future__ import annotations
@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 
 from gcs.adapters.mavlink_wire import mavlink, ned_yaw_from_enu_heading
-from gcs.bench.autopilots import identify
 from gcs.config.simulation import AirframeConfig
 from gcs.core.geometry import wrap_angle
 from gcs.core.kinematics import VehicleState, rollout
@@ -28,23 +27,18 @@ def start(x: float = 1000.0, y: float = 1000.0, heading: float = 0.0) -> Vehicle
     return VehicleState(np.array([[x, y]]), np.array([heading]), np.array([SPEED]), np.array([ALTITUDE]))
 
 
-# ------------------------------------------------------------------ identification
+# ------------------------------------------------------------------ course loops
 
 
-@pytest.mark.parametrize("personality", ["ideal", "arduplane"])
-def test_course_loops_steered_with_are_the_ones_the_step_responses_identify(personality: str) -> None:
-    found, used = identify(personality), COURSE_LOOPS[personality]
-    assert found.gain_per_s == pytest.approx(used.gain_per_s, rel=0.02)
-    assert found.lag_s == pytest.approx(used.lag_s, rel=0.02)
-    assert found.max_turn_rate_rad_s == pytest.approx(used.max_turn_rate_rad_s, rel=0.01)
-
-
-def test_identified_gains_match_the_closed_form_loops() -> None:
+def test_the_course_loops_steered_with_are_their_closed_forms() -> None:
     airframe = AirframeConfig()
     kp_rad = GUIDED_P_DEFAULT / 100.0 * math.pi / 180.0  # centidegrees of bank per radian -> radians per radian
-    assert identify("arduplane").gain_per_s == pytest.approx(GRAVITY_MSS * kp_rad / SPEED, rel=0.03)
-    assert identify("ideal").gain_per_s == pytest.approx(airframe.heading_gain_per_s, rel=0.03)
-    assert identify("arduplane").lag_s == pytest.approx(airframe.roll_time_constant_s, rel=0.1)
+    arduplane, ideal = COURSE_LOOPS["arduplane"], COURSE_LOOPS["ideal"]
+    assert arduplane.airspeed_mps == ideal.airspeed_mps == SPEED
+    assert arduplane.gain_per_s == pytest.approx(GRAVITY_MSS * kp_rad / SPEED, rel=0.03)
+    assert ideal.gain_per_s == pytest.approx(airframe.heading_gain_per_s, rel=0.03)
+    assert arduplane.lag_s == pytest.approx(airframe.roll_time_constant_s, rel=0.1)
+    assert ideal.lag_s == pytest.approx(airframe.roll_time_constant_s, rel=0.1)
 
 
 def test_a_bank_to_turn_gain_scales_inversely_with_airspeed() -> None:

@@ -9,7 +9,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from gcs.bench.estimation import generate_dataset, run_duif, run_filterpy_ukf
 from gcs.core.filters.uif import GaussianEstimate, UnscentedInformationFilter, pseudo_measurement
 from gcs.core.models.motion import constant_acceleration, constant_velocity
 from gcs.core.models.sensor import SensorModel
@@ -100,23 +99,6 @@ def test_missed_detections_contribute_nothing() -> None:
     np.testing.assert_allclose(partial.mean, by_hand.mean, rtol=1e-12)
     full = UIF.update(prior, [UIF.contribution(prior, SENSOR, z, VEHICLES)])
     assert np.trace(full.cov) < np.trace(partial.cov) < np.trace(prior.cov)
-
-
-def test_duif_agrees_with_a_covariance_form_ukf_on_the_same_data() -> None:
-    """Oracle: FilterPy's stacked UKF (covariance form) on the same generated data."""
-    data = generate_dataset(runs=3, steps=80, vehicles=3, seed=11)
-    for run in range(3):
-        duif_means, duif_covs, _ = run_duif(data, run, second_order=False)  # eq. (12)-(13), the UKF's terms
-        ukf_means, ukf_covs, _ = run_filterpy_ukf(data, run)
-        sigma = np.sqrt(np.einsum("kii->ki", ukf_covs))
-        # After the first steps (prior much wider than the measurements) they agree to a
-        # small fraction of a standard deviation; they differ only by the UKF's extra
-        # second-order term in P_zz, which the information form drops (eq. 12).
-        gap = np.abs(duif_means - ukf_means) / sigma
-        assert gap.max() < 0.3
-        assert gap[10:].max() < 0.05
-        ratio = np.einsum("kii->ki", duif_covs[5:]) / np.einsum("kii->ki", ukf_covs[5:])
-        assert np.all(np.abs(ratio - 1.0) < 0.01)
 
 
 def test_noiseless_measurements_give_near_zero_error() -> None:

@@ -26,6 +26,7 @@ from __future__ import annotations
 import math
 import threading
 from collections import deque
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -122,8 +123,8 @@ class Picture:
     def observe(self, message: Message) -> None:
         """A decoded, valid message of any type; types the page does not draw are ignored."""
         with self._lock:
-            stamp = getattr(message, "stamp_ns", None)
             if isinstance(message, (SensorReport, NavReport, TargetTruth, TrackEstimate)):
+                stamp = message.stamp_ns
                 self.newest_ns = stamp if self.newest_ns is None else max(self.newest_ns, stamp)
                 self.first_ns = stamp if self.first_ns is None else min(self.first_ns, stamp)
                 self.trail_epoch_ns = stamp if self.trail_epoch_ns is None else self.trail_epoch_ns
@@ -149,6 +150,13 @@ class Picture:
             if vehicle is not None:
                 vehicle.token = alive
 
+    @property
+    def _epoch_ns(self) -> int:
+        """:attr:`trail_epoch_ns`, which the first stamped message sets, before any trail point is added."""
+        if self.trail_epoch_ns is None:
+            raise RuntimeError("a trail point before the first stamped message")
+        return self.trail_epoch_ns
+
     def _vehicle(self, vehicle_id: str) -> _Vehicle | None:
         vehicle = self.vehicles.get(vehicle_id)
         if vehicle is None:
@@ -161,7 +169,7 @@ class Picture:
     def _move(self, vehicle: _Vehicle, stamp_ns: int, position: tuple[float, float, float]) -> None:
         if vehicle.stamp_ns is None or stamp_ns >= vehicle.stamp_ns:
             vehicle.position, vehicle.fix, vehicle.stamp_ns = position, None, stamp_ns
-            vehicle.trail.add(stamp_ns, position[0], position[1], self.trail_epoch_ns)
+            vehicle.trail.add(stamp_ns, position[0], position[1], self._epoch_ns)
 
     def _enu(self, fixes: list[tuple[float, float, float]]) -> np.ndarray:
         lat, lon, alt = np.array(fixes, dtype=np.float64).T
@@ -173,7 +181,7 @@ class Picture:
         if vehicle.stamp_ns is not None and stamp_ns < vehicle.stamp_ns:
             return
         if vehicle.trail.due(stamp_ns):
-            self._move(vehicle, stamp_ns, tuple(float(v) for v in self._enu([fix])[0]))
+            self._move(vehicle, stamp_ns, _xyz(self._enu([fix])[0]))
         else:
             vehicle.fix, vehicle.stamp_ns = fix, stamp_ns
 
@@ -183,7 +191,7 @@ class Picture:
             return
         vehicle.reports += 1
         vehicle.detected = report.detected
-        self._move(vehicle, report.stamp_ns, tuple(float(v) for v in report.vehicle_position_enu_m))
+        self._move(vehicle, report.stamp_ns, _xyz(report.vehicle_position_enu_m))
 
     def _on_nav(self, nav: NavReport) -> None:
         vehicle = self._vehicle(nav.vehicle_id)
@@ -209,7 +217,7 @@ class Picture:
         if target.track is not None and track.stamp_ns - target.track.stamp_ns > self.track_stale_ns:
             target.track_trail = Trail()  # a new track under the id of one that left the map: a trail of its own
         target.track = track
-        target.track_trail.add(track.stamp_ns, track.state[0], track.state[1], self.trail_epoch_ns)
+        target.track_trail.add(track.stamp_ns, track.state[0], track.state[1], self._epoch_ns)
         if not self._score(target, track):
             target.unscored.append(track)
 
@@ -220,7 +228,7 @@ class Picture:
             del target.truth_at[min(target.truth_at)]
         if target.truth is None or truth.stamp_ns >= target.truth.stamp_ns:
             target.truth = truth
-            target.truth_trail.add(truth.stamp_ns, *truth.position_enu_m, self.trail_epoch_ns)
+            target.truth_trail.add(truth.stamp_ns, *truth.position_enu_m, self._epoch_ns)
         for track in [t for t in target.unscored if abs(t.stamp_ns - truth.stamp_ns) <= self.tolerance_ns]:
             target.unscored.remove(track)
             self._score(target, track)
@@ -264,7 +272,7 @@ class Picture:
         with self._lock:
             pending = [v for v in self.vehicles.values() if v.fix is not None]
             if pending:  # the newest fixes, converted in one call
-                for vehicle, enu in zip(pending, self._enu([v.fix for v in pending])):
+                for vehicle, enu in zip(pending, self._enu([v.fix for v in pending if v.fix is not None])):
                     vehicle.position, vehicle.fix = (float(enu[0]), float(enu[1]), float(enu[2])), None
             status = status if status is not None else self.status
             links = {} if status is None else {entry.vehicle_id: entry for entry in status.vehicles}
@@ -287,14 +295,14 @@ class Picture:
             fresh_ns = self._forget_stale_tracks()
             for target_id, t in self.targets.items():
                 if t.track is not None and t.track.stamp_ns >= fresh_ns:
-                    tracks.append(self._track(t))
+                    tracks.append(self._track(t.track, t.track_trail))
                 if t.truth is not None:
                     truths.append({"target_id": target_id, "stamp_ns": t.truth.stamp_ns,
                                    "x": _r(t.truth.position_enu_m[0]), "y": _r(t.truth.position_enu_m[1]),
                                    "trail": t.truth_trail.encoded()})
                 if t.scored:
                     errors[target_id] = {"rmse_m": round(math.sqrt(t.squares / t.scored), 2), "scored": t.scored,
-                                         "last_error_m": round(t.last_error_m, 2)}
+                                         "last_error_m": None if t.last_error_m is None else round(t.last_error_m, 2)}
             document = {"mode": self.mode, "stamp_ns": self.newest_ns, "trail_epoch_ns": self.trail_epoch_ns,
                         "vehicles": vehicles, "tracks": tracks, "truth": truths}
             counters = dict(status.counters) if status is not None else {}
@@ -303,9 +311,10 @@ class Picture:
                 "mode": self.mode, "scenario": self.scenario.name, "stamp_ns": self.newest_ns,
                 "first_stamp_ns": self.first_ns,
                 "uptime_s": None if status is None else round(status.uptime_s, 1),
-                "vehicles": [{"id": v["id"], "link": v["link"], "reports": v["reports"], "detected": v["detected"],
-                              "sysid": getattr(links.get(v["id"]), "sysid", None),
-                              "autopilot": getattr(links.get(v["id"]), "autopilot", None)} for v in vehicles],
+                "vehicles": [{"id": vehicle_id, "link": v["link"], "reports": v["reports"], "detected": v["detected"],
+                              "sysid": getattr(links.get(vehicle_id), "sysid", None),
+                              "autopilot": getattr(links.get(vehicle_id), "autopilot", None)}
+                             for vehicle_id, v in zip(self.vehicles, vehicles)],
                 "counters": counters,
                 "last_track_stamp_ns": max((t["stamp_ns"] for t in tracks), default=None),
                 "errors": errors,
@@ -326,8 +335,7 @@ class Picture:
         return fresh_ns
 
     @staticmethod
-    def _track(target: _Target) -> dict:
-        track = target.track
+    def _track(track: TrackEstimate, trail: Trail) -> dict:
         n = len(track.state)
         cov = np.asarray(track.covariance, dtype=np.float64).reshape(n, n)
         return {
@@ -340,5 +348,11 @@ class Picture:
             "prediction": [{"stamp_ns": p.stamp_ns, "x": _r(p.position_enu_m[0]), "y": _r(p.position_enu_m[1]),
                             "ellipse": ellipse(p.position_cov_m2)} for p in track.prediction],
             "contributing": list(track.contributing_vehicles),
-            "trail": target.track_trail.encoded(),
+            "trail": trail.encoded(),
         }
+
+
+def _xyz(values: Iterable[float]) -> tuple[float, float, float]:
+    """Three coordinates as Python floats."""
+    x, y, z = (float(v) for v in values)
+    return x, y, z

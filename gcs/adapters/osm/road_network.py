@@ -146,7 +146,7 @@ def _segments(ways: Iterable[Way], box: Box) -> tuple[list[_Segment], dict[int, 
         for present, group in itertools.groupby(nodes, key=lambda node: node is not None):
             if not present:
                 continue
-            points: list[Point] = list(group)
+            points: list[Point] = [node for node in group if node is not None]
             for run in clipped_runs(box, points, new_key):
                 for a, b in zip(run, run[1:]):
                     where[a[0]], where[b[0]] = a[1:], b[1:]
@@ -214,14 +214,18 @@ def _strongly_connected(chains: list[list[tuple[int, bool]]], segments: list[_Se
     pairs = [_chain_ends(chain, segments) for chain in chains]
     nodes = sorted({node for pair in pairs for node in pair})
     number = {node: i for i, node in enumerate(nodes)}
-    tails, heads = [], []
+    tails: list[int] = []
+    heads: list[int] = []
     for chain, (a, b) in zip(chains, pairs):
         oneway, forward = segments[chain[0][0]].oneway, chain[0][1]
         if not oneway or forward:
-            tails.append(number[a]), heads.append(number[b])
+            tails.append(number[a])
+            heads.append(number[b])
         if not oneway or not forward:
-            tails.append(number[b]), heads.append(number[a])
-    arcs = coo_matrix((np.ones(len(tails)), (tails, heads)), shape=(len(nodes), len(nodes)))
+            tails.append(number[b])
+            heads.append(number[a])
+    arcs = coo_matrix((np.ones(len(tails)), (np.array(tails, dtype=np.intp), np.array(heads, dtype=np.intp))),
+                      shape=(len(nodes), len(nodes)))
     _, labels = connected_components(arcs, directed=True, connection="strong")
     largest = np.bincount(labels).argmax()
     keep = [chain for chain, (a, b) in zip(chains, pairs) if labels[number[a]] == largest == labels[number[b]]]

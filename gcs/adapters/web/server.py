@@ -82,7 +82,7 @@ def parse_http_address(text: str) -> tuple[str, int] | None:
 
 
 def _static(name: str) -> bytes:
-    return resources.files("gcs.adapters.web").joinpath("static", name).read_bytes()
+    return resources.files("gcs.adapters.web").joinpath("static").joinpath(name).read_bytes()
 
 
 class LiveMapServer:
@@ -115,20 +115,19 @@ class LiveMapServer:
         self._event = b""
         self._streams = 0
         self._closing = False
-        self._httpd = ThreadingHTTPServer(address, _Handler)
+        self._httpd = _LiveHTTPServer(address, _Handler, self)
         self._httpd.daemon_threads = True
-        self._httpd.live = self
         self._thread = threading.Thread(target=self._httpd.serve_forever, kwargs={"poll_interval": 0.2},
                                         name="live-map-http", daemon=True)
         self._thread.start()
-        host, port = self._httpd.server_address[:2]
-        self.url = f"http://{host}:{port}/"
+        host = self._httpd.server_address[0]
+        self.url = f"http://{host if isinstance(host, str) else host.decode()}:{self.port}/"
         log.info("live map on %s", self.url)
 
     @property
     def port(self) -> int:
         """The bound port."""
-        return self._httpd.server_address[1]
+        return self._httpd.server_port
 
     def publish(self, tracks: bytes, status: bytes) -> None:
         """Make these the newest snapshot (JSON bytes, one line each) and wake the event streams."""
@@ -178,6 +177,14 @@ class LiveMapServer:
         self._thread.join(timeout=5.0)
 
 
+class _LiveHTTPServer(ThreadingHTTPServer):
+    """The HTTP server of one :class:`LiveMapServer` (``live``), which its handlers serve."""
+
+    def __init__(self, address: tuple[str, int], handler: type[BaseHTTPRequestHandler], live: LiveMapServer) -> None:
+        super().__init__(address, handler)
+        self.live = live
+
+
 class _Handler(BaseHTTPRequestHandler):
     """One connection; ``self.server.live`` is the :class:`LiveMapServer`."""
 
@@ -186,7 +193,10 @@ class _Handler(BaseHTTPRequestHandler):
 
     @property
     def live(self) -> LiveMapServer:
-        return self.server.live
+        server = self.server
+        if not isinstance(server, _LiveHTTPServer):
+            raise TypeError(f"{type(self).__name__} serves a LiveMapServer, not a {type(server).__name__}")
+        return server.live
 
     def log_message(self, format: str, *args) -> None:  # noqa: A002 - the base class's name
         log.debug("%s %s", self.address_string(), format % args)

@@ -69,7 +69,7 @@ class AoaScan:
     positions: NDArray[np.float64]
 
     @classmethod
-    def of(cls, sensors: Sequence[SensorModel], z: ArrayLike | Sequence[ArrayLike], sensor_xyz: ArrayLike) -> AoaScan:
+    def of(cls, sensors: Sequence[SensorModel], z: NDArray[np.float64] | Sequence[ArrayLike], sensor_xyz: ArrayLike) -> AoaScan:
         """Build a scan; ``z`` is (M,) for azimuth-only sensors, (M, m) or a list of per-sensor vectors."""
         stacked = np.concatenate([np.atleast_1d(np.asarray(zi, dtype=np.float64)) for zi in z])
         positions = np.asarray(sensor_xyz, dtype=np.float64).reshape(len(sensors), 3)
@@ -130,7 +130,8 @@ class AoaScan:
     @property
     def azimuth_indices(self) -> NDArray[np.int_]:
         """Position of each sensor's azimuth in the stacked vector, shape (M,)."""
-        return np.cumsum(self.dims) - self.dims + np.array([s.azimuth_index for s in self.sensors])
+        indices: NDArray[np.int_] = np.cumsum(self.dims) - self.dims + np.array([s.azimuth_index for s in self.sensors])
+        return indices
 
 
 def _with_velocity(
@@ -157,12 +158,12 @@ def pseudo_linear_position(scan: AoaScan) -> NDArray[np.float64]:
     """Least-squares intersection of the bearing lines, shape (2,); needs two non-parallel bearings."""
     rows, rhs = _bearing_rows(scan)
     solution, *_ = np.linalg.lstsq(rows, rhs, rcond=None)
-    return solution
+    return solution.astype(np.float64, copy=False)
 
 
 def pseudo_linear_initialise(
     sensors: Sequence[SensorModel],
-    z: ArrayLike | Sequence[ArrayLike],
+    z: NDArray[np.float64] | Sequence[ArrayLike],
     sensor_xyz: ArrayLike,
     stamp_ns: int,
     velocity_std_mps: float,
@@ -217,7 +218,7 @@ def negative_log_likelihood(scan: AoaScan, position: NDArray[np.float64]) -> flo
 
 def ml_initialise(
     sensors: Sequence[SensorModel],
-    z: ArrayLike | Sequence[ArrayLike],
+    z: NDArray[np.float64] | Sequence[ArrayLike],
     sensor_xyz: ArrayLike,
     stamp_ns: int,
     velocity_std_mps: float,
@@ -260,16 +261,22 @@ def ml_initialise(
             last[key] = _ml_residuals(scan, p)
         return last[key]
 
+    def residuals(p: NDArray[np.float64]) -> NDArray[np.float64]:
+        return evaluate(p)[0]
+
+    def jacobian(p: NDArray[np.float64]) -> NDArray[np.float64]:
+        return evaluate(p)[1]
+
     solution = least_squares(
-        lambda p: evaluate(p)[0],
+        residuals,
         start,
-        jac=lambda p: evaluate(p)[1],
+        jac=jacobian,
         method="lm",
         x_scale="jac",
         xtol=1e-12,
         ftol=1e-12,
         gtol=1e-12,
     )
-    position = solution.x
-    cov = np.linalg.inv(fisher_information(scan.sensors, position, scan.positions))
+    position = solution.x.astype(np.float64, copy=False)
+    cov = np.linalg.inv(fisher_information(scan.sensors, position, scan.positions)).astype(np.float64, copy=False)
     return _with_velocity(position, cov, velocity_std_mps, stamp_ns)

@@ -60,6 +60,9 @@ CA2D = StateLayout("ca2d", ("x_m", "y_m", "vx_mps", "vy_mps", "ax_mps2", "ay_mps
 """Constant acceleration (:func:`gcs.core.models.motion.constant_acceleration`), wang2012's state."""
 LAYOUTS = {layout.dim: layout for layout in (CV2D, CT2D, CA2D)}
 """The layout of a state of each dimension unless an estimate names another."""
+BY_DIMENSION = StateLayout("by dimension", ())
+"""The default ``layout`` of a :class:`GaussianEstimate`: the one :data:`LAYOUTS` gives its dimension (an estimate
+never keeps this one)."""
 
 
 def check_stamp_ns(stamp_ns: object, name: str = "stamp_ns") -> int:
@@ -99,8 +102,9 @@ def cholesky(matrix: NDArray[np.float64]) -> NDArray[np.float64]:
         factor, info = lapack.dpotrf(matrix, lower=1, clean=1)
         if info != 0:
             raise NotPositiveDefinite(f"matrix is not positive definite (LAPACK dpotrf info={info})")
-        return factor
-    return np.linalg.cholesky(matrix)
+        lower: NDArray[np.float64] = factor
+        return lower
+    return np.linalg.cholesky(matrix).astype(np.float64, copy=False)
 
 
 def triangular_inverse(lower: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -109,8 +113,9 @@ def triangular_inverse(lower: NDArray[np.float64]) -> NDArray[np.float64]:
         inverse, info = lapack.dtrtri(lower, lower=1)
         if info != 0:
             raise NotPositiveDefinite(f"singular triangular factor (LAPACK dtrtri info={info})")
-        return inverse
-    return np.linalg.inv(lower)
+        inverse_2d: NDArray[np.float64] = inverse
+        return inverse_2d
+    return np.linalg.inv(lower).astype(np.float64, copy=False)
 
 
 @dataclass(frozen=True)
@@ -128,7 +133,7 @@ class GaussianEstimate:
     mean: NDArray[np.float64]
     cov: NDArray[np.float64]
     stamp_ns: int
-    layout: StateLayout | None = field(default=None, kw_only=True)
+    layout: StateLayout = field(default=BY_DIMENSION, kw_only=True)
 
     def __post_init__(self) -> None:
         mean, cov = _float_array(self.mean, "mean"), _float_array(self.cov, "cov")
@@ -138,7 +143,7 @@ class GaussianEstimate:
         if cov.shape != mean.shape + (n,):
             raise ValueError(f"cov must have shape {mean.shape + (n,)} for a mean of shape {mean.shape}, "
                              f"got {cov.shape}")
-        layout = self.layout if self.layout is not None else LAYOUTS.get(n)
+        layout = self.layout if self.layout is not BY_DIMENSION else LAYOUTS.get(n)
         if layout is None:
             raise ValueError(f"no state layout for a {n}-dimensional state (known: "
                              f"{', '.join(f'{d} {lay.name}' for d, lay in LAYOUTS.items())}); pass layout=")
@@ -166,7 +171,7 @@ class GaussianEstimate:
     @property
     def dim(self) -> int:
         """State dimension ``n``."""
-        return self.mean.shape[-1]
+        return int(self.mean.shape[-1])
 
     @property
     def position(self) -> NDArray[np.float64]:

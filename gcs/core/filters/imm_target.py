@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -45,7 +45,7 @@ from gcs.core.filters.switching import ModeMixture, check_transition, imm_step
 from gcs.core.filters.uif import NS_PER_S, GaussianEstimate, UnscentedInformationFilter, pseudo_measurement
 from gcs.core.filters.unscented import SigmaPointParameters
 from gcs.core.models.motion import constant_velocity
-from gcs.core.models.sensor import SensorModel
+from gcs.core.models.sensor import DetectionGroup
 
 __all__ = ["ImmEstimate", "ImmTargetFilter", "MODE_NAMES", "coordinated_turn"]
 
@@ -59,7 +59,7 @@ _LOG_2PI = math.log(2.0 * math.pi)
 class ImmEstimate(GaussianEstimate):
     """The collapsed ``cv2d`` estimate (``mean`` (4,), ``cov`` (4, 4), ``stamp_ns``) and the modes (5-D each)."""
 
-    modes: ModeMixture | None = None
+    modes: ModeMixture = field(kw_only=True)
 
     @property
     def probabilities(self) -> NDArray[np.float64]:
@@ -150,8 +150,7 @@ class ImmTargetFilter:
         new_cov = (d.T * wc) @ d + q
         return new_mean, 0.5 * (new_cov + new_cov.T)
 
-    def update_mode(self, prior: GaussianEstimate, groups: Sequence[tuple[SensorModel, NDArray, NDArray, NDArray | None]]
-                    ) -> tuple[GaussianEstimate, float]:
+    def update_mode(self, prior: GaussianEstimate, groups: Sequence[DetectionGroup]) -> tuple[GaussianEstimate, float]:
         """The DUIF update of one mode's prediction and the log-likelihood of the detections under it.
 
         ``groups``: per sensor model, measurements (k, m), vehicle positions (k, 3), and vehicle covariances
@@ -162,7 +161,9 @@ class ImmTargetFilter:
         uif = self.uif
         contributions = [uif.contribution(prior, s, z, xyz, covs) for s, z, xyz, covs in groups]
         posterior = uif.update(prior, contributions)
-        h_rows, nu, r_blocks = [], [], []
+        h_rows: list[NDArray[np.float64]] = []
+        nu: list[NDArray[np.float64]] = []
+        r_blocks: list[NDArray[np.float64]] = []
         for sensor, z, xyz, covs in groups:
             z_pred, h_pos = pseudo_measurement(prior, sensor, xyz, self.sigma)
             r = uif.noise_covariance(prior, sensor, z_pred, xyz, covs)  # the R of the mode's update
@@ -182,13 +183,14 @@ class ImmTargetFilter:
         return posterior, float(log_lik) if sign > 0 else -np.inf
 
     def step(self, estimate: ImmEstimate, stamp_ns: int,
-             groups: Sequence[tuple[SensorModel, NDArray, NDArray, NDArray | None]]) -> ImmEstimate:
+             groups: Sequence[DetectionGroup]) -> ImmEstimate:
         """One IMM cycle to ``stamp_ns`` with the detections ``groups`` (see :meth:`update_mode`)."""
         if stamp_ns < estimate.stamp_ns:
             raise ValueError(f"cannot predict backwards from {estimate.stamp_ns} ns to {stamp_ns} ns")
         dt = (stamp_ns - estimate.stamp_ns) / NS_PER_S
 
-        def filter_mode(j: int, mean, cov):
+        def filter_mode(j: int, mean: NDArray[np.float64],
+                        cov: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
             m, p = self.predict_mode(j, mean, cov, dt)
             posterior, log_lik = self.update_mode(GaussianEstimate(m, p, stamp_ns), groups)
             return posterior.mean, posterior.cov, log_lik
@@ -199,4 +201,4 @@ class ImmTargetFilter:
 
 def _estimate(modes: ModeMixture, stamp_ns: int) -> ImmEstimate:
     mean, cov = modes.collapse()
-    return ImmEstimate(mean[:4].copy(), cov[:4, :4].copy(), stamp_ns, modes)
+    return ImmEstimate(mean[:4].copy(), cov[:4, :4].copy(), stamp_ns, modes=modes)

@@ -71,40 +71,44 @@ def check_estimate(estimate: object, name: str) -> None:
         raise TypeError(f"{name} must be a GaussianEstimate, got {type(estimate).__name__}")
 
 
-def fusion_inputs(prior, contributions) -> tuple[GaussianEstimate, Sequence[InformationContribution]]:
+def fusion_inputs(prior: GaussianEstimate | InformationContribution | Sequence[InformationContribution],
+                  contributions: InformationContribution | Sequence[InformationContribution] | None,
+                  ) -> tuple[GaussianEstimate, Sequence[InformationContribution]]:
     """The prior and the contributions of :meth:`~gcs.core.filters.uif.UnscentedInformationFilter.update`, in either call form."""
-    if contributions is None:
-        contributions, prior = prior, None
-    if type(contributions) is InformationContribution:
-        contributions = [contributions]
-    if type(contributions) is list and contributions:  # the usual calls, checked cheaply
-        common = contributions[0].prior if prior is None else prior
+    given: object = prior  # checked at run time: callers need not be type-checked
+    found: object = contributions
+    if found is None:  # update(contributions)
+        found, given = given, None
+    if type(found) is InformationContribution:
+        found = [found]
+    if type(found) is list and found:  # the usual calls, checked cheaply
+        common = found[0].prior if given is None else given
         if isinstance(common, GaussianEstimate) and common.mean.ndim == 1 and all(
-                type(c) is InformationContribution and c.prior is common for c in contributions):
-            return common, contributions
-    if isinstance(contributions, InformationContribution):
-        contributions = [contributions]
-    if not isinstance(contributions, Sequence) or not all(isinstance(c, InformationContribution)
-                                                          for c in contributions):
+                type(c) is InformationContribution and c.prior is common for c in found):
+            return common, found
+    if isinstance(found, InformationContribution):
+        found = [found]
+    if not isinstance(found, Sequence) or not all(isinstance(c, InformationContribution) for c in found):
         raise TypeError("contributions must be InformationContribution(s) from contribution(), got "
-                        f"{type(contributions).__name__}")
-    if prior is None:
-        priors = {id(c.prior): c.prior for c in contributions}
-        if not contributions or None in priors.values():
+                        f"{type(found).__name__}")
+    if given is None:
+        priors = {id(c.prior): c.prior for c in found}
+        if not found or None in priors.values():
             raise ValueError("update(contributions) needs contributions made by contribution(), which know their "
                              "prior; otherwise call update(prior, contributions)")
         if len(priors) > 1:
             raise ValueError("the contributions were computed against different priors; fuse each into its own")
-        prior = contributions[0].prior
-    check_estimate(prior, "prior")
-    if prior.mean.ndim != 1:
-        raise ValueError(f"update fuses into one estimate; the prior has mean shape {prior.mean.shape}")
-    for index, c in enumerate(contributions):
-        if c.prior is not None and c.prior is not prior and not _same(c.prior, prior):
+        given = found[0].prior
+    if not isinstance(given, GaussianEstimate):
+        raise TypeError(f"prior must be a GaussianEstimate, got {type(given).__name__}")
+    if given.mean.ndim != 1:
+        raise ValueError(f"update fuses into one estimate; the prior has mean shape {given.mean.shape}")
+    for index, c in enumerate(found):
+        if c.prior is not None and c.prior is not given and not _same(c.prior, given):
             raise ValueError(f"contribution {index} was computed against another prior (stamp {c.prior.stamp_ns} "
-                             f"ns) than the one given (stamp {prior.stamp_ns} ns): predict, then contribute "
+                             f"ns) than the one given (stamp {given.stamp_ns} ns): predict, then contribute "
                              "against that prediction")
-    return prior, contributions
+    return given, found
 
 
 def _same(a: GaussianEstimate, b: GaussianEstimate) -> bool:

@@ -87,4 +87,5 @@ def expected_information(
     z_pred, h_pos = pseudo_measurement(prediction.states, sensor, candidate_xyz, uif.sigma)
     r_inv = 1.0 / uif.noise_variance(prediction.states, sensor, z_pred, candidate_xyz)  # the filter's R (eq. 13)
     ht_rinv = h_pos.swapaxes(-1, -2) * r_inv[..., None, :]
-    return ht_rinv @ h_pos
+    information: NDArray[np.float64] = ht_rinv @ h_pos
+    return information

@@ -117,7 +117,7 @@ class ModeMixture:
     @property
     def modes(self) -> int:
         """Number of modes N."""
-        return self.probabilities.shape[0]
+        return len(self.probabilities)
 
     def collapse(self, angle_indices: Sequence[int] = ()) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The moment-matched Gaussian of the whole mixture."""
@@ -127,10 +127,9 @@ class ModeMixture:
 def _normalise_log(log_weights: NDArray[np.float64], fallback: NDArray[np.float64]) -> NDArray[np.float64]:
     """``exp(log_w) / sum`` computed from the largest term; ``fallback`` when every weight is zero."""
     top = float(np.max(log_weights))
-    if not np.isfinite(top):
-        return fallback / fallback.sum()
-    weights = np.exp(log_weights - top)
-    return weights / weights.sum()
+    weights = fallback if not np.isfinite(top) else np.exp(log_weights - top)
+    normalised: NDArray[np.float64] = weights / weights.sum()
+    return normalised
 
 
 def _safe_log(x: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -170,7 +169,9 @@ def gpb2_step(prior: ModeMixture, transition: NDArray[np.float64], filter_pair: 
 
 
 def _fallback_column(column: NDArray[np.float64], prior: NDArray[np.float64]) -> NDArray[np.float64]:
-    return column / column.sum() if column.sum() > 0.0 else prior / prior.sum()
+    weights = column if column.sum() > 0.0 else prior
+    normalised: NDArray[np.float64] = weights / weights.sum()
+    return normalised
 
 
 def imm_step(prior: ModeMixture, transition: NDArray[np.float64], filter_mode: ModeFilter,

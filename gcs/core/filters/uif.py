@@ -62,7 +62,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from gcs.core.filters.estimate import NS_PER_S, GaussianEstimate, NotPositiveDefinite, check_stamp_ns
 from gcs.core.filters.information import InformationContribution, check_estimate, fusion_inputs
@@ -145,7 +145,7 @@ class UnscentedInformationFilter:
     """Add the linearisation's second-order variance to ``R`` (see :meth:`noise_variance`). True, the
     default, is the filter: the daemon, ``gcs replay --process`` and every bench's closed loop run it, and
     it keeps a vehicle right above the target from throwing the track off (docs/benchmarks.md). False gives
-    eq. (12)-(13) as printed, for comparison with the paper (``gcs bench estimation`` reports both)."""
+    eq. (12)-(13) as printed, for comparison with the paper (``gcs-bench estimation`` reports both)."""
 
     def predict(self, estimate: GaussianEstimate, stamp_ns: int) -> GaussianEstimate:
         """Predict to ``stamp_ns`` (integer nanoseconds; eq. 9, 11, 16); the same stamp returns the estimate
@@ -289,27 +289,30 @@ class UnscentedInformationFilter:
         return GaussianEstimate.computed(mean, cov, prior.stamp_ns, prior.layout)
 
 
-def _checked_measurements(prior: GaussianEstimate, sensor: SensorModel, z, vehicle_xyz, vehicle_cov
+def _checked_measurements(prior: GaussianEstimate, sensor: SensorModel, z: ArrayLike, vehicle_xyz: ArrayLike,
+                          vehicle_cov: ArrayLike | None
                           ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None]:
     """The arguments of :meth:`UnscentedInformationFilter.contribution` as float64 arrays, shapes checked."""
     check_estimate(prior, "prior")
     if not isinstance(sensor, SensorModel):
         raise TypeError(f"sensor must be a SensorModel, got {type(sensor).__name__}")
-    z = np.asarray(z, dtype=np.float64)
-    vehicle_xyz = np.asarray(vehicle_xyz, dtype=np.float64)
-    if z.ndim == 0 or z.shape[-1] != sensor.dim:
-        raise ValueError(f"z must have shape (..., {sensor.dim}) for a {sensor.dim}-component sensor, got {z.shape}")
-    if vehicle_xyz.ndim == 0 or vehicle_xyz.shape[-1] != 3:
-        raise ValueError(f"vehicle_xyz must have shape (..., 3) (ENU metres), got {vehicle_xyz.shape}")
-    if z.shape[:-1] != vehicle_xyz.shape[:-1]:  # (equal shapes, the usual case, need no more)
+    z_array = np.asarray(z, dtype=np.float64)
+    xyz = np.asarray(vehicle_xyz, dtype=np.float64)
+    if z_array.ndim == 0 or z_array.shape[-1] != sensor.dim:
+        raise ValueError(f"z must have shape (..., {sensor.dim}) for a {sensor.dim}-component sensor, "
+                         f"got {z_array.shape}")
+    if xyz.ndim == 0 or xyz.shape[-1] != 3:
+        raise ValueError(f"vehicle_xyz must have shape (..., 3) (ENU metres), got {xyz.shape}")
+    if z_array.shape[:-1] != xyz.shape[:-1]:  # (equal shapes, the usual case, need no more)
         try:
-            np.broadcast_shapes(z.shape[:-1], vehicle_xyz.shape[:-1])
+            np.broadcast_shapes(z_array.shape[:-1], xyz.shape[:-1])
         except ValueError:
-            raise ValueError(f"z {z.shape} and vehicle_xyz {vehicle_xyz.shape} do not broadcast: one vehicle "
+            raise ValueError(f"z {z_array.shape} and vehicle_xyz {xyz.shape} do not broadcast: one vehicle "
                              "position per measurement") from None
-    if vehicle_cov is not None:
-        vehicle_cov = np.asarray(vehicle_cov, dtype=np.float64)
-        if vehicle_cov.shape not in (vehicle_xyz.shape[:-1], vehicle_xyz.shape[:-1] + (3, 3)):
-            raise ValueError(f"vehicle_cov must have shape {vehicle_xyz.shape[:-1]} (per-axis variances) or "
-                             f"{vehicle_xyz.shape[:-1] + (3, 3)} (covariances), got {vehicle_cov.shape}")
-    return z, vehicle_xyz, vehicle_cov
+    if vehicle_cov is None:
+        return z_array, xyz, None
+    cov = np.asarray(vehicle_cov, dtype=np.float64)
+    if cov.shape not in (xyz.shape[:-1], xyz.shape[:-1] + (3, 3)):
+        raise ValueError(f"vehicle_cov must have shape {xyz.shape[:-1]} (per-axis variances) or "
+                         f"{xyz.shape[:-1] + (3, 3)} (covariances), got {cov.shape}")
+    return z_array, xyz, cov

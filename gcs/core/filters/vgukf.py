@@ -79,7 +79,7 @@ class ScanFilter:
         self,
         estimate: GaussianEstimate,
         sensors: Sequence[SensorModel],
-        z: ArrayLike | Sequence[ArrayLike],
+        z: NDArray[np.float64] | Sequence[ArrayLike],
         sensor_xyz: ArrayLike,
     ) -> GaussianEstimate:
         """Fuse one scan of M sensors taken at the estimate's time.

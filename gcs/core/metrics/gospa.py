@@ -48,7 +48,8 @@ def as_points(points: ArrayLike) -> NDArray[np.float64]:
 def cutoff_distances(estimates: NDArray[np.float64], truths: NDArray[np.float64], c: float) -> NDArray[np.float64]:
     """Cut-off Euclidean distances ``min(||x_i - y_j||, c)``, shape (m, n), for estimates (m, 2), truths (n, 2)."""
     diff = estimates[:, None, :] - truths[None, :, :]
-    return np.minimum(np.sqrt(np.einsum("mnk,mnk->mn", diff, diff)), c)
+    distances: NDArray[np.float64] = np.minimum(np.sqrt(np.einsum("mnk,mnk->mn", diff, diff)), c)
+    return distances
 
 
 def check_parameters(c: float, p: float) -> None:

@@ -60,17 +60,17 @@ class TrackScores:
     false_track_steps: int
     missed: int
     truth_steps: int
-    pairs: tuple[dict, ...]
+    pairs: tuple[dict[Hashable, Hashable | None], ...]
 
 
 def track_scores(steps: Sequence[StepTracks], c: float, p: float = 2.0) -> TrackScores:
     """Track breaks, id swaps, false tracks and missed truth-steps over ``steps`` (in time order)."""
-    previous: dict = {}  # truth -> track at its previous step (None when unpaired)
-    last_track: dict = {}  # truth -> the last track it was paired with
-    owners: dict = {}  # track -> truths it has been paired with so far
-    seen_tracks: set = set()
+    previous: dict[Hashable, Hashable | None] = {}  # truth -> track at its previous step (None when unpaired)
+    last_track: dict[Hashable, Hashable] = {}  # truth -> the last track it was paired with
+    owners: dict[Hashable, set[Hashable]] = {}  # track -> truths it has been paired with so far
+    seen_tracks: set[Hashable] = set()
     breaks = swaps = false_steps = missed = truth_steps = 0
-    pairs = []
+    pairs: list[dict[Hashable, Hashable | None]] = []
     for step in steps:
         result = gospa(step.track_xy, step.truth_xy, c, p)
         paired = {truth: (step.track_ids[j] if j >= 0 else None) for truth, j in zip(step.truth_ids, result.assignment)}

@@ -26,6 +26,7 @@ Both are linear, so the unscented prediction of the filters reproduces
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -63,8 +64,13 @@ def _ca_matrices(dt: float, q: float) -> tuple[NDArray[np.float64], NDArray[np.f
     return f, qm
 
 
+MatricesBuilder = Callable[[float, float], tuple[NDArray[np.float64], NDArray[np.float64]]]
+"""``(dt, q) -> (F, Q)`` of one motion model."""
+
+
 @lru_cache(maxsize=64)
-def _horizon_matrices(build, dt: float, q: float, steps: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _horizon_matrices(build: MatricesBuilder, dt: float, q: float,
+                      steps: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     f, qm = build(dt, q)
     powers, noises = [f], [qm]
     for _ in range(steps - 1):
@@ -114,7 +120,7 @@ class LinearMotionModel:
         return self._build(float(dt), float(self.noise_density))
 
     @property
-    def _build(self):
+    def _build(self) -> MatricesBuilder:
         """The cached ``(F, Q)`` builder of this model."""
         return _cv_matrices if self.name == "cv2d" else _ca_matrices
 
@@ -134,7 +140,8 @@ class LinearMotionModel:
     def propagate(self, states: NDArray[np.float64], dt: float) -> NDArray[np.float64]:
         """Noise-free transition ``F x`` of states with shape (..., dim) (wang2012 eq. 17)."""
         f, _ = self.matrices(dt)
-        return states @ f.T
+        propagated: NDArray[np.float64] = states @ f.T
+        return propagated
 
 
 def constant_velocity(accel_psd_m2_s3: float) -> LinearMotionModel:

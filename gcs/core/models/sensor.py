@@ -21,19 +21,24 @@ Noise: ``constant`` standard deviations, or zuo2021 eq. (2)
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
 from gcs.core.geometry import wrap_angle
 
-__all__ = ["RANGE", "AZIMUTH", "ELEVATION", "SensorModel"]
+__all__ = ["RANGE", "AZIMUTH", "ELEVATION", "DetectionGroup", "SensorModel"]
 
 RANGE, AZIMUTH, ELEVATION = "range", "azimuth", "elevation"
 _KNOWN = (RANGE, AZIMUTH, ELEVATION)
 _MIN_HORIZONTAL_M2 = 1e-6
 """Floor of ``rho_h^2`` in :meth:`SensorModel.linearisation_variance` (a vehicle right above the target)."""
+
+
+DetectionGroup = tuple["SensorModel", NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None]
+"""``(sensor, z (k, m), vehicle_xyz (k, 3), vehicle_cov)``: one sensor model's detections; ``vehicle_cov``: None,
+per-axis variances (k,) or (k, 3, 3) covariances."""
 
 
 @dataclass(frozen=True)
@@ -60,6 +65,9 @@ class SensorModel:
     distance_dependent: bool = False
     reference_range_m: float = 1500.0
     target_height_m: float = 0.0
+    _az: int = field(init=False, repr=False, compare=False)
+    _var: NDArray[np.float64] = field(init=False, repr=False, compare=False)
+    _inv_var: NDArray[np.float64] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         order = [_KNOWN.index(c) for c in self.components if c in _KNOWN]
@@ -71,7 +79,7 @@ class SensorModel:
             raise ValueError(f"std must give one positive value per component, got {self.std!r}")
         object.__setattr__(self, "_az", self.components.index(AZIMUTH))
         object.__setattr__(self, "_var", np.asarray(self.std, dtype=np.float64) ** 2)
-        object.__setattr__(self, "_inv_var", 1.0 / self._var)  # type: ignore[attr-defined]
+        object.__setattr__(self, "_inv_var", 1.0 / self._var)
 
     def __hash__(self) -> int:
         """Hashed once (per process: strings hash differently in each): the tracker groups every step's
@@ -83,22 +91,29 @@ class SensorModel:
             object.__setattr__(self, "_hash", cached)
         return cached
 
-    def __getstate__(self) -> dict:
+    def __getstate__(self) -> dict[str, object]:
         state = dict(self.__dict__)
         state.pop("_hash", None)  # another process hashes its strings differently
         return state
 
     @classmethod
-    def range_bearing(cls, range_std_m: float, azimuth_std_rad: float, elevation_std_rad: float, **kw) -> SensorModel:
-        """The paper's 3-D sensor: range, azimuth and elevation."""
-        return cls((RANGE, AZIMUTH, ELEVATION), (range_std_m, azimuth_std_rad, elevation_std_rad), **kw)
+    def range_bearing(cls, range_std_m: float, azimuth_std_rad: float, elevation_std_rad: float, *,
+                      distance_dependent: bool = distance_dependent, reference_range_m: float = reference_range_m,
+                      target_height_m: float = target_height_m) -> SensorModel:
+        """The paper's 3-D sensor: range, azimuth and elevation (the options default to the fields' defaults)."""
+        return cls((RANGE, AZIMUTH, ELEVATION), (range_std_m, azimuth_std_rad, elevation_std_rad),
+                   distance_dependent=distance_dependent, reference_range_m=reference_range_m,
+                   target_height_m=target_height_m)
 
     @classmethod
-    def bearing_only(cls, azimuth_std_rad: float, elevation_std_rad: float | None = None, **kw) -> SensorModel:
-        """Angles only: azimuth, plus elevation when its noise is given."""
-        if elevation_std_rad is None:
-            return cls((AZIMUTH,), (azimuth_std_rad,), **kw)
-        return cls((AZIMUTH, ELEVATION), (azimuth_std_rad, elevation_std_rad), **kw)
+    def bearing_only(cls, azimuth_std_rad: float, elevation_std_rad: float | None = None, *,
+                     distance_dependent: bool = distance_dependent, reference_range_m: float = reference_range_m,
+                     target_height_m: float = target_height_m) -> SensorModel:
+        """Angles only: azimuth, plus elevation when its noise is given (options as :meth:`range_bearing`)."""
+        components, std = ((AZIMUTH,), (azimuth_std_rad,)) if elevation_std_rad is None else (
+            (AZIMUTH, ELEVATION), (azimuth_std_rad, elevation_std_rad))
+        return cls(components, std, distance_dependent=distance_dependent, reference_range_m=reference_range_m,
+                   target_height_m=target_height_m)
 
     @property
     def dim(self) -> int:
@@ -108,9 +123,11 @@ class SensorModel:
     @property
     def azimuth_index(self) -> int:
         """Position of the azimuth in a measurement vector."""
-        return self._az  # type: ignore[attr-defined]
+        return self._az
 
-    def _relative(self, target_xy: NDArray[np.float64], vehicle_xyz: NDArray[np.float64]):
+    def _relative(self, target_xy: NDArray[np.float64],
+                  vehicle_xyz: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                                             NDArray[np.float64]]:
         dx = target_xy[..., 0] - vehicle_xyz[..., 0]
         dy = target_xy[..., 1] - vehicle_xyz[..., 1]
         dz = self.target_height_m - vehicle_xyz[..., 2]
@@ -119,7 +136,7 @@ class SensorModel:
     def distance(self, target_xy: NDArray[np.float64], vehicle_xyz: NDArray[np.float64]) -> NDArray[np.float64]:
         """3-D distance ``rho`` from vehicles (..., 3) to target points (..., >=2)."""
         dx, dy, dz = self._relative(target_xy, vehicle_xyz)
-        return np.sqrt(dx * dx + dy * dy + dz * dz)
+        return np.sqrt(dx * dx + dy * dy + dz * dz, dtype=np.float64)
 
     def measure(self, target_xy: NDArray[np.float64], vehicle_xyz: NDArray[np.float64]) -> NDArray[np.float64]:
         """Noise-free ``H(x)`` of eq. (4), vectorised.
@@ -190,13 +207,14 @@ class SensorModel:
         shape = np.broadcast(dx, dy, dz).shape
         jac = np.zeros(shape + (self.dim, 3))
         for row, component in enumerate(self.components):
+            grads: list[NDArray[np.float64] | float]
             if component == RANGE:
                 r = np.sqrt(r2)
-                grads = (dx / r, dy / r, dz / r)
+                grads = [dx / r, dy / r, dz / r]
             elif component == AZIMUTH:
-                grads = (-dy / h2, dx / h2, 0.0)
+                grads = [-dy / h2, dx / h2, 0.0]
             else:
-                grads = (-dz * dx / (r2 * h), -dz * dy / (r2 * h), h / r2)
+                grads = [-dz * dx / (r2 * h), -dz * dy / (r2 * h), h / r2]
             for col, g in enumerate(grads):
                 jac[..., row, col] = -g
         return jac
@@ -349,15 +367,19 @@ class SensorModel:
         range: the range component of ``z_pred`` when measured, otherwise the
         distance from ``vehicle_xyz`` to ``target_xy``.
         """
-        var = self._var  # type: ignore[attr-defined]
+        var = self._var
         if not self.distance_dependent:
             return var
         if z_pred is not None and self.components[0] == RANGE:
             ranges = z_pred[..., 0]
-        else:
+        elif target_xy is not None and vehicle_xyz is not None:
             ranges = self.distance(target_xy, vehicle_xyz)
+        else:
+            raise ValueError("distance-dependent noise needs the predicted range (z_pred with a range component) "
+                             "or target_xy and vehicle_xyz")
         scale = np.maximum(np.asarray(ranges, dtype=np.float64) / self.reference_range_m, 1.0) ** 2
-        return var * scale[..., None]
+        scaled: NDArray[np.float64] = var * scale[..., None]
+        return scaled
 
     def noise_information(
         self,
@@ -367,7 +389,7 @@ class SensorModel:
     ) -> NDArray[np.float64]:
         """Diagonal of ``R^-1``; same arguments as :meth:`noise_variance`."""
         if not self.distance_dependent:
-            return self._inv_var  # type: ignore[attr-defined]
+            return self._inv_var
         return 1.0 / self.noise_variance(z_pred, target_xy, vehicle_xyz)
 
     def residual(self, z: NDArray[np.float64], z_pred: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,7 +26,8 @@ class DetectionBatch:
     pcov: NDArray[np.float64]
 
 
-def detection_batches(detections_by_vehicle, sensor) -> list[DetectionBatch]:
+def detection_batches(detections_by_vehicle: Mapping[int, Sequence[Detection]] | Sequence[Sequence[Detection]],
+                      sensor: SensorModel | Sequence[SensorModel]) -> list[DetectionBatch]:
     """Each vehicle's non-empty detection list as arrays."""
     groups = detections_by_vehicle.values() if isinstance(detections_by_vehicle, Mapping) else detections_by_vehicle
     out = []

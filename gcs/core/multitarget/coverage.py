@@ -38,13 +38,18 @@ def in_field(world: World, points_xy: NDArray[np.float64], vehicles: NDArray[np.
     sight = sight_matrix(world, points_xy, vehicles, target_height_m)
     slant = np.sqrt(((points_xy[None] - vehicles[:, None, :2]) ** 2).sum(-1)
                     + (vehicles[:, None, 2] - target_height_m) ** 2)
-    return sight & (slant <= max_range_m)
+    covered: NDArray[np.bool_] = sight & (slant <= max_range_m)
+    return covered
 
 
 def coverage(world: World, vehicles: NDArray[np.float64], target_height_m: float,
              max_range_m: float) -> Callable[[NDArray[np.float64]], NDArray[np.bool_]]:
     """The tracker's ``in_view`` for one scan: which ground points (T, 2) some UAV (V, 3) covers."""
-    return lambda points_xy: in_field(world, points_xy, vehicles, target_height_m, max_range_m).any(axis=0)
+    def in_view(points_xy: NDArray[np.float64]) -> NDArray[np.bool_]:
+        seen: NDArray[np.bool_] = np.any(in_field(world, points_xy, vehicles, target_height_m, max_range_m), axis=0)
+        return seen
+
+    return in_view
 
 
 def clutter_volume(max_range_m: float) -> float:

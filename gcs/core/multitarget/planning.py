@@ -13,7 +13,7 @@ weight ``w_k = (1 + u_k / tau) / sum_l (1 + u_l / tau)`` grows with the seconds 
 it has gone without a detection (:func:`gcs.core.planners.shared.target_weights`), so
 that no target is starved. The team plan is made by assignment: each UAV is given one
 target, and each target is planned for with its own UAVs
-(:meth:`gcs.core.planners.sequential.SightPlanner.solve_assigned`; ``gcs bench
+(:meth:`gcs.core.planners.sequential.SightPlanner.solve_assigned`; ``gcs-bench
 sharing`` measured it against the summed objective and chose it). Like
 :func:`gcs.core.tracker.plan`, the plan is then kept out of restricted airspace by the
 guard, and its first turn rates are flown.
@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from gcs.core.kinematics import VehicleState
 from gcs.core.models.motion import LinearMotionModel
-from gcs.core.planners.problem import PlanningProblem, PlanResult
+from gcs.core.planners.problem import PlanningProblem, PlanResult, SharingPlanner
 from gcs.core.planners.shared import target_weights
 from gcs.core.tracker import TrackerConfig, TrackerState
 
@@ -82,7 +82,7 @@ def problems_for(config: TrackerConfig, vehicles: VehicleState, turn_rate: NDArr
 
 def plans_targets(config: TrackerConfig) -> bool:
     """Whether the tracker's planner can share the UAVs between targets (it has ``solve_assigned``)."""
-    return callable(getattr(config.planner, "solve_assigned", None))
+    return isinstance(config.planner, SharingPlanner)
 
 
 def plan_targets(config: TrackerConfig, state: TrackerState, vehicles: VehicleState, targets: TargetsToPlan,
@@ -90,10 +90,11 @@ def plan_targets(config: TrackerConfig, state: TrackerState, vehicles: VehicleSt
                  ) -> tuple[TrackerState, NDArray[np.float64], PlanResult]:
     """The team plan for several targets (module docstring): the new state (its plan the warm start of the
     next), the first turn rates (V,) and the planner's result."""
-    if not plans_targets(config):
-        raise TypeError(f"{type(config.planner).__name__} cannot plan for several targets (no solve_assigned)")
+    planner = config.planner
+    if not isinstance(planner, SharingPlanner):
+        raise TypeError(f"{type(planner).__name__} cannot plan for several targets (no solve_assigned)")
     problems = problems_for(config, vehicles, state.turn_rate, targets.means, targets.covs)
-    result = config.planner.solve_assigned(problems, targets.weights, rng, state.plan, now)
+    result = planner.solve_assigned(problems, targets.weights, rng, state.plan, now)
     safe = config.guard.safe(vehicles, result.controls, config.step_s, config.max_turn_rate)
     if safe is not result.controls:
         result = replace(result, controls=safe, message=f"{result.message}; airspace fallback")

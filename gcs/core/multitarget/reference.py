@@ -100,8 +100,9 @@ def _mixture_posterior(x: NDArray[np.float64], p: NDArray[np.float64], batch: Ve
         k = p @ h.T @ np.linalg.inv(s)
         weights.append(float(beta[j]))
         components.append((x + k @ nu, p - k @ s @ k.T))
-    mean = sum(w * m for w, (m, _) in zip(weights, components))
-    cov = sum(w * (c + np.outer(m - mean, m - mean)) for w, (m, c) in zip(weights, components))
+    mean = sum((w * m for w, (m, _) in zip(weights, components)), start=np.zeros_like(x))
+    cov = sum((w * (c + np.outer(m - mean, m - mean)) for w, (m, c) in zip(weights, components)),
+              start=np.zeros_like(p))
     return mean, cov
 
 

@@ -48,7 +48,7 @@ from numpy.typing import NDArray
 
 from gcs.core.roads.sensing import DetectionGroup, detection_log_likelihoods
 
-__all__ = ["ParticleTerms", "detection_probabilities", "particle_terms", "costs_of", "mixture_log_weights"]
+__all__ = ["ParticleTerms", "detection_probabilities", "particle_terms", "costs_of", "mixture_log_weights", "log_sum"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,10 +74,12 @@ def detection_probabilities(seen: NDArray[np.bool_] | None, shape: tuple[int, ..
     return detection_probability * (floor + (1.0 - floor) * np.asarray(seen, dtype=np.float64))
 
 
-def _log_sum(values: NDArray[np.float64], axis: int) -> NDArray[np.float64]:
+def log_sum(values: NDArray[np.float64], axis: int) -> NDArray[np.float64]:
+    """``ln sum exp(values)`` along ``axis``, ``-inf`` where every term is ``-inf`` (no warning, no NaN)."""
     top = np.max(values, axis=axis, keepdims=True)
     safe = np.where(np.isfinite(top), top, 0.0)
-    return np.squeeze(safe, axis=axis) + np.log(np.sum(np.exp(values - safe), axis=axis))
+    total: NDArray[np.float64] = np.squeeze(safe, axis=axis) + np.log(np.sum(np.exp(values - safe), axis=axis))
+    return total
 
 
 def particle_terms(xy: NDArray[np.float64], log_w: NDArray[np.float64], pd: NDArray[np.float64],
@@ -93,7 +95,7 @@ def particle_terms(xy: NDArray[np.float64], log_w: NDArray[np.float64], pd: NDAr
     else:
         log_l, _ = detection_log_likelihoods(xy.reshape(-1, 2), group, spread_var_m2)
         joint = (log_w + log_pd)[:, :, None] + log_l.reshape(t, p, -1)
-    return ParticleTerms(joint, _log_sum(joint, 1), missed, _log_sum(missed, 1))
+    return ParticleTerms(joint, log_sum(joint, 1), missed, log_sum(missed, 1))
 
 
 def costs_of(terms: ParticleTerms, valid: NDArray[np.bool_], clutter_density: float) -> NDArray[np.float64]:
@@ -113,8 +115,8 @@ def mixture_log_weights(terms: ParticleTerms, beta: NDArray[np.float64]) -> NDAr
         if beta.shape[1]:
             shares = terms.joint - terms.log_a[:, None, :]  # ln of each particle's share of a_tj
             weighted = np.where(beta[:, None, :] > 0.0, np.log(beta)[:, None, :] + shares, -np.inf)
-            parts.append(_log_sum(weighted, 2))
+            parts.append(log_sum(weighted, 2))
     stacked = np.stack(parts, axis=0)
-    out = _log_sum(stacked, 0)
+    out = log_sum(stacked, 0)
     return np.where(np.isnan(out), -np.inf, out)
 

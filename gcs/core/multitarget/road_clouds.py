@@ -26,6 +26,7 @@ so that one call moves, weighs or summarises every track.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -70,7 +71,7 @@ class TrackClouds:
         """Number of tracks T."""
         return len(self.existence)
 
-    def rows(self, name: str) -> NDArray:
+    def rows(self, name: str) -> NDArray[Any]:
         """A per-particle field (of the cloud, or ``lateral``) shaped per track: (T, P) or (T, P, 2)."""
         value = self.lateral if name == "lateral" else getattr(self.cloud, name)
         return value.reshape((self.tracks, self.per_track) + value.shape[1:])
@@ -85,7 +86,8 @@ class TrackClouds:
         cloud = self.cloud
         direction = graph.direction[cloud.edge]
         offset = np.where(cloud.on_road, self.lateral, 0.0)[:, None]
-        return cloud.xy + offset * np.stack([-direction[:, 1], direction[:, 0]], axis=1)
+        positions: NDArray[np.float64] = cloud.xy + offset * np.stack([-direction[:, 1], direction[:, 0]], axis=1)
+        return positions
 
     def select(self, rows: NDArray[np.bool_] | NDArray[np.intp]) -> TrackClouds:
         """The tracks ``rows`` (a mask or indices), in that order."""
@@ -153,7 +155,8 @@ def systematic_rows(weights: NDArray[np.float64], rng: np.random.Generator) -> N
     offsets = np.arange(rows)[:, None]
     positions = (rng.random((rows, 1)) + np.arange(p)) / p
     picked = np.searchsorted((cumulative + offsets).ravel(), (positions + offsets).ravel()).reshape(rows, p)
-    return np.clip(picked - offsets * p, 0, p - 1)
+    columns: NDArray[np.intp] = np.clip(picked - offsets * p, 0, p - 1)
+    return columns
 
 
 def resample_degenerate(motion: RoadMotion, clouds: TrackClouds, threshold: float,

@@ -28,28 +28,27 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from gcs.core.multitarget.road_association import ParticleTerms
+from gcs.core.multitarget.road_association import ParticleTerms, log_sum
 
 __all__ = ["predicted_existence", "existence_log_ratio", "updated_existence"]
 
 
 def predicted_existence(existence: NDArray[np.float64], survival_per_s: float, dt_s: float) -> NDArray[np.float64]:
     """``r^- = p_s^dt r`` (T,)."""
-    return existence * survival_per_s**dt_s
+    predicted: NDArray[np.float64] = existence * survival_per_s**dt_s
+    return predicted
 
 
 def existence_log_ratio(terms: ParticleTerms, counted: NDArray[np.bool_], clutter_density: float
                         ) -> NDArray[np.float64]:
     """``ln Lambda_t`` (T,) of one vehicle's scan, the detections ``counted`` (T, n) included (module docstring)."""
     detected = np.where(counted, terms.log_a - np.log(clutter_density), -np.inf)
-    stacked = np.concatenate([terms.log_m[:, None], detected], axis=1)
-    top = np.max(stacked, axis=1)
-    safe = np.where(np.isfinite(top), top, 0.0)
-    return safe + np.log(np.sum(np.exp(stacked - safe[:, None]), axis=1))
+    return log_sum(np.concatenate([terms.log_m[:, None], detected], axis=1), 1)
 
 
 def updated_existence(existence: NDArray[np.float64], log_ratio: NDArray[np.float64]) -> NDArray[np.float64]:
     """``r = Lambda r^- / (1 - r^- + Lambda r^-)`` (T,), in odds: ``ln o = ln o^- + ln Lambda``."""
     with np.errstate(divide="ignore"):
         log_odds = np.log(existence) - np.log1p(-existence) + log_ratio
-    return np.where(existence >= 1.0, 1.0, 1.0 / (1.0 + np.exp(-log_odds)))
+    updated: NDArray[np.float64] = np.where(existence >= 1.0, 1.0, 1.0 / (1.0 + np.exp(-log_odds)))
+    return updated

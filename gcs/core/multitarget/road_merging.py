@@ -39,7 +39,8 @@ def edge_weights(clouds: TrackClouds, edges: int) -> NDArray[np.float64]:
     cloud = clouds.cloud
     rows = np.repeat(np.arange(t), p)
     weight = np.where(cloud.on_road, np.exp(cloud.log_weight), 0.0)
-    return np.bincount(rows * edges + cloud.edge, weights=weight, minlength=t * edges).reshape(t, edges)
+    totals = np.bincount(rows * edges + cloud.edge, weights=weight, minlength=t * edges)
+    return np.asarray(totals, dtype=np.float64).reshape(t, edges)
 
 
 def unresolved(clouds: TrackClouds, mean: NDArray[np.float64], cov: NDArray[np.float64], edges: int,
@@ -53,7 +54,7 @@ def unresolved(clouds: TrackClouds, mean: NDArray[np.float64], cov: NDArray[np.f
     diff = mean[:, None, :2] - mean[None, :, :2]
     total = cov[:, None, :2, :2] + cov[None, :, :2, :2]
     d2 = np.einsum("abi,abi->ab", diff, np.linalg.solve(total, diff[..., None])[..., 0])
-    pairs = (overlap >= overlap_min) & (d2 <= threshold)
+    pairs: NDArray[np.bool_] = (overlap >= overlap_min) & (d2 <= threshold)
     np.fill_diagonal(pairs, False)
     return pairs
 

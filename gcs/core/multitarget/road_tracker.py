@@ -97,12 +97,19 @@ class RoadMultiTargetTracker(MultiTargetTracker):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        if not isinstance(self.roads, RoadParticleFilter):
+        if not isinstance(self.road_filter, RoadParticleFilter):
             raise TypeError(f"roads must be a RoadParticleFilter, got {type(self.roads).__name__}")
         if self.particles < 2:
             raise ValueError(f"particles must be >= 2, got {self.particles}")
         if not 0.0 < self.detection_floor <= 1.0:
             raise ValueError(f"detection_floor must be in (0, 1], got {self.detection_floor!r}")
+
+    @property
+    def road_filter(self) -> RoadParticleFilter:
+        """``roads``, which :meth:`__post_init__` checked is a :class:`RoadParticleFilter`."""
+        if not isinstance(self.roads, RoadParticleFilter):
+            raise TypeError(f"roads must be a RoadParticleFilter, got {type(self.roads).__name__}")
+        return self.roads
 
     def start(self) -> MultiTargetState:
         """No tracks yet."""
@@ -123,11 +130,11 @@ class RoadMultiTargetTracker(MultiTargetTracker):
         tracks = state.tracks
         clouds = state.clouds if state.clouds is not None else TrackClouds.empty(self.particles)
         if dt_s > 0.0 and tracks.size:
-            clouds = drive(self.roads, clouds, dt_s, self.lateral_psd_m2_s, self.lateral_limit_m, rng)
+            clouds = drive(self.road_filter, clouds, dt_s, self.lateral_psd_m2_s, self.lateral_limit_m, rng)
             clouds = replace(clouds, existence=predicted_existence(clouds.existence, self.survival_per_s, dt_s))
         weighed = self._weigh(tracks, clouds, batches, _lookers(batches, vehicles), in_view)
-        clouds = resample_degenerate(self.roads, weighed.clouds, self.roads.resample_threshold, rng)
-        tracks = tracks.with_estimates(*clouds.summary(self.roads.graph)) if tracks.size else tracks
+        clouds = resample_degenerate(self.road_filter, weighed.clouds, self.road_filter.resample_threshold, rng)
+        tracks = tracks.with_estimates(*clouds.summary(self.road_filter.graph)) if tracks.size else tracks
         drop, unresolved_scans = self._merged(tracks, clouds)
         drop |= clouds.existence < self.min_existence
         advanced = advance(tracks, weighed.hit, self.confirm_m, self.confirm_n, self.max_misses,
@@ -149,7 +156,7 @@ class RoadMultiTargetTracker(MultiTargetTracker):
                            {b.vehicle: np.ones(b.z.shape[0], dtype=bool) for b in batches}, {}, counts)
         if not tracks.size:
             return weighed
-        graph, spread2 = self.roads.graph, self.roads.spread_m**2
+        graph, spread2 = self.road_filter.graph, self.road_filter.spread_m**2
         mean, cov = clouds.summary(graph)
         points, log_w = clouds.positions(graph), clouds.log_weights
         xy = points.reshape(log_w.shape + (2,))
@@ -162,14 +169,13 @@ class RoadMultiTargetTracker(MultiTargetTracker):
                 picked = xy[rows].reshape(-1, 2)
                 seen[:, rows] = self.sees(picked, np.array(list(lookers.values()))).reshape(
                     (len(lookers), rows.size, log_w.shape[1]))
-            weighed.looked = np.einsum("tp,tp->t", np.exp(log_w), seen.any(axis=0)) >= 0.5
-        if in_view is not None and (seen is None or not confirmed.all()):
+            weighed.looked = looked = np.einsum("tp,tp->t", np.exp(log_w), seen.any(axis=0)) >= 0.5
+            if in_view is not None and not confirmed.all():
+                weighed.looked = np.where(confirmed, looked, np.asarray(in_view(mean[:, :2]), dtype=bool))
+        elif in_view is not None:  # no sight test of the particles: every vehicle covers a track where in_view says
             in_sight = np.asarray(in_view(mean[:, :2]), dtype=bool)
-            if seen is None:  # no sight test of the particles: every vehicle covers a track where in_view says
-                seen = np.broadcast_to(in_sight[None, :, None], (len(lookers),) + log_w.shape)
-                weighed.looked = in_sight
-            else:
-                weighed.looked = np.where(confirmed, weighed.looked, in_sight)
+            seen = np.broadcast_to(in_sight[None, :, None], (len(lookers),) + log_w.shape)
+            weighed.looked = in_sight
         gate_cov = cov.copy()
         gate_cov[:, [0, 1], [0, 1]] += spread2
         by_vehicle = {b.vehicle: b for b in batches}
@@ -201,7 +207,7 @@ class RoadMultiTargetTracker(MultiTargetTracker):
         (:mod:`~gcs.core.multitarget.road_merging`)."""
         if self.merge_scans < 1 or tracks.size < 2:
             return np.zeros(tracks.size, dtype=bool), np.zeros(tracks.size, dtype=np.int64)
-        pairs = unresolved(clouds, tracks.mean, tracks.cov, len(self.roads.graph), self.merge_overlap,
+        pairs = unresolved(clouds, tracks.mean, tracks.cov, len(self.road_filter.graph), self.merge_overlap,
                            gate_threshold(self.merge_probability, 2))
         return merged(tracks, pairs, clouds.unresolved, self.merge_scans)
 
@@ -210,9 +216,9 @@ class RoadMultiTargetTracker(MultiTargetTracker):
         """New tentative tracks and their clouds from the free detections, ids from ``next_id``."""
         p, c = self._new_positions(batches, free, existing)
         mean, cov = initial_states(p, c, self.initial_velocity_std_mps)
-        clouds = start_clouds(self.roads, mean, cov, self.particles, self.lane_std_m, self.initial_existence, rng)
+        clouds = start_clouds(self.road_filter, mean, cov, self.particles, self.lane_std_m, self.initial_existence, rng)
         if len(p):
-            mean, cov = clouds.summary(self.roads.graph)
+            mean, cov = clouds.summary(self.road_filter.graph)
         ids = np.arange(next_id, next_id + p.shape[0], dtype=np.int64)
         return TrackSet.new(ids, mean, cov, confirm_at_once=self.confirm_m <= 1), clouds
 

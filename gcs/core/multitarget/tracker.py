@@ -205,7 +205,9 @@ class MultiTargetTracker:
         new_state = MultiTargetState(advanced.kept.concat(born), int(stamp_ns), state.next_id + born.size)
         return new_state, scan_diagnostics(batches, counts, advanced, born, detected_by, fallbacks)
 
-    def _associate(self, mean: NDArray[np.float64], cov: NDArray[np.float64], batch: DetectionBatch, counts: dict):
+    def _associate(self, mean: NDArray[np.float64], cov: NDArray[np.float64], batch: DetectionBatch,
+                   counts: dict[str, int]
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_]]:
         """One vehicle: contributions ``A`` (T, 2, 2), ``b`` (T, 2), tracks detected (T,), detections used (n,)."""
         inn, valid = self._gated(mean, cov, batch, counts)
         costs = assignment_costs(inn.log_likelihood, valid, self.detection_probability, self.gate_probability,
@@ -217,14 +219,15 @@ class MultiTargetTracker:
             a, b = batched.mixture_contributions(inn, beta, cov[:, :2, :2])
         return a, b, detected, used
 
-    def _gated(self, mean: NDArray[np.float64], cov: NDArray[np.float64], batch: DetectionBatch, counts: dict):
+    def _gated(self, mean: NDArray[np.float64], cov: NDArray[np.float64], batch: DetectionBatch,
+               counts: dict[str, int]) -> tuple[batched.Innovations, NDArray[np.bool_]]:
         """Innovations of every track (T, 4) against one vehicle's detections, and the gate (T, n)."""
         inn = batched.innovations(mean, cov, batch.sensor, batch.z, batch.xyz, batch.pcov)
         valid = gate(inn.d2, self.gate_probability, batch.sensor.dim)
         counts["gated"] += int(valid.any(axis=0).sum())
         return inn, valid
 
-    def _beta(self, costs: NDArray[np.float64], valid: NDArray[np.bool_], counts: dict
+    def _beta(self, costs: NDArray[np.float64], valid: NDArray[np.bool_], counts: dict[str, int]
               ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_]]:
         """Association probabilities ``beta`` (T, n) by GNN (one-hot) or JPDA, the tracks detected (T,) and the
         detections used (n,) (the module docstring's rules)."""
@@ -234,11 +237,11 @@ class MultiTargetTracker:
             detected = assigned >= 0
             beta = np.zeros((t_count, n_count))
             beta[np.flatnonzero(detected), assigned[detected]] = 1.0
-            used = beta.any(axis=0)
+            used: NDArray[np.bool_] = np.any(beta, axis=0)
         else:
             result = jpda_marginals(costs, valid, self.max_hypotheses)
             beta = result.beta
-            used = valid.any(axis=0)
+            used = np.any(valid, axis=0)
             detected = beta.sum(axis=1) >= 0.5
             counts["clusters"] += result.clusters
             counts["over"] += result.clusters_over_cap

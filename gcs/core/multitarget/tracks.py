@@ -93,16 +93,17 @@ class TrackSet:
     @classmethod
     def empty(cls) -> TrackSet:
         """No tracks."""
-        return cls(np.zeros(0), np.zeros((0, 4)), np.zeros((0, 4, 4)), np.zeros(0), np.zeros(0), np.zeros(0),
-                   np.zeros(0))
+        none = np.zeros(0, dtype=np.int64)
+        return cls(none, np.zeros((0, 4)), np.zeros((0, 4, 4)), np.zeros(0, dtype=np.int8), none, none, none)
 
     @classmethod
     def new(cls, ids: NDArray[np.int64], mean: NDArray[np.float64], cov: NDArray[np.float64],
             confirm_at_once: bool) -> TrackSet:
         """Tracks just initiated: one hit, tentative (confirmed at once for a 1-of-N rule)."""
         k = len(ids)
-        status = np.full(k, Lifecycle.CONFIRMED if confirm_at_once else Lifecycle.TENTATIVE)
-        return cls(ids, mean, cov, status, np.ones(k), np.ones(k), np.zeros(k))
+        status = np.full(k, Lifecycle.CONFIRMED if confirm_at_once else Lifecycle.TENTATIVE, dtype=np.int8)
+        one = np.ones(k, dtype=np.int64)
+        return cls(ids, mean, cov, status, one, one, np.zeros(k, dtype=np.int64))
 
     @property
     def size(self) -> int:

@@ -136,14 +136,14 @@ def gaussian_updates(params: NavParams, estimates: Sequence[NavGaussian], measur
     they observe; the others (a gap to bridge by eq. 6, no INS) one at a time. Either
     way a vehicle's result depends on its own estimate and measurement alone.
     """
-    results: list[NavGaussian | Exception | None] = [None] * len(estimates)
+    results: dict[int, NavGaussian | Exception] = {}
     groups: dict[tuple[int, ...], list[int]] = {}
     for i, (estimate, m) in enumerate(zip(estimates, measurements)):
         gap = (m.stamp_ns - estimate.stamp_ns) / NS_PER_S - (m.ins[2] if m.ins is not None else 0.0)
         if m.ins is None or not m.ins[2] > 0.0 or m.stamp_ns < estimate.stamp_ns or gap > GAP_TOLERANCE_S:
             results[i] = _one_update(params, estimate, m)
             continue
-        rows = ((GPS_ROWS if m.gps_xy is not None else ()) + (VELOCITY_ROWS if m.velocity_xy is not None else ())
+        rows = ((GPS_ROWS if m.gps_fix is not None else ()) + (VELOCITY_ROWS if m.velocity_xy is not None else ())
                 + (HEADING_ROWS if m.heading_rad is not None else ()))
         groups.setdefault(rows, []).append(i)
     for rows, members in groups.items():
@@ -162,7 +162,7 @@ def gaussian_updates(params: NavParams, estimates: Sequence[NavGaussian], measur
             continue
         for slot, i in enumerate(members):
             results[i] = NavGaussian(measurements[i].stamp_ns, means[slot], covs[slot])
-    return results
+    return [results[i] for i in range(len(estimates))]
 
 
 def _one_update(params: NavParams, estimate: NavGaussian, measurement: NavMeasurement) -> NavGaussian | Exception:
@@ -179,9 +179,10 @@ def _observed(params: NavParams, measurements: Sequence[NavMeasurement]
     values, variances = [], []
     for m in measurements:
         v, r = [], []
-        if m.gps_xy is not None:
-            std = max(float(m.gps_std_m), params.gps_min_std_m)
-            v += [m.gps_xy[0], m.gps_xy[1]]
+        fix = m.gps_fix
+        if fix is not None:
+            std = max(float(fix[1]), params.gps_min_std_m)
+            v += [fix[0][0], fix[0][1]]
             r += [std**2, std**2]
         if m.velocity_xy is not None:
             v += [m.velocity_xy[0], m.velocity_xy[1]]

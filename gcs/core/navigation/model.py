@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -41,7 +42,7 @@ from numpy.typing import NDArray
 from gcs.core.filters.kalman import Observation
 from gcs.core.geometry import wrap_angle
 
-__all__ = ["X", "Y", "THETA", "VX", "VY", "VTHETA", "STATE_DIM", "ANGLE_INDICES", "InsNoise", "ins_predict",
+__all__ = ["X", "Y", "THETA", "VX", "VY", "VTHETA", "STATE_DIM", "ANGLE_INDICES", "InsNoise", "InsDatasheet", "ScenarioWithIns", "ins_predict",
            "cv_predict", "gps_observation", "velocity_observation", "heading_observation"]
 
 X, Y, THETA, VX, VY, VTHETA = range(6)
@@ -56,6 +57,31 @@ _H_VELOCITY = np.zeros((2, STATE_DIM))
 _H_VELOCITY[0, VX] = _H_VELOCITY[1, VY] = 1.0
 _H_HEADING = np.zeros((1, STATE_DIM))
 _H_HEADING[0, THETA] = 1.0
+
+
+class InsDatasheet(Protocol):
+    """The INS figures of a scenario's ``[simulation.ins]`` (:class:`gcs.config.simulation.InsConfig`)."""
+
+    @property
+    def distance_std_m(self) -> float: ...
+    @property
+    def distance_scale_error(self) -> float: ...
+    @property
+    def heading_std_rad(self) -> float: ...
+    @property
+    def heading_drift_rad_s(self) -> float: ...
+
+
+class _SimulationWithIns(Protocol):
+    @property
+    def ins(self) -> InsDatasheet: ...
+
+
+class ScenarioWithIns(Protocol):
+    """What :meth:`NavParams.from_scenario` reads of a scenario: ``simulation.ins``."""
+
+    @property
+    def simulation(self) -> _SimulationWithIns: ...
 
 
 @dataclass(frozen=True)

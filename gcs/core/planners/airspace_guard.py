@@ -26,7 +26,7 @@ through it (:func:`gcs.core.tracker.plan`), the baselines' included.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -40,14 +40,14 @@ __all__ = ["AirspaceGuard", "shift_into_circle"]
 
 @dataclass(frozen=True, eq=False)
 class AirspaceGuard:
-    """Hard restricted-airspace constraint; ``airspace`` None or empty: nothing is restricted."""
+    """Hard restricted-airspace constraint; ``airspace`` empty (the default): nothing is restricted."""
 
-    airspace: RestrictedAirspace | None = None
+    airspace: RestrictedAirspace = field(default_factory=RestrictedAirspace.empty)
     margin_m: float = 25.0
 
     @property
     def active(self) -> bool:
-        return self.airspace is not None and len(self.airspace) > 0
+        return len(self.airspace) > 0
 
     def violations(self, xy: NDArray[np.float64], end_heading: NDArray[np.float64], altitude_m: float,
                    speed_mps: float, eta: float) -> NDArray[np.int64]:
@@ -69,7 +69,8 @@ class AirspaceGuard:
         clear = nearest >= reach
         if not clear.all():  # a circle near a zone is still clear if it holds the zone whole
             clear |= self.airspace.farthest_xy(centres, altitude_m) <= radius_m - self.margin_m
-        return clear.all(axis=-1).any(axis=-1)
+        either_clear: NDArray[np.bool_] = np.any(np.all(clear, axis=-1), axis=-1)
+        return either_clear
 
     def plan_violations(self, vehicles: VehicleState, controls: NDArray[np.float64], step_s: float,
                         max_turn_rate: NDArray[np.float64]) -> NDArray[np.int64]:
@@ -102,7 +103,7 @@ class AirspaceGuard:
             return controls
         out = plans.reshape((-1,) + plans.shape[-2:]).copy()
         bad = bad.reshape(out.shape[:2])
-        for i in np.flatnonzero(bad.any(axis=0)):
+        for i in np.flatnonzero(bad.any(axis=0)).tolist():
             eta = float(max_turn_rate[i])
             library = primitives(eta, plans.shape[-1])
             count = self._row_violations(vehicles, i, library, step_s, eta)
@@ -110,7 +111,8 @@ class AirspaceGuard:
                 row = out[k, i]
                 nearness = np.abs(library[:, 0] - row[0]) + 1e-3 * np.abs(library - row).sum(axis=1)
                 out[k, i] = library[np.lexsort((nearness, count))[0]]
-        return out.reshape(plans.shape)
+        safe_plans: NDArray[np.float64] = out.reshape(plans.shape)
+        return safe_plans
 
 
 def shift_into_circle(controls: NDArray[np.float64], eta: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:

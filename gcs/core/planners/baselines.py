@@ -42,7 +42,8 @@ def orbit_controls(problem: PlanningProblem, radius_m: float, gain: float = 1.0)
     return _hold(problem, orbit_heading(problem.vehicles.xy, problem.target_means[0, :2], radius_m), gain)
 
 
-def orbit_heading(xy: NDArray[np.float64], centre: ArrayLike, radius_m: ArrayLike) -> NDArray[np.float64]:
+def orbit_heading(xy: NDArray[np.float64], centre: ArrayLike,
+                  radius_m: NDArray[np.float64] | float) -> NDArray[np.float64]:
     """Heading (V,) that brings vehicles at ``xy`` (V, 2) onto counter-clockwise circles of ``radius_m`` about
     ``centre`` (2 or V, 2): the tangent, tilted by ``atan((d - r) / r)`` toward the circle."""
     offset = xy - np.asarray(centre, dtype=np.float64)

@@ -10,7 +10,7 @@ plan, the baselines, straight flight), which stay in every batch, so it too is
 never worse than them on the objective.
 
 :class:`SightGeneticPlanner` is wang2012's GA with its operators unchanged,
-scoring the sight objective. ``gcs bench urban --planners sight sight_cem
+scoring the sight objective. ``gcs-bench urban --planners sight sight_cem
 sight_ga`` compares the three searches in the closed loop on paired seeds
 (docs/benchmarks.md gives the measurement that made the per-vehicle search the
 default).

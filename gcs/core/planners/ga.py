@@ -80,7 +80,8 @@ class GeneticPlanner:
             seeds.extend(rng.uniform(-1.0, 1.0, size=(count - count // 2, vehicles, steps)) * eta)
         return np.stack(seeds[: self.population])
 
-    def _offspring(self, parents_a, parents_b, eta, rng: np.random.Generator) -> NDArray[np.float64]:
+    def _offspring(self, parents_a: NDArray[np.float64], parents_b: NDArray[np.float64],
+                   eta: NDArray[np.float64], rng: np.random.Generator) -> NDArray[np.float64]:
         n, vehicles, _ = parents_a.shape
         draws = rng.random((n, vehicles, 4))  # per child and vehicle: row choice, blend weight, operator, crossover
         rows = np.where(draws[..., :1] < 0.5, parents_a, parents_b)
@@ -90,7 +91,8 @@ class GeneticPlanner:
         children = np.where(draws[:, :1, 3:4] < self.crossover_rate, crossed, parents_a)
         noise = rng.normal(0.0, self.mutation_scale, children.shape)
         noise *= rng.random(children.shape) < self.mutation_rate
-        return np.clip(children + noise * eta, -eta, eta)
+        clipped: NDArray[np.float64] = np.clip(children + noise * eta, -eta, eta)
+        return clipped
 
     def solve(
         self,

@@ -92,8 +92,9 @@ class HeadingProblem:
         **limits: float,
     ) -> HeadingProblem:
         """The problem for the target prediction ``x_{k+1|k}`` (state ``[x, y, ...]``)."""
-        return cls(vehicle_xyz, heading, speed_mps, step_s, max_turn_rad, prediction.mean[:2],
-                   np.linalg.inv(prediction.cov[:2, :2]), tuple(sensors), **limits)
+        return cls(vehicle_xyz, heading, np.asarray(speed_mps, dtype=np.float64), step_s,
+                   np.asarray(max_turn_rad, dtype=np.float64), prediction.mean[:2],
+                   np.linalg.inv(prediction.cov[:2, :2]).astype(np.float64, copy=False), tuple(sensors), **limits)
 
     @cached_property
     def pairs(self) -> tuple[NDArray[np.int_], NDArray[np.int_]]:
@@ -156,7 +157,8 @@ def next_positions(problem: HeadingProblem, heading_change: NDArray[np.float64])
     xyz = np.broadcast_to(problem.vehicle_xyz, heading.shape + (3,)).copy()
     xyz[..., 0] += travel * np.cos(heading)
     xyz[..., 1] += travel * np.sin(heading)
-    return xyz
+    positions: NDArray[np.float64] = xyz
+    return positions
 
 
 def information(problem: HeadingProblem, sensors: Sequence[SensorModel], xyz: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -207,11 +209,12 @@ def constraint_excess(problem: HeadingProblem, xyz: NDArray[np.float64], margin_
         c_j = -np.einsum("...k,...k->...", unit[..., j, :], along)  # j moving away from i
         inward = radius[i] * np.maximum(c_i, 0.0) ** 2 + radius[j] * np.maximum(c_j, 0.0) ** 2
         closing = radius[i] * np.maximum(-c_i, 0.0) ** 2 + radius[j] * np.maximum(-c_j, 0.0) ** 2
-    return np.maximum(np.concatenate([
+    violations: NDArray[np.float64] = np.maximum(np.concatenate([
         range_m + outward - (problem.max_detection_range_m - margin_m),  # eq. (37), (42)
         (problem.min_separation_m + margin_m) - (apart - closing),  # eq. (39), (44)
         apart + inward - (problem.max_separation_m - margin_m),  # eq. (38), (43)
     ], axis=-1), 0.0)
+    return violations
 
 
 def violations(problem: HeadingProblem, heading_change: NDArray[np.float64]) -> Violations:

@@ -179,7 +179,8 @@ class LmGcrlbPlanner:
                scale: float) -> NDArray[np.float64]:
         """Penalised costs (...,) for parameters s (..., M); NaN where the geometry is degenerate."""
         res = self._residuals(problem, sensors, s, scale)
-        return np.einsum("...k,...k->...", res, res)
+        costs: NDArray[np.float64] = np.einsum("...k,...k->...", res, res)
+        return costs
 
     def _sensors(self, problem: HeadingProblem) -> tuple[SensorModel, ...]:
         """The sensors of the planner's information model."""

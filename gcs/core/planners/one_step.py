@@ -21,10 +21,12 @@ from numpy.typing import NDArray
 from gcs.core.planners.lm_gcrlb import HeadingProblem, HeadingResult
 from gcs.core.planners.problem import PlanningProblem, PlanResult
 
-__all__ = ["OneStepHeadingPlanner"]
+__all__ = ["HeadingSolver", "OneStepHeadingPlanner"]
 
 
-class _HeadingSolver(Protocol):
+class HeadingSolver(Protocol):
+    """A one-step heading planner of zuo2021 (eq. 34-39): the headings for the next step."""
+
     def solve(self, problem: HeadingProblem, now: Callable[[], float] | None = None) -> HeadingResult: ...
 
 
@@ -37,7 +39,7 @@ class OneStepHeadingPlanner:
     constraints of eq. (37)-(39).
     """
 
-    solver: _HeadingSolver
+    solver: HeadingSolver
     max_detection_range_m: float = 20_000.0
     min_separation_m: float = 200.0
     max_separation_m: float = 7_500.0
@@ -48,7 +50,8 @@ class OneStepHeadingPlanner:
         return HeadingProblem(
             vehicle_xyz=vehicles.xyz, heading=vehicles.heading, speed_mps=vehicles.speed, step_s=problem.step_s,
             max_turn_rad=problem.max_turn_rate * problem.step_s, target_xy=problem.target_means[0, :2],
-            prior_information=np.linalg.inv(problem.target_covs[0, :2, :2]), sensors=tuple(problem.sensors),
+            prior_information=np.linalg.inv(problem.target_covs[0, :2, :2]).astype(np.float64, copy=False),
+            sensors=tuple(problem.sensors),
             max_detection_range_m=self.max_detection_range_m, min_separation_m=self.min_separation_m,
             max_separation_m=self.max_separation_m)
 

@@ -41,7 +41,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -51,7 +51,8 @@ from gcs.core.models.sensor import SensorModel
 from gcs.core.planners.airspace_guard import AirspaceGuard
 from gcs.core.world.sight_table import SightTable
 
-__all__ = ["Visibility", "RhcWeights", "PlanningProblem", "CostBreakdown", "PlanResult", "evaluate"]
+__all__ = ["Visibility", "RhcWeights", "PlanningProblem", "CostBreakdown", "PlanResult", "Planner", "SharingPlanner",
+           "evaluate"]
 
 
 class Visibility(Protocol):
@@ -131,7 +132,8 @@ class PlanningProblem:
     @cached_property
     def prior_information(self) -> NDArray[np.float64]:
         """``sum_j Y^-[j]`` over the horizon, position block (2, 2): the same for every plan."""
-        return np.linalg.inv(self.target_covs[:, :2, :2]).sum(axis=0)
+        information: NDArray[np.float64] = np.linalg.inv(self.target_covs[:, :2, :2]).sum(axis=0)
+        return information
 
     @cached_property
     def sensor_groups(self) -> list[tuple[SensorModel, list[int] | None]]:
@@ -146,7 +148,7 @@ class PlanningProblem:
     @property
     def horizon(self) -> int:
         """T, the number of planned steps."""
-        return self.target_means.shape[0]
+        return len(self.target_means)
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -195,6 +197,27 @@ class PlanResult:
     """Vehicle-steps of the best plan from which the predicted target is visible."""
 
 
+class Planner(Protocol):
+    """A planning algorithm: the best team plan for a problem (Problem -> solve -> Result)."""
+
+    def solve(self, problem: PlanningProblem, rng: np.random.Generator,
+              warm_start: NDArray[np.float64] | None = None,
+              now: Callable[[], float] | None = None) -> PlanResult:
+        """``warm_start``: the last plan (V, T), if any; ``now``: a clock for a deadline, if the planner has one."""
+        ...
+
+
+@runtime_checkable
+class SharingPlanner(Planner, Protocol):
+    """A planner that also shares the vehicles between several targets."""
+
+    def solve_assigned(self, problems: Sequence[PlanningProblem], weights: NDArray[np.float64],
+                       rng: np.random.Generator, warm_start: NDArray[np.float64] | None = None,
+                       now: Callable[[], float] | None = None) -> PlanResult:
+        """One plan for the targets of ``problems`` (one each, beside the same vehicles), weighted ``weights``."""
+        ...
+
+
 def _information(problem: PlanningProblem, xyz: NDArray[np.float64], visible: NDArray[np.bool_]) -> NDArray[np.float64]:
     """``J_in = tr((sum_j [Y^-[j] + sum_i I_i[j]])^-1)`` over the position block, shape (P,)."""
     target_xy = problem.target_means[:, :2]  # (T, 2), broadcasts against (P, V, T)
@@ -214,7 +237,8 @@ def _information(problem: PlanningProblem, xyz: NDArray[np.float64], visible: ND
         xx, yy = xx + w_vis * hidden, yy + w_vis * hidden
     prior = problem.prior_information
     a, b, c = xx + prior[0, 0], xy + prior[0, 1], yy + prior[1, 1]
-    return (a + c) / (a * c - b * b)  # trace of the 2 x 2 inverse
+    trace: NDArray[np.float64] = (a + c) / (a * c - b * b)  # trace of the 2 x 2 inverse
+    return trace
 
 
 def evaluate(problem: PlanningProblem, controls: NDArray[np.float64]) -> CostBreakdown:

@@ -39,7 +39,7 @@ from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
 from gcs.core.kinematics import VehicleState
@@ -49,7 +49,7 @@ from gcs.core.planners.sight import Contribution, SightModel, TeamView, joint_va
 __all__ = ["target_weights", "SharedView", "shared_joint_values", "assign_vehicles", "vehicles_subproblem"]
 
 
-def target_weights(priorities: Sequence[float], unseen_s: Sequence[float], starvation_s: float) -> NDArray[np.float64]:
+def target_weights(priorities: ArrayLike, unseen_s: ArrayLike, starvation_s: float) -> NDArray[np.float64]:
     """``w_k = p_k (1 + u_k / tau) / sum_l p_l (1 + u_l / tau)`` (module docstring), shape (K,)."""
     p = np.asarray(priorities, dtype=np.float64)
     u = np.asarray(unseen_s, dtype=np.float64)
@@ -58,7 +58,8 @@ def target_weights(priorities: Sequence[float], unseen_s: Sequence[float], starv
     if not (np.all(p > 0.0) and np.all(u >= 0.0) and starvation_s > 0.0):
         raise ValueError("priorities must be > 0, unseen times >= 0 and starvation_s > 0")
     claim = p * (1.0 + u / starvation_s)
-    return claim / claim.sum()
+    shares: NDArray[np.float64] = claim / claim.sum()
+    return shares
 
 
 class SharedView:
@@ -102,7 +103,7 @@ def shared_joint_values(models: Sequence[SightModel], weights: NDArray[np.float6
 
 def _weighted_sum(weights: NDArray[np.float64], values: Sequence[NDArray[np.float64]]) -> NDArray[np.float64]:
     """``sum_k w_k values_k``, added in order from the first (one target, weight 1: its values exactly)."""
-    total = weights[0] * values[0]
+    total: NDArray[np.float64] = weights[0] * values[0]
     for weight, value in zip(weights[1:], values[1:]):
         total = total + weight * value
     return total
@@ -122,7 +123,7 @@ def assign_vehicles(vehicles: VehicleState, target_xy: NDArray[np.float64],
     return assigned
 
 
-def vehicles_subproblem(problem: PlanningProblem, indices: Sequence[int]) -> PlanningProblem:
+def vehicles_subproblem(problem: PlanningProblem, indices: Sequence[int] | NDArray[np.intp]) -> PlanningProblem:
     """``problem`` for the vehicles ``indices`` alone (the sight objective only: no visibility regions)."""
     idx = np.asarray(indices, dtype=np.int64)
     vehicles = problem.vehicles

@@ -129,7 +129,8 @@ def sample_pattern(count: int) -> NDArray[np.float64]:
     cov = points.T @ points / count
     # Whiten: multiply by cov^(-1/2) so that the sample covariance is exactly I.
     values, vectors = np.linalg.eigh(cov)
-    return points @ (vectors / np.sqrt(values)) @ vectors.T
+    whitened: NDArray[np.float64] = points @ (vectors / np.sqrt(values)) @ vectors.T
+    return whitened
 
 
 @dataclass(frozen=True, eq=False)
@@ -174,12 +175,12 @@ class SightModel:
         count = open_ground.sum(axis=1, keepdims=True)
         w = np.where(count > 0, open_ground / np.maximum(count, 1), 1.0 / weights.samples)
         slopes = table.inverse_slopes(samples.reshape(-1, 2))
-        return cls(problem, table, weights, samples, w, slopes, np.linalg.inv(covs),
+        return cls(problem, table, weights, samples, w, slopes, np.linalg.inv(covs).astype(np.float64, copy=False),
                    np.trace(covs, axis1=-2, axis2=-1))
 
     @property
     def horizon(self) -> int:
-        return self.samples.shape[0]
+        return len(self.samples)
 
     def visible(self, xy: NDArray[np.float64], altitude_m: float) -> NDArray[np.bool_]:
         """``v_{j,s}`` for positions (C, T, 2) of one vehicle at ``altitude_m``: shape (C, T, S)."""
@@ -288,7 +289,8 @@ def _values(model: SightModel, part: Contribution, others_blind: NDArray[np.floa
     posterior_trace = (a + c) / (a * c - b * b)
     gain = 1.0 - posterior_trace / model.prior_trace[None]
     cfg = model.weights_cfg
-    return any_seen.sum(axis=-1) + cfg.information * gain.sum(axis=-1) + part.own
+    objective: NDArray[np.float64] = any_seen.sum(axis=-1) + cfg.information * gain.sum(axis=-1) + part.own
+    return objective
 
 
 def joint_values(model: SightModel, plans: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -1,4 +1,4 @@
-"""Road networks and trackers that keep a ground target on them (design.md section 8; docs/road_tracking.md).
+"""Road networks and trackers that keep a ground target on them (docs/road_tracking.md).
 
 The graph:
 

@@ -45,9 +45,13 @@ _LOG_2PI = math.log(2.0 * math.pi)
 
 
 def _measurements(points: NDArray[np.float64], groups: Sequence[DetectionGroup], position_cov: NDArray[np.float64],
-                  spread_var_m2: float):
+                  spread_var_m2: float
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Stacked predicted measurements (C, M), residuals (C, M), Jacobians (C, M, 2) and noise variances (C, M)."""
-    preds, residuals, jacobians, noises = [], [], [], []
+    preds: list[NDArray[np.float64]] = []
+    residuals: list[NDArray[np.float64]] = []
+    jacobians: list[NDArray[np.float64]] = []
+    noises: list[NDArray[np.float64]] = []
     for sensor, z, xyz, covs in groups:
         z = np.asarray(z, dtype=np.float64).reshape(-1, sensor.dim)
         xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)

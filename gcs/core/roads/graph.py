@@ -29,6 +29,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -39,7 +40,11 @@ STRAIGHT_COS = 0.9
 """A successor whose turn angle has a cosine above this (about 26 degrees) counts as straight on."""
 
 
-def _frozen(*arrays: NDArray) -> None:
+if TYPE_CHECKING:
+    from gcs.core.roads.index import EdgeIndex
+
+
+def _frozen(*arrays: NDArray[np.generic]) -> None:
     for array in arrays:
         array.flags.writeable = False
 
@@ -73,7 +78,7 @@ class RoadGraph:
     reverse: NDArray[np.intp]
     successors: NDArray[np.intp]
     turn_cos: NDArray[np.float64]
-    _tables: dict = field(default_factory=dict, init=False, repr=False)
+    _tables: dict[tuple[str, float], NDArray[np.float64]] = field(default_factory=dict, init=False, repr=False)
 
     @classmethod
     def from_segments(cls, a_xy: ArrayLike, b_xy: ArrayLike, one_way: ArrayLike | None = None,
@@ -200,7 +205,7 @@ class RoadGraph:
         return table
 
     @cached_property
-    def index(self):
+    def index(self) -> EdgeIndex:
         """The :class:`~gcs.core.roads.index.EdgeIndex` of this graph (built on first use)."""
         from gcs.core.roads.index import EdgeIndex
 

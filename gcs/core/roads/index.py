@@ -14,14 +14,19 @@ the lower index is returned.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+if TYPE_CHECKING:
+    from gcs.core.roads.graph import RoadGraph
+
 __all__ = ["EdgeIndex"]
 
 
-def _project(graph, edges: NDArray[np.intp], q: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _project(graph: RoadGraph, edges: NDArray[np.intp],
+             q: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Arc length of the closest point of each edge (..., K) to each point (..., 2) and the squared distance."""
     start = graph.nodes[graph.tail[edges]]
     d = graph.direction[edges]
@@ -35,14 +40,14 @@ def _project(graph, edges: NDArray[np.intp], q: NDArray[np.float64]) -> tuple[ND
 class EdgeIndex:
     """Cells of side ``cell_m`` from ``origin``: ``cells[i, j]`` lists edges (padded with -1)."""
 
-    graph: object
+    graph: RoadGraph
     origin: NDArray[np.float64]
     cell_m: float
     shape: tuple[int, int]
     cells: NDArray[np.intp]
 
     @classmethod
-    def build(cls, graph, cell_m: float | None = None) -> EdgeIndex:
+    def build(cls, graph: RoadGraph, cell_m: float | None = None) -> EdgeIndex:
         """Index ``graph``'s edges (one of each two-way pair); ``cell_m`` defaults to the median edge length."""
         forward = np.flatnonzero((graph.reverse < 0) | (graph.reverse > np.arange(len(graph))))
         if cell_m is None:

@@ -42,7 +42,7 @@ restart the mixture about them.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -69,7 +69,7 @@ QUADRATURE = np.array([-1.2247448713915890, 0.0, 1.2247448713915890])
 class RoadMixtureEstimate(GaussianEstimate):
     """The moment-matched ``cv2d`` summary (``mean`` (4,), ``cov`` (4, 4), ``stamp_ns``) and the components."""
 
-    components: RoadComponents | None = None
+    components: RoadComponents = field(kw_only=True)
 
     @property
     def off_road_probability(self) -> float:
@@ -80,7 +80,7 @@ class RoadMixtureEstimate(GaussianEstimate):
         """The edges holding road components and the weight on each, heaviest first (the most likely branch first)."""
         comp = self.components
         edges, inverse = np.unique(comp.edge, return_inverse=True)
-        mass = np.bincount(inverse, weights=np.exp(comp.log_weight), minlength=len(edges))
+        mass = np.bincount(inverse, weights=np.exp(comp.log_weight), minlength=len(edges)).astype(np.float64)
         order = np.argsort(-mass)
         return edges[order], mass[order]
 
@@ -140,8 +140,9 @@ class RoadMixtureFilter(RoadMotion):
                                    self.max_components, self.prune_weight)
 
     def update(self, prior: RoadMixtureEstimate, groups: Sequence[DetectionGroup], looks: Looks | None,
-               rng: np.random.Generator | None = None) -> RoadMixtureEstimate:
-        """Update every component and reweigh the mixture (module docstring)."""
+               rng: np.random.Generator) -> RoadMixtureEstimate:
+        """Update every component and reweigh the mixture (module docstring); ``rng`` draws the restart's components
+        when the detections fit no component."""
         comp = prior.components
         if not groups and looks is None:
             return prior
@@ -179,7 +180,7 @@ class RoadMixtureFilter(RoadMotion):
         return self._estimate(merge_and_prune(updated, self.max_components, self.prune_weight), prior.stamp_ns)
 
     def step(self, estimate: RoadMixtureEstimate, stamp_ns: int, groups: Sequence[DetectionGroup],
-             looks: Looks | None, rng: np.random.Generator | None = None) -> RoadMixtureEstimate:
+             looks: Looks | None, rng: np.random.Generator) -> RoadMixtureEstimate:
         """:meth:`predict` then :meth:`update`."""
         return self.update(self.predict(estimate, stamp_ns), groups, looks, rng)
 

@@ -50,7 +50,8 @@ class RoadComponents:
     off_cov: NDArray[np.float64]
     off_log_weight: float
 
-    def enu(self, graph: RoadGraph, spread_m: float) -> tuple[NDArray, NDArray, NDArray]:
+    def enu(self, graph: RoadGraph, spread_m: float
+            ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """Every component as ``[x, y, vx, vy]``: states (C + 1, 4), covariances (C + 1, 4, 4), weights (C + 1,);
         a road component's position has the lateral variance ``spread_m^2`` across its edge; the off-road mode last."""
         d = graph.direction[self.edge]
@@ -64,7 +65,8 @@ class RoadComponents:
         return (np.concatenate([states, self.off_mean[None]]), np.concatenate([covs, self.off_cov[None]]),
                 np.exp(np.append(self.log_weight, self.off_log_weight)))
 
-    def points(self, graph: RoadGraph, abscissae: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+    def points(self, graph: RoadGraph, abscissae: NDArray[np.float64]
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Each road component as points ``s = m_s + sigma_s a`` along its edge, clipped to it (equal shares of its
         weight), and the off-road mean: states (len(a) C + 1, 4) and weights."""
         q = len(abscissae)
@@ -78,7 +80,8 @@ class RoadComponents:
                 np.append(weights, np.exp(self.off_log_weight)))
 
 
-def _truncated(mean: NDArray, cov: NDArray, limit: NDArray, above: bool, axis: int = 0) -> tuple[NDArray, NDArray]:
+def _truncated(mean: NDArray[np.float64], cov: NDArray[np.float64], limit: NDArray[np.float64], above: bool,
+               axis: int = 0) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Moments of (s, v) given ``s > limit`` (``above``) or ``s < limit`` (module docstring); ``axis = 1``
     truncates the speed instead, and the arc length follows by its regression."""
     if axis == 1:
@@ -105,7 +108,8 @@ def _truncated(mean: NDArray, cov: NDArray, limit: NDArray, above: bool, axis: i
     return new_mean, new_cov
 
 
-def forward_only(mean: NDArray[np.float64], cov: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+def forward_only(mean: NDArray[np.float64], cov: NDArray[np.float64]
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Each component conditioned on ``v >= 0`` and then ``s >= 0`` where it has more than ``SPLIT_MIN`` of
     its mass outside: a car drives its edge forwards (one turning round is on the reverse edge), and the
     mass before the start of an edge is the car not yet past its last node."""
@@ -119,9 +123,11 @@ def forward_only(mean: NDArray[np.float64], cov: NDArray[np.float64]) -> tuple[N
 
 
 def branch(graph: RoadGraph, table: NDArray[np.float64], edge: NDArray[np.intp], mean: NDArray[np.float64],
-           cov: NDArray[np.float64], log_w: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+           cov: NDArray[np.float64], log_w: NDArray[np.float64]
+           ) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Split every component's mass beyond the end of its edge onto the successors (:mod:`gcs.core.roads.mixture`)."""
-    done = [(edge, mean, cov, log_w)]
+    done: list[tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]] = [
+        (edge, mean, cov, log_w)]
     pending = (edge, mean, cov, log_w)
     for _ in range(MAX_PASSES):
         e, m, p, w = pending
@@ -131,7 +137,7 @@ def branch(graph: RoadGraph, table: NDArray[np.float64], edge: NDArray[np.intp],
         moving = whole | part
         if not moving.any():
             break
-        done[-1] = tuple(x[~moving] for x in (e, m, p, w))
+        done[-1] = (e[~moving], m[~moving], p[~moving], w[~moving])
         stay_m, stay_p = _truncated(m[part], p[part], length[part], above=False)
         done.append((e[part], stay_m, stay_p, w[part] + np.log(1.0 - beyond[part])))
         go_m, go_p = m[moving].copy(), p[moving].copy()
@@ -191,7 +197,9 @@ def merge_and_prune(comp: RoadComponents, max_components: int, prune_weight: flo
                           comp.off_log_weight - total)
 
 
-def road_summary(graph: RoadGraph, edge, mean, cov, weights, spread_m: float) -> tuple[NDArray, NDArray]:
+def road_summary(graph: RoadGraph, edge: NDArray[np.intp], mean: NDArray[np.float64], cov: NDArray[np.float64],
+                 weights: NDArray[np.float64],
+                 spread_m: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The moment-matched ``[x, y, vx, vy]`` Gaussian of the road components alone."""
     road = RoadComponents(edge, mean, cov, np.log(np.maximum(weights, 1e-300)), np.zeros(4), np.eye(4), -np.inf)
     states, covs, w = road.enu(graph, spread_m)

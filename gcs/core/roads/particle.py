@@ -43,7 +43,7 @@ estimate and return a new one; time is integer nanoseconds and randomness a
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -67,7 +67,7 @@ RECOVERY_PROBABILITY = 1e-6
 class RoadParticleEstimate(GaussianEstimate):
     """The moment-matched ``cv2d`` summary (``mean`` (4,), ``cov`` (4, 4), ``stamp_ns``) and the particles."""
 
-    particles: RoadParticles | None = None
+    particles: RoadParticles = field(kw_only=True)
 
     @property
     def off_road_probability(self) -> float:
@@ -207,7 +207,8 @@ class RoadParticleFilter(RoadMotion):
         log_lik, _ = detection_log_likelihoods(estimate.particles.xy, group, self.spread_m**2)
         joint = log_lik + estimate.particles.log_weight[:, None]
         top = joint.max(axis=0)
-        return top + np.log(np.exp(joint - top).sum(axis=0))
+        log_sum: NDArray[np.float64] = top + np.log(np.exp(joint - top).sum(axis=0))
+        return log_sum
 
 
 def _fix_cov(position_cov: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -16,7 +16,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from gcs.core.models.sensor import AZIMUTH, ELEVATION, RANGE
 from gcs.core.roads.graph import RoadGraph
@@ -39,7 +39,9 @@ class RoadParticles:
     log_weight: NDArray[np.float64]
 
     @classmethod
-    def build(cls, graph: RoadGraph, edge, s, speed, on_road, xy, vxy, log_weight) -> RoadParticles:
+    def build(cls, graph: RoadGraph, edge: NDArray[np.intp], s: NDArray[np.float64], speed: NDArray[np.float64],
+              on_road: NDArray[np.bool_], xy: ArrayLike, vxy: ArrayLike, log_weight: NDArray[np.float64]
+              ) -> RoadParticles:
         """The cloud, with the position and velocity of every road particle taken from its edge."""
         xy, vxy = np.array(xy, dtype=np.float64), np.array(vxy, dtype=np.float64)
         road = np.flatnonzero(on_road)
@@ -67,7 +69,7 @@ class RoadParticles:
         """The edges that hold road particles and the weight on each (the branches), heaviest first."""
         road = self.on_road
         edges, inverse = np.unique(self.edge[road], return_inverse=True)
-        mass = np.bincount(inverse, weights=self.weights[road], minlength=len(edges))
+        mass = np.bincount(inverse, weights=self.weights[road], minlength=len(edges)).astype(np.float64)
         order = np.argsort(-mass)
         return edges[order], mass[order]
 

@@ -35,16 +35,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from gcs.core.models.sensor import SensorModel
+from gcs.core.models.sensor import DetectionGroup, SensorModel
 from gcs.core.world.sight_table import SightTable
 
 __all__ = ["DetectionGroup", "Looks", "per_axis_vehicle_variance", "detection_log_likelihoods",
            "detections_log_likelihood",
            "looks_log_likelihood", "table_sees"]
-
-DetectionGroup = tuple[SensorModel, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None]
-"""``(sensor, z (k, m), vehicle_xyz (k, 3), vehicle_cov)``; ``vehicle_cov``: None, per-axis variances (k,) or
-(k, 3, 3) covariances."""
 
 Sees = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.bool_]]
 """``sees(points_xy (P, 2), vehicle_xyz (V, 3)) -> (V, P)``: in the sensor's field and in sight."""
@@ -82,7 +78,8 @@ def per_axis_vehicle_variance(covs: NDArray[np.float64] | None, k: int) -> NDArr
     covs = np.asarray(covs, dtype=np.float64)
     if covs.ndim == 1:
         return covs
-    return np.trace(covs, axis1=-2, axis2=-1) / 3.0
+    per_axis: NDArray[np.float64] = np.trace(covs, axis1=-2, axis2=-1) / 3.0
+    return per_axis
 
 
 def detection_log_likelihoods(points: NDArray[np.float64], group: DetectionGroup, spread_var_m2: float = 0.0
@@ -122,7 +119,8 @@ def looks_log_likelihood(points: NDArray[np.float64], looks: Looks | None) -> ND
     seen = looks.sees(points, looks.vehicle_xyz)  # (V, P)
     pd = looks.detection_probability
     factor = np.where(looks.detected[:, None], np.where(seen, 1.0, 1.0 - pd), np.where(seen, 1.0 - pd, 1.0))
-    return np.log(factor).sum(axis=0)
+    log_factors: NDArray[np.float64] = np.log(factor).sum(axis=0)
+    return log_factors
 
 
 def table_sees(table: SightTable, max_range_m: float) -> Sees:

@@ -34,7 +34,8 @@ def draw_successor(graph: RoadGraph, table: NDArray[np.float64], edges: NDArray[
     u = rng.random(len(edges)) * cumulative[:, -1]
     k = (u[:, None] >= cumulative).sum(axis=1)
     k = np.minimum(k, table.shape[1] - 1)
-    return graph.successors[edges, k]
+    successors: NDArray[np.intp] = graph.successors[edges, k]
+    return successors
 
 
 def walk(graph: RoadGraph, table: NDArray[np.float64], edge: NDArray[np.intp], s: NDArray[np.float64],

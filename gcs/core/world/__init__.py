@@ -22,6 +22,7 @@ ground at z = 0, a generated city's south-west corner at (0, 0).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -67,7 +68,7 @@ __all__ = [
 ]
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, init=False)
 class World:
     """Everything the planner and the simulator know about the environment.
 
@@ -93,19 +94,22 @@ class World:
     airspace: RestrictedAirspace
     streets: StreetGrid | None
     size_m: tuple[float, float]
-    roads: RoadGraph | None = None
-    bounds_m: Bounds | None = None
-    _sight_tables: dict = field(default_factory=dict, init=False, repr=False)
+    roads: RoadGraph | None
+    bounds_m: Bounds
+    _sight_tables: dict[tuple[float, float, float], SightTable] = field(init=False, repr=False)
 
-    def __post_init__(self) -> None:
-        if self.bounds_m is None:
-            object.__setattr__(self, "bounds_m", rectangle_bounds(self.size_m))
+    def __init__(self, buildings: Buildings, airspace: RestrictedAirspace, streets: StreetGrid | None,
+                 size_m: tuple[float, float], roads: RoadGraph | None = None, bounds_m: Bounds | None = None) -> None:
+        if bounds_m is None:
+            bounds_m = rectangle_bounds(size_m)
         else:
-            x0, y0, x1, y1 = (float(v) for v in self.bounds_m)
+            x0, y0, x1, y1 = (float(v) for v in bounds_m)
             if not (x0 < x1 and y0 < y1):
-                raise ValueError(f"bounds_m must be x_min < x_max, y_min < y_max, got {self.bounds_m!r}")
-            object.__setattr__(self, "bounds_m", (x0, y0, x1, y1))
-            object.__setattr__(self, "size_m", (x1 - x0, y1 - y0))
+                raise ValueError(f"bounds_m must be x_min < x_max, y_min < y_max, got {bounds_m!r}")
+            bounds_m, size_m = (x0, y0, x1, y1), (x1 - x0, y1 - y0)
+        for name, value in (("buildings", buildings), ("airspace", airspace), ("streets", streets),
+                            ("size_m", size_m), ("roads", roads), ("bounds_m", bounds_m), ("_sight_tables", {})):
+            object.__setattr__(self, name, value)
 
     def inside(self, xy: ArrayLike) -> NDArray[np.bool_]:
         """Whether ground points (..., 2) lie within :attr:`bounds_m` (edges included)."""
@@ -151,11 +155,13 @@ class World:
         key = (float(reference_altitude_m), float(target_height_m), float(reach_m))
         table = self._sight_tables.get(key)
         if table is None:
-            heights = self._sight_tables.get("field")
-            if heights is None:
-                heights = self._sight_tables["field"] = HeightField.from_buildings(self.buildings)
-            table = self._sight_tables[key] = SightTable(heights, key[0], key[1], reach_m=key[2])
+            table = self._sight_tables[key] = SightTable(self._height_field, key[0], key[1], reach_m=key[2])
         return table
+
+    @cached_property
+    def _height_field(self) -> HeightField:
+        """The buildings' heights on a grid, which every :class:`SightTable` of this world shares."""
+        return HeightField.from_buildings(self.buildings)
 
     def in_restricted(self, xyz: ArrayLike) -> NDArray[np.bool_]:
         """Whether points (..., 3) are in restricted airspace (wang2012 eq. 5, 26)."""

@@ -121,7 +121,8 @@ def even_odd(x: NDArray[np.float64], y: NDArray[np.float64], edges: NDArray[np.f
     denominator = np.where(straddles, y1 - y0, 1.0)
     x_cross = x0 + (yy - y0) * (x1 - x0) / denominator
     crossings = straddles & (x[:, None] < x_cross)
-    return np.count_nonzero(crossings, axis=1) % 2 == 1
+    inside: NDArray[np.bool_] = np.count_nonzero(crossings, axis=1) % 2 == 1
+    return inside
 
 
 def inside_any(
@@ -179,4 +180,5 @@ def farthest_vertex(x: NDArray[np.float64], y: NDArray[np.float64], edges: NDArr
     """Distance (M, P) from each point (M,) to the farthest vertex of each polygon (P, E, 2, 2)."""
     dx = edges[None, :, :, 0, 0] - x[:, None, None]
     dy = edges[None, :, :, 0, 1] - y[:, None, None]
-    return np.hypot(dx, dy).max(axis=-1)
+    farthest: NDArray[np.float64] = np.hypot(dx, dy).max(axis=-1)
+    return farthest

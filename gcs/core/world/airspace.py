@@ -75,11 +75,11 @@ class RestrictedAirspace:
             floors.append(floor_m)
             ceilings.append(ceiling_m)
         edges, valid = pad_edges(rings)
-        arrays = (np.array(floors, dtype=np.float64), np.array(ceilings, dtype=np.float64), edges, valid,
-                  bboxes(edges), *rings)
-        for array in arrays:
+        floor_array, ceiling_array = np.array(floors, dtype=np.float64), np.array(ceilings, dtype=np.float64)
+        boxes = bboxes(edges)
+        for array in (floor_array, ceiling_array, edges, valid, boxes, *rings):
             array.flags.writeable = False
-        return cls(tuple(rings), arrays[0], arrays[1], edges, valid, arrays[4], labels)
+        return cls(tuple(rings), floor_array, ceiling_array, edges, valid, boxes, labels)
 
     @classmethod
     def empty(cls) -> RestrictedAirspace:

@@ -179,7 +179,8 @@ class StreetGrid:
             & (y >= self.ys[0] - half) & (y <= self.ys[-1] + half)
         near_x = np.abs(x - _nearest(self.xs, x)) <= half
         near_y = np.abs(y - _nearest(self.ys, y)) <= half
-        return in_grid & (near_x | near_y)
+        on_street: NDArray[np.bool_] = in_grid & (near_x | near_y)
+        return on_street
 
 
 def _nearest(sorted_values: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -324,9 +325,10 @@ def _feature_height(feature: Mapping[str, Any], height_property: str, where: str
     value = properties[height_property]
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise ValueError(f"{where}: property {height_property!r} must be a number, got {value!r}")
-    if not (math.isfinite(value) and value > 0):
+    height = float(value)
+    if not (math.isfinite(height) and height > 0):
         raise ValueError(f"{where}: property {height_property!r} must be finite and > 0, got {value!r}")
-    return float(value)
+    return height
 
 
 def _outer_ring(

@@ -62,7 +62,7 @@ def line_of_sight(buildings: Buildings, a_xyz: ArrayLike, b_xyz: ArrayLike) -> N
     shape = a.shape[:-1]
     p, q = canonical_order(a.reshape(-1, 3), b.reshape(-1, 3))
     count = len(p)
-    visible = np.isfinite(p).all(axis=1) & np.isfinite(q).all(axis=1)
+    visible: NDArray[np.bool_] = np.all(np.isfinite(p), axis=1) & np.all(np.isfinite(q), axis=1)
     if len(buildings) == 0 or count == 0:
         return visible.reshape(shape)
     bbox, heights = buildings.bbox, buildings.heights
@@ -118,7 +118,7 @@ class SightLines:
         dx = xy[..., 0] - self.targets[:, 0]
         dy = xy[..., 1] - self.targets[:, 1]
         dz = self.altitude_m - self.targets[:, 2]
-        result = dx * dx + dy * dy + dz * dz <= self.max_range_m * self.max_range_m
+        result: NDArray[np.bool_] = dx * dx + dy * dy + dz * dz <= self.max_range_m * self.max_range_m
         asked = np.nonzero(result)
         if len(asked[0]):
             vehicles = np.column_stack([xy[asked], np.full(len(asked[0]), self.altitude_m)])

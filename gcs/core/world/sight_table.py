@@ -124,7 +124,8 @@ def _inside_one(points: NDArray[np.float64], edges: NDArray[np.float64]) -> NDAr
     x0, y0, x1, y1 = edges[:, 0, 0], edges[:, 0, 1], edges[:, 1, 0], edges[:, 1, 1]
     straddles = (y0 > y) != (y1 > y)
     x_cross = x0 + (y - y0) * (x1 - x0) / np.where(straddles, y1 - y0, 1.0)
-    return np.count_nonzero(straddles & (x < x_cross), axis=1) % 2 == 1
+    inside: NDArray[np.bool_] = np.count_nonzero(straddles & (x < x_cross), axis=1) % 2 == 1
+    return inside
 
 
 class SightTable:
@@ -223,13 +224,15 @@ class SightTable:
             self._row_of[missing] = np.arange(len(self._store), len(self._store) + len(missing))
             self._store = np.concatenate([self._store, tables])
             rows = self._row_of[nodes]
-        return self._store[rows]
+        stored: NDArray[np.float32] = self._store[rows]
+        return stored
 
     def _compute(self, keys: NDArray[np.intp]) -> NDArray[np.float32]:
         """Tables of nodes given by flat keys into the padded field: max of ``(H - z_t) / s`` per azimuth."""
         rise = self._flat[keys[:, None, None] + self._offsets]  # (n, bins, K)
         rise *= self._inverse_distance
-        return rise.max(axis=-1)
+        tables: NDArray[np.float32] = rise.max(axis=-1)
+        return tables
 
     def bin_of(self, dx: NDArray[np.float64], dy: NDArray[np.float64]) -> NDArray[np.intp]:
         """The azimuth bin of horizontal offsets (dx, dy) from a target point to a vehicle."""

@@ -246,7 +246,7 @@ def _answer(
     distance = np.sqrt(horizontal2)
     sector = which * bins + _sector(np.arctan2(dy, dx), bins)
     near = distance < near_m[sector]
-    result = in_range & near
+    result: NDArray[np.bool_] = in_range & near
     open_ = np.flatnonzero(in_range & ~near & (distance <= far_m[sector]))
     if len(open_):
         rows = candidates[sector[open_]]

@@ -74,3 +74,13 @@ def test_prediction_stays_on_the_graph_but_for_the_off_road_weight(name: str) ->
     west = horizon.weights[-1][(last[:, 0] < -1.0) & (np.abs(last[:, 1]) < 1e-6)].sum()
     east = horizon.weights[-1][(last[:, 0] > 1.0) & (np.abs(last[:, 1]) < 1e-6)].sum()
     assert min(west, east) > 0.3
+
+
+@pytest.mark.parametrize("name", TRACKERS)
+def test_a_detection_no_hypothesis_explains_restarts_the_track_there(name: str) -> None:
+    rng = np.random.default_rng(14)
+    tracker, prior = _past_the_junction(name, rng)
+    far = np.array([1500.0, 1500.0])  # 1.5 km off every road and every hypothesis
+    posterior = tracker.update(prior, detections(far, UAVS + np.append(far, 0.0), SENSOR, rng), None, rng)
+    # the restart is drawn about the inverted detections (about 10 m good): the estimate moves there at once
+    assert np.hypot(*(posterior.mean[:2] - far)) < 30.0
