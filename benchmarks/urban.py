@@ -127,6 +127,9 @@ def run_closed_loop(
     vehicles report of their own positions and which navigation the engine runs on it.
     """
     scenario = with_budget(scenario, generations, stall)
+    # the road tracker's draws are the run's own: seeded by the run's seed (and each step's stamp)
+    road = msgspec.structs.replace(scenario.estimator.road, seed=seed)
+    scenario = msgspec.structs.replace(scenario, estimator=msgspec.structs.replace(scenario.estimator, road=road))
     nav = navigation or "perfect"
     if nav not in NAVIGATIONS:
         raise ValueError(f"unknown navigation {nav!r}; expected one of {', '.join(NAVIGATIONS)}")

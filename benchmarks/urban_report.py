@@ -81,6 +81,8 @@ def summarise(records: Sequence[RunRecord]) -> dict:
         "seen_per_uav_mean": [float(x) for x in np.mean([r.seen_per_uav for r in records], axis=0)],
         "rmse_m": float(np.sqrt(np.mean(errors**2))) if errors.size else float("nan"),
         "rmse_m_per_run": [r.rmse_m for r in records],
+        "max_error_per_run_m": [float(np.nanmax(r.errors_m)) if np.isfinite(r.errors_m).any() else float("nan")
+                                for r in records],
         "lost_runs": int(sum(r.lost for r in records)),
         "engine_counters": dict(sum((Counter(r.counters or {}) for r in records), Counter())),
         "lost_track": {**error_figures([r.errors_m for r in records]),

@@ -20,6 +20,7 @@ import msgspec
 from gcs.config.base import Config as _Config
 from gcs.config.base import Identifier, Metres, NonNegative, Point2, Positive, Radians
 from gcs.config.city import CityConfig, SourceConfig
+from gcs.config.estimator import EstimatorConfig, RoadEstimatorConfig, check_estimator, estimator_kind
 from gcs.config.multitarget import MultiTargetConfig, check_multitarget
 from gcs.config.planner import PlannerConfig, SightConfig, check_planner
 from gcs.config.simulation import (AUTOPILOT_PERSONALITIES, AirframeConfig, GpsConfig, GpsDeniedZone, InsConfig,
@@ -36,6 +37,8 @@ __all__ = [
     "VehicleConfig",
     "TargetConfig",
     "EstimatorConfig",
+    "RoadEstimatorConfig",
+    "estimator_kind",
     "SightConfig",
     "PlannerConfig",
     "MultiTargetConfig",
@@ -159,29 +162,6 @@ class TargetConfig(_Config, frozen=True):
     """``streets``: probability of leaving the straight road at an intersection."""
 
 
-class EstimatorConfig(_Config, frozen=True):
-    """Target estimator. ``duif``: wang2012 section 3 (range-bearing sensors); ``vgukf``:
-    zuo2021's ML initialisation and variable-gain UKF (bearing-only sensors); ``imm``: an IMM
-    of constant velocity (``accel_psd_m2_s3``) and coordinated turn, each mode updated by the
-    DUIF (the switching machinery of feng2019; ``model`` must be ``cv2d``). ``model`` names
-    the state layout."""
-
-    kind: Literal["duif", "vgukf", "imm"] = "duif"
-    model: Literal["cv2d", "ca2d"] = "cv2d"
-    accel_psd_m2_s3: NonNegative = 1.96
-    initial_position_std_m: Positive = 50.0
-    initial_velocity_std_mps: Positive = 10.0
-    turn_accel_psd_m2_s3: NonNegative = 2.0
-    """``imm``: white acceleration of the coordinated-turn mode (``accel_psd_m2_s3`` is then the
-    constant-velocity mode's, which can be much quieter than a single model's)."""
-    turn_rate_psd_rad2_s3: NonNegative = 0.01
-    """``imm``: random walk of the coordinated-turn mode's turn rate."""
-    initial_turn_rate_std_rad_s: Positive = 0.3
-    """``imm``: spread of the turn rate when a track starts (and of the CV mode's)."""
-    mode_switch_probability: Annotated[float, msgspec.Meta(gt=0.0, lt=1.0)] = 0.05
-    """``imm``: probability per step of leaving constant velocity (twice that of leaving the turn)."""
-
-
 class Scenario(_Config, frozen=True, kw_only=True):
     """A whole experiment; the default is wang2012 section 5."""
 
@@ -260,7 +240,8 @@ def validate_scenario(scenario: Scenario) -> Scenario:
     inside the city rectangle (of a city that has one: a city read from files is framed on its
     content and its start points, :attr:`CityConfig.framed_on_content`); a scripted target has one path; building heights are ordered; airspace bands
     are ordered; a GeoJSON city names its file; sensors that measure range have
-    a range standard deviation; autopilot personalities and the planner are known names; ``[multitarget]``'s rules
+    a range standard deviation; autopilot personalities and the planner are known names; ``[estimator]``'s
+    rules (:func:`gcs.config.estimator.check_estimator`); ``[multitarget]``'s rules
     (:func:`gcs.config.multitarget.check_multitarget`).
     """
     problems: list[str] = []
@@ -290,8 +271,7 @@ def validate_scenario(scenario: Scenario) -> Scenario:
         if target.id in seen_targets:
             problems.append(f"{path}.id: duplicate target id {target.id!r} (also {seen_targets[target.id]})")
         seen_targets.setdefault(target.id, path)
-    if scenario.estimator.kind == "imm" and scenario.estimator.model != "cv2d":
-        problems.append("$.estimator.model: the imm estimator needs model = 'cv2d'")
+    problems += check_estimator(scenario)
     if scenario.city.min_height_m > scenario.city.max_height_m:
         problems.append("$.city.min_height_m: greater than max_height_m")
     if scenario.city.kind == "geojson" and not scenario.city.geojson:

@@ -19,7 +19,8 @@ class SightConfig(Config, frozen=True):
     The objective (:mod:`gcs.core.planners.sight`) counts, in seen steps, the
     probability that at least one UAV sees the target at each of ``horizon_steps``
     steps over ``samples`` samples of the prediction (widened by
-    ``manoeuvre_spread`` times the target's speed per second ahead), from at most
+    ``manoeuvre_spread`` times the target's speed per second ahead; of the road
+    tracker's prediction, ``branch_samples`` of its samples down every branch), from at most
     ``reach_m`` away; plus ``per_uav_weight`` for each UAV's own sight (shared
     among the UAVs), ``information_weight`` for the share of the position variance
     removed, a stand-off pull worth at most ``standoff_weight`` (< 1 seen step)
@@ -33,6 +34,7 @@ class SightConfig(Config, frozen=True):
 
     horizon_steps: Annotated[int, msgspec.Meta(ge=1, le=100)] = 10
     samples: Annotated[int, msgspec.Meta(ge=1, le=256)] = 16
+    branch_samples: Annotated[int, msgspec.Meta(ge=1, le=256)] = 32
     per_uav_weight: NonNegative = 0.5
     information_weight: NonNegative = 0.5
     standoff_weight: Annotated[float, msgspec.Meta(ge=0.0, lt=1.0)] = 0.9

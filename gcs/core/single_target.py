@@ -23,7 +23,7 @@ from gcs.core.filters.uif import GaussianEstimate
 from gcs.core.models.sensor import RANGE, SensorModel
 from gcs.core.multitarget.filter import innovations
 from gcs.core.target_tracker import DetectionsByVehicle, InView
-from gcs.core.tracker import Detection, TrackerConfig, fuse, initial_estimate
+from gcs.core.tracker import Detection, Sensing, TrackerConfig, fuse, initial_estimate
 
 __all__ = ["SingleTargetTracker", "SingleTargetScan", "choose_detections", "choose_measurement"]
 
@@ -46,13 +46,14 @@ class SingleTargetTracker:
         return None
 
     def scan(self, state: GaussianEstimate | None, stamp_ns: int, detections_by_vehicle: DetectionsByVehicle,
-             sensors: Sequence[SensorModel], in_view: InView | None = None, /
+             sensors: Sequence[SensorModel], in_view: InView | None = None, sensing: Sensing | None = None, /
              ) -> tuple[GaussianEstimate | None, SingleTargetScan]:
         """The estimate after one scan, and the detections fused (``in_view`` is not used: one target's track is
-        never deleted for a miss). Raises what :func:`~gcs.core.tracker.fuse` raises on absurd data."""
+        never deleted for a miss; ``sensing``, every vehicle that sensed, gives the road tracker its negative
+        information). Raises what :func:`~gcs.core.tracker.fuse` raises on absurd data."""
         config = self.config if sensors is self.config.sensors else replace(self.config, sensors=tuple(sensors))
         detections = choose_detections(config, state, stamp_ns, detections_by_vehicle)
-        return fuse(config, state, stamp_ns, detections), SingleTargetScan(detections)
+        return fuse(config, state, stamp_ns, detections, sensing), SingleTargetScan(detections)
 
 
 def choose_detections(config: TrackerConfig, estimate: GaussianEstimate | None, stamp_ns: int,

@@ -4,8 +4,11 @@
 
 1. fuse this step's detections into the target estimate with the DUIF
    (eq. 14-15; Step 2 of ASRTP), initialising the track from the first
-   range-bearing detection when there is none yet;
-2. predict the target k+1..k+n (eq. 16-17; Step 3), or hold the current
+   range-bearing detection when there is none yet; with a road graph, the road
+   tracker instead (:class:`gcs.core.roads.RoadTracking`: particles on the roads,
+   the looks of the vehicles that detected nothing as negative information);
+2. predict the target k+1..k+n (eq. 16-17; Step 3; the road tracker's prediction
+   branches at junctions and carries weighted samples), or hold the current
    estimate for the paper's "k+0" comparison;
 3. build the planning problem with the visibility regions of the predicted
    points and solve it (Step 4); every plan then passes the airspace guard
@@ -23,75 +26,39 @@ callers that plan every step.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
+from gcs.core.detections import Detection, Sensing, initial_estimate, stack_detections
 from gcs.core.filters.aoa_init import ml_initialise
 from gcs.core.filters.imm_target import ImmEstimate, ImmTargetFilter
 from gcs.core.filters.prediction import HorizonPrediction, predict_horizon
 from gcs.core.filters.uif import NS_PER_S, GaussianEstimate, UnscentedInformationFilter
 from gcs.core.filters.vgukf import VariableGainUKF
 from gcs.core.kinematics import VehicleState
-from gcs.core.models.sensor import AZIMUTH, ELEVATION, RANGE, DetectionGroup, SensorModel
+from gcs.core.models.sensor import RANGE, DetectionGroup, SensorModel
 from gcs.core.planners.airspace_guard import AirspaceGuard
 from gcs.core.planners.problem import Planner, PlanningProblem, PlanResult, RhcWeights, Visibility
+from gcs.core.roads.outputs import RoadHorizon
+from gcs.core.roads.particle import RoadParticleEstimate
+from gcs.core.roads.tracking import RoadTracking
 from gcs.core.world.sight_table import SightTable
 
-__all__ = ["Detection", "TrackerConfig", "TrackerState", "StepInputs", "StepDiagnostics", "fuse", "iterated_update",
-           "prediction", "plan", "step", "initial_estimate"]
-
-
-@dataclass(frozen=True)
-class Detection:
-    """One vehicle's detection: its index in the roster, its position (3,) and the measurement (m,).
-
-    ``vehicle_cov`` is the covariance of that position as the vehicle's navigation
-    knows it, ENU m^2: (2, 2) horizontal (the vertical then counts as exact) or
-    (3, 3); or a float, the variance ``s^2`` of an error of ``s`` on every axis (a
-    report's ``vehicle_position_std_m``); None for an exactly known position. The
-    DUIF then inflates the measurement noise by ``J_s P_s J_s^T``
-    (:meth:`UnscentedInformationFilter.contribution`).
-    """
-
-    vehicle: int
-    vehicle_xyz: NDArray[np.float64]
-    values: NDArray[np.float64]
-    vehicle_cov: NDArray[np.float64] | float | None = None
-
-    def __post_init__(self) -> None:
-        if isinstance(self.vehicle_cov, (float, int)):
-            if not (math.isfinite(self.vehicle_cov) and self.vehicle_cov >= 0.0):
-                raise ValueError(f"a per-axis vehicle variance must be finite and >= 0, got {self.vehicle_cov!r}")
-            object.__setattr__(self, "vehicle_cov", float(self.vehicle_cov))
-        elif self.vehicle_cov is not None:
-            cov = np.asarray(self.vehicle_cov, dtype=np.float64)
-            if cov.shape == (2, 2):
-                cov = np.pad(cov, ((0, 1), (0, 1)))
-            if cov.shape != (3, 3) or not math.isfinite(cov.sum()) or min(cov[0, 0], cov[1, 1], cov[2, 2]) < 0.0:
-                raise ValueError(f"vehicle_cov must be a finite (2, 2) or (3, 3) covariance, got {self.vehicle_cov!r}")
-            object.__setattr__(self, "vehicle_cov", 0.5 * (cov + cov.T))
-
-    @property
-    def position_cov(self) -> NDArray[np.float64]:
-        """``vehicle_cov`` as (3, 3), zeros when the position is exact."""
-        if self.vehicle_cov is None:
-            return np.zeros((3, 3))
-        if isinstance(self.vehicle_cov, float):
-            return self.vehicle_cov * np.eye(3)
-        return self.vehicle_cov
+__all__ = ["Detection", "Sensing", "TrackerConfig", "TrackerState", "StepInputs", "StepDiagnostics", "fuse",
+           "iterated_update", "prediction", "plan", "step", "initial_estimate"]
 
 
 @dataclass(frozen=True)
 class StepInputs:
-    """What one decision step sees: the time, the vehicles now, and this step's detections."""
+    """What one decision step sees: the time, the vehicles now, this step's detections, and who sensed."""
 
     stamp_ns: int
     vehicles: VehicleState
     detections: Sequence[Detection] = ()
+    sensing: Sensing | None = None
 
 
 @dataclass(frozen=True)
@@ -125,6 +92,9 @@ class TrackerConfig:
     """Restricted airspace as a hard constraint on every planner's plan."""
     max_range_m: float = float("inf")
     """The sensors' range, metres."""
+    road: RoadTracking | None = None
+    """The road tracker: set (a world with a road graph) to replace the DUIF in :func:`fuse` and the
+    constant-velocity prediction in :func:`prediction`."""
 
 
 @dataclass(frozen=True)
@@ -152,37 +122,22 @@ class StepDiagnostics:
     extras: dict[str, object] = field(default_factory=dict)
 
 
-def initial_estimate(detection: Detection, sensor: SensorModel, stamp_ns: int, position_std_m: float,
-                     velocity_std_mps: float, state_dim: int) -> GaussianEstimate:
-    """A track from one range/azimuth detection: the inverted measurement, velocity unknown (zero)."""
-    if RANGE not in sensor.components:
-        raise ValueError("initialising from a single detection needs a range measurement")
-    values = dict(zip(sensor.components, detection.values))
-    elevation = values.get(ELEVATION)
-    if elevation is not None:
-        ground = values[RANGE] * np.cos(elevation)
-    else:
-        ground = np.sqrt(max(values[RANGE] ** 2 - (detection.vehicle_xyz[2] - sensor.target_height_m) ** 2, 0.0))
-    azimuth = values[AZIMUTH]
-    mean = np.zeros(state_dim)
-    mean[:2] = detection.vehicle_xyz[:2] + ground * np.array([np.cos(azimuth), np.sin(azimuth)])
-    variances = np.full(state_dim, velocity_std_mps**2)
-    variances[:2] = position_std_m**2
-    return GaussianEstimate(mean, np.diag(variances), stamp_ns)
-
-
 def fuse(config: TrackerConfig, estimate: GaussianEstimate | None, stamp_ns: int,
-         detections: Sequence[Detection]) -> GaussianEstimate | None:
+         detections: Sequence[Detection], sensing: Sensing | None = None) -> GaussianEstimate | None:
     """Step 2 of ASRTP alone: the DUIF update of the estimate with one step's detections (eq. 14-15).
 
     The track starts from the first range-bearing detection (bearing-only sensors:
     zuo2021's ML initialisation and VG-UKF, when ``config.bearing_filter`` is set). With
     ``config.target_imm`` the CV + coordinated-turn IMM replaces the single model, each of its
-    modes updated by the DUIF (:mod:`gcs.core.filters.imm_target`). Detections index
+    modes updated by the DUIF (:mod:`gcs.core.filters.imm_target`). With ``config.road`` the
+    road tracker replaces both (:func:`_fuse_road`), and ``sensing`` (every vehicle that
+    sensed at the step) gives it the looks that found nothing. Detections index
     ``config.sensors`` by their ``vehicle``. Deterministic: the same estimate and
     detections give the same result bit for bit (the daemon and ``gcs replay
     --process`` rely on it). None while nothing has been seen.
     """
+    if config.road is not None:
+        return _fuse_road(config, config.road, estimate, stamp_ns, detections, sensing)
     if config.bearing_filter is not None:
         return _fuse_bearings(config, config.bearing_filter, estimate, stamp_ns, detections)
     if estimate is None:
@@ -192,17 +147,37 @@ def fuse(config: TrackerConfig, estimate: GaussianEstimate | None, stamp_ns: int
         estimate = initial_estimate(first, config.sensors[first.vehicle], stamp_ns,
                                     config.initial_position_std_m, config.initial_velocity_std_mps,
                                     config.uif.motion.dim)
-    groups: dict[SensorModel, list[Detection]] = {}
-    for detection in detections:
-        groups.setdefault(config.sensors[detection.vehicle], []).append(detection)
-    stacked = [(sensor, np.array([d.values for d in group]), np.array([d.vehicle_xyz for d in group]),
-                _vehicle_covs(group)) for sensor, group in groups.items()]
+    stacked = stack_detections(config.sensors, detections)
     if config.target_imm is not None:
         if not isinstance(estimate, ImmEstimate):
             estimate = config.target_imm.start(estimate)
         return config.target_imm.step(estimate, stamp_ns, stacked)
     prior = config.uif.predict(estimate, stamp_ns)
     return iterated_update(config.uif, prior, stacked)
+
+
+def _fuse_road(config: TrackerConfig, road: RoadTracking, estimate: GaussianEstimate | None, stamp_ns: int,
+               detections: Sequence[Detection], sensing: Sensing | None) -> GaussianEstimate | None:
+    """The road tracker's step (:class:`~gcs.core.roads.RoadTracking`): every detection, fused as the DUIF fuses
+    them, and the looks of ``sensing``. A track starts from the first detection with a range (inverted,
+    :func:`initial_estimate`), or from zuo2021's ML fix of two bearings or more."""
+    stacked = stack_detections(config.sensors, detections)
+    looks = None if sensing is None else road.looks(sensing.vehicle_xyz, sensing.detected)
+    if isinstance(estimate, RoadParticleEstimate):
+        return road.step(estimate, stamp_ns, stacked, looks)
+    if estimate is not None:  # a Gaussian track handed over: its prediction starts the particles
+        return road.start(config.uif.predict(estimate, stamp_ns), stacked, looks)
+    ranged = [d for d in detections if RANGE in config.sensors[d.vehicle].components]
+    if ranged:
+        start = initial_estimate(ranged[0], config.sensors[ranged[0].vehicle], stamp_ns,
+                                 config.initial_position_std_m, config.initial_velocity_std_mps, 4)
+    elif len(detections) >= 2:
+        start = ml_initialise([config.sensors[d.vehicle] for d in detections], [d.values for d in detections],
+                              np.stack([d.vehicle_xyz for d in detections]), stamp_ns,
+                              config.initial_velocity_std_mps)
+    else:
+        return None
+    return road.start(start, stacked, looks)
 
 
 RELINEARISE_SIGMA = 3.0
@@ -240,17 +215,6 @@ def iterated_update(uif: UnscentedInformationFilter, prior: GaussianEstimate,
     return posterior
 
 
-def _vehicle_covs(group: Sequence[Detection]) -> NDArray[np.float64] | None:
-    """The group's vehicle position uncertainty: None when every position is exact, per-axis
-    variances (k,) when none has a matrix (exact ones count 0), else covariances (k, 3, 3)."""
-    covs = [d.vehicle_cov for d in group]
-    if all(c is None for c in covs):
-        return None
-    if all(c is None or isinstance(c, float) for c in covs):
-        return np.array([0.0 if c is None else c for c in covs])
-    return np.stack([d.position_cov for d in group])
-
-
 def _fuse_bearings(config: TrackerConfig, bearing_filter: VariableGainUKF, estimate: GaussianEstimate | None,
                    stamp_ns: int, detections: Sequence[Detection]) -> GaussianEstimate | None:
     """zuo2021's estimator for bearing-only sensors: ML initialisation from the first scan of at
@@ -269,7 +233,13 @@ def _fuse_bearings(config: TrackerConfig, bearing_filter: VariableGainUKF, estim
 
 
 def prediction(config: TrackerConfig, estimate: GaussianEstimate) -> HorizonPrediction:
-    """Step 3: the k+1..k+n predictions (eq. 16-17), or the estimate held (the paper's k+0)."""
+    """Step 3: the k+1..k+n predictions (eq. 16-17), or the estimate held (the paper's k+0).
+
+    A road track's prediction is the road tracker's (:meth:`~gcs.core.roads.RoadTracking.horizon`): a
+    :class:`~gcs.core.roads.RoadHorizon`, the moment-matched Gaussians and the weighted samples of every
+    branch. Held (k+0), a road track is its moment-matched Gaussian."""
+    if config.predict_ahead and config.road is not None and isinstance(estimate, RoadParticleEstimate):
+        return config.road.horizon(estimate, config.step_s, config.horizon_steps)
     if config.predict_ahead:
         return predict_horizon(config.uif, estimate, config.step_s, config.horizon_steps)
     step_ns = int(round(config.step_s * NS_PER_S))
@@ -305,6 +275,8 @@ def plan(
         step_s=config.step_s,
         target_means=predicted.states.mean,
         target_covs=predicted.states.cov,
+        target_samples=predicted.samples if isinstance(predicted, RoadHorizon) else None,
+        target_sample_weights=predicted.weights if isinstance(predicted, RoadHorizon) else None,
         sensors=config.sensors,
         visibility=None if config.visibility is None else config.visibility(predicted.positions),
         restricted=config.restricted,
@@ -332,6 +304,6 @@ def step(
 
     Returns the new state, the turn rates (V,) to fly now and the diagnostics.
     """
-    estimate = fuse(config, state.estimate, inputs.stamp_ns, inputs.detections)
+    estimate = fuse(config, state.estimate, inputs.stamp_ns, inputs.detections, inputs.sensing)
     new_state, turn_rate, diagnostics = plan(config, replace(state, estimate=estimate), inputs.vehicles, rng, now)
     return new_state, turn_rate, replace(diagnostics, detections=len(inputs.detections))

@@ -28,16 +28,15 @@ from gcs.core.filters.uif import GaussianEstimate, NotPositiveDefinite
 from gcs.core.geometry import wrap_angle
 from gcs.core.kinematics import VehicleState, rollout
 from gcs.core.models.sensor import SensorModel
-from gcs.core.single_target import SingleTargetScan, SingleTargetTracker, choose_detections
-from gcs.core.target_tracker import TargetTracker
-from gcs.core.tracker import Detection, TrackerConfig, TrackerState, prediction
+from gcs.core.single_target import SingleTargetTracker, choose_detections
+from gcs.core.tracker import Detection, Sensing, TrackerConfig, TrackerState, prediction
 from gcs.engine.navigation import FleetNavigator
 from gcs.engine.steps import ReadyStep
 from gcs.config import VehicleConfig
 from protocols.messages import PlanCommand, PredictedPoint, SensorReport, TrackEstimate
 
-__all__ = ["reported_detections", "step_detections", "scan_detections", "fuse_step", "FusionDiverged", "check_estimate",
-           "track_message", "plan_commands", "PlanMemory", "with_observers"]
+__all__ = ["reported_detections", "step_detections", "scan_detections", "step_sensing", "fuse_step", "FusionDiverged",
+           "check_estimate", "track_message", "plan_commands", "PlanMemory", "with_observers"]
 
 
 _REPORT_FIELD = {"range": "range_m", "azimuth": "azimuth_rad", "elevation": "elevation_rad"}
@@ -194,18 +193,29 @@ def scan_detections(ready: ReadyStep, roster: Sequence[str], sensors: Sequence[S
     return detections, np.array(positions, dtype=np.float64).reshape(-1, 3)
 
 
+def step_sensing(ready: ReadyStep, roster: Sequence[str], navigator: FleetNavigator | None = None) -> Sensing:
+    """Every roster vehicle that reported in the step (its first report), in roster order: where it was (as in
+    :func:`reported_detections`) and whether it detected anything; the road tracker's negative information."""
+    first = _first_reports(ready)
+    reported = [first[v] for v in roster if v in first]
+    xyz = np.array([_vehicle_position(report, navigator)[0] for report in reported], dtype=np.float64)
+    return Sensing(xyz.reshape(-1, 3), np.array([report.detected for report in reported], dtype=bool))
+
+
 def fuse_step(config: TrackerConfig, estimate: GaussianEstimate | None, ready: ReadyStep, roster: Sequence[str],
               navigator: FleetNavigator | None = None) -> tuple[GaussianEstimate | None, tuple[Detection, ...]]:
     """The estimate after one step, and the detections that went into it: one scan of the single-target tracker
-    (:class:`~gcs.core.single_target.SingleTargetTracker`) with the step's detections (:func:`reported_detections`).
+    (:class:`~gcs.core.single_target.SingleTargetTracker`) with the step's detections (:func:`reported_detections`)
+    and, for the road tracker, who sensed (:func:`step_sensing`).
 
     Raises :class:`FusionDiverged` when the detections (valid on the wire, but absurd together or with
     the prior) give no usable estimate, so that one bad step cannot poison the track that follows.
     """
-    tracker: TargetTracker[GaussianEstimate | None, SingleTargetScan] = SingleTargetTracker(config)
+    tracker = SingleTargetTracker(config)
     detections = reported_detections(ready, roster, config.sensors, navigator)
+    sensing = step_sensing(ready, roster, navigator) if config.road is not None else None
     try:
-        fused, scanned = tracker.scan(estimate, ready.stamp_ns, detections, config.sensors)
+        fused, scanned = tracker.scan(estimate, ready.stamp_ns, detections, config.sensors, None, sensing)
     except (NotPositiveDefinite, np.linalg.LinAlgError, ArithmeticError) as error:
         raise FusionDiverged(f"fusing step {ready.index} failed: {error}") from error
     check_estimate(fused)

@@ -2,7 +2,9 @@
 the benchmarks, so that they all run the same filter and planner for the same scenario.
 
 The planner is named as the scenario and the command line name it (:mod:`gcs.core.planner_names`) and
-built with the scenario's ``[planner]`` parameters (:func:`tracker_config`).
+built with the scenario's ``[planner]`` parameters (:func:`tracker_config`). The estimator is the scenario's
+``[estimator]`` (:func:`gcs.config.estimator_kind`): on a world with a road graph, by default, the road
+tracker (:func:`road_tracking`).
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from typing import Final, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from gcs.config import Scenario, SensorConfig
+from gcs.config import Scenario, SensorConfig, estimator_kind
 from gcs.core.filters.imm_target import ImmTargetFilter
 from gcs.core.filters.uif import UnscentedInformationFilter
 from gcs.core.filters.vgukf import VariableGainUKF
@@ -28,14 +30,18 @@ from gcs.core.planners import (CrossEntropyPlanner, GeneticPlanner, LmGcrlbPlann
 from gcs.core.planners.airspace_guard import AirspaceGuard
 from gcs.core.planners.one_step import HeadingSolver
 from gcs.core.planners.problem import Planner, Visibility
+from gcs.core.roads import RoadParticleFilter, table_sees
+from gcs.core.roads.tracking import RoadTracking
 from gcs.core.tracker import TrackerConfig
 from gcs.core.world import VisibilityMaps, World
 
-__all__ = ["FROM_SCENARIO", "horizon_steps", "sight_weights", "filter_sensor_models", "observer_sensor_model",
-           "tracker_config", "target_imm", "scenario_planner", "subset_config"]
+__all__ = ["FROM_SCENARIO", "LOOKS_REACH_M", "horizon_steps", "sight_weights", "filter_sensor_models",
+           "observer_sensor_model", "tracker_config", "target_imm", "road_tracking", "scenario_planner", "subset_config"]
 
 FROM_SCENARIO: Final = "scenario"
 """Default of ``stall``: take ``planner.stall_generations`` from the scenario."""
+LOOKS_REACH_M = 600.0
+"""How far the road tracker's sight table looks for roofs (beyond, the sky counts as open)."""
 
 
 def scenario_planner(scenario: Scenario) -> str:
@@ -70,7 +76,8 @@ def sight_weights(scenario: Scenario) -> SightWeights:
     cfg = scenario.planner.sight
     return SightWeights(per_uav=cfg.per_uav_weight, information=cfg.information_weight, standoff=cfg.standoff_weight,
                         standoff_m=cfg.standoff_m, standoff_scale_m=cfg.standoff_scale_m,
-                        turn_change=cfg.turn_change_weight, samples=cfg.samples, manoeuvre=cfg.manoeuvre_spread)
+                        turn_change=cfg.turn_change_weight, samples=cfg.samples, manoeuvre=cfg.manoeuvre_spread,
+                        branch_samples=cfg.branch_samples)
 
 
 def _planner(name: str, scenario: Scenario, generations: int | None,
@@ -129,7 +136,8 @@ def tracker_config(scenario: Scenario, world: World | None, planner: str, genera
     """The tracker for a scenario and one of :data:`PLANNERS`.
 
     ``world`` None gives a tracker for estimation only (no visibility regions or
-    restricted airspace for the planner), e.g. ``gcs replay --process``.
+    restricted airspace for the planner), e.g. ``gcs replay --process``; the road
+    tracker needs the world (ValueError without it).
     """
     cfg = scenario.planner
     search = _planner(planner, scenario, generations, stall)
@@ -141,6 +149,7 @@ def tracker_config(scenario: Scenario, world: World | None, planner: str, genera
                          standoff_m=cfg.standoff_m, control_weight=cfg.control_weight,
                          standoff_weight=cfg.standoff_weight)
     sensors = filter_sensor_models(scenario)
+    kind = estimator_kind(scenario)
     return TrackerConfig(
         uif=UnscentedInformationFilter(motion),
         sensors=sensors,
@@ -155,12 +164,13 @@ def tracker_config(scenario: Scenario, world: World | None, planner: str, genera
         restricted=world.in_restricted if world is not None and len(world.airspace) else None,
         initial_position_std_m=scenario.estimator.initial_position_std_m,
         initial_velocity_std_mps=scenario.estimator.initial_velocity_std_mps,
-        bearing_filter=VariableGainUKF(motion) if scenario.estimator.kind == "vgukf" else None,
-        target_imm=target_imm(scenario) if scenario.estimator.kind == "imm" else None,
+        bearing_filter=VariableGainUKF(motion) if kind == "vgukf" else None,
+        target_imm=target_imm(scenario) if kind == "imm" else None,
         sight=None if world is None else world.sight_table(altitude, sensors[0].target_height_m, cfg.sight.reach_m),
         guard=AirspaceGuard(margin_m=cfg.airspace_margin_m) if world is None
         else AirspaceGuard(world.airspace, cfg.airspace_margin_m),
         max_range_m=max_range,
+        road=road_tracking(scenario, world) if kind == "road" else None,
     )
 
 
@@ -172,6 +182,26 @@ def target_imm(scenario: Scenario) -> ImmTargetFilter:
                            turn_psd_rad2_s3=est.turn_rate_psd_rad2_s3,
                            initial_turn_std_rad_s=est.initial_turn_rate_std_rad_s,
                            transition=((1.0 - p, p), (2.0 * p, 1.0 - 2.0 * p)))
+
+
+def road_tracking(scenario: Scenario, world: World | None) -> RoadTracking:
+    """The road tracker of a scenario's ``[estimator.road]`` on the world's road graph, with negative information
+    from the world's sight table (at the lowest vehicle's altitude, out to :data:`LOOKS_REACH_M`) and the
+    sensors' range. ValueError without a world or a road graph."""
+    if world is None or world.roads is None:
+        raise ValueError(f"scenario {scenario.name!r}: the road estimator needs the world's road graph "
+                         "(build the world; [estimator] kind = 'duif' tracks without roads)")
+    cfg = scenario.estimator.road
+    graph_filter = RoadParticleFilter(
+        world.roads, speed_psd_m2_s3=cfg.speed_psd_m2_s3, max_speed_mps=cfg.max_speed_mps,
+        turn_probability=cfg.turn_probability, leave_rate_per_s=cfg.off_road_rate_per_s,
+        rejoin_rate_per_s=cfg.rejoin_rate_per_s, rejoin_m=cfg.rejoin_m, off_road_psd_m2_s3=cfg.off_road_psd_m2_s3,
+        spread_m=cfg.spread_m, initial_off_road=cfg.initial_off_road, particles=cfg.particles)
+    altitude = min(v.altitude_m for v in scenario.vehicles)
+    max_range = min(scenario.sensor_for(v).max_range_m for v in scenario.vehicles)
+    table = world.sight_table(altitude, filter_sensor_models(scenario)[0].target_height_m, LOOKS_REACH_M)
+    return RoadTracking(graph_filter, table_sees(table, max_range), cfg.detection_probability, cfg.seed,
+                        cfg.horizon_samples)
 
 
 def subset_config(config: TrackerConfig, indices: tuple[int, ...]) -> TrackerConfig:

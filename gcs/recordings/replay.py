@@ -35,7 +35,7 @@ import zenoh
 
 from gcs.adapters.recording import HEARTBEAT_ENCODING, LIVELINESS_ENCODING, Recorded, Recorder, read_recording
 from gcs.adapters.zenoh_session import has_subscribers, open_session
-from gcs.config import Scenario
+from gcs.config import Scenario, estimator_kind
 from gcs.config.world import build_world
 from gcs.core.metrics import gospa
 from gcs.core.world import World
@@ -51,7 +51,7 @@ from protocols.errors import ProtocolError
 from protocols.keys import DEFAULT_PREFIX, plan_key, track_key
 from protocols.messages import PlanCommand, TargetTruth, TrackEstimate
 
-__all__ = ["process", "summarise", "write_outputs", "truth_error", "republish", "INPUT_KINDS", "key_kind"]
+__all__ = ["process", "needs_world", "summarise", "write_outputs", "truth_error", "republish", "INPUT_KINDS", "key_kind"]
 
 log = logging.getLogger(__name__)
 
@@ -111,13 +111,14 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
     reproducible; the daemon's own plans stop at its deadline.
 
     ``plan`` False fuses without planning, even with a world. A ``[multitarget]`` scenario needs its
-    world to fuse (which tracks a sensor covered, past the buildings): without one given, it is
+    world to fuse (which tracks a sensor covered, past the buildings), and so does the road tracker
+    (the road graph, and the sight table of its negative information): without one given, it is
     built from the scenario (a generated city; a GeoJSON city needs it passed in).
 
     Returns the tracks, the plans (empty without a world) and the counters.
     """
     plans_too = world is not None and plan
-    if world is None and scenario.multitarget is not None:
+    if world is None and needs_world(scenario):
         world = build_world(scenario)
     engine = Engine(scenario, world, EngineOptions(prefix=prefix, accept_unlisted=accept_unlisted,
                                                    navigation=navigation, max_wait_s=max_wait_s, planner=planner,
@@ -164,6 +165,12 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
         release(now)
     release(now + HOLD_WAITS * max_wait_s + 1.0)  # past every open step's deadline
     return tracks, plans, engine.counters_now()
+
+
+def needs_world(scenario: Scenario) -> bool:
+    """Whether fusing the scenario's reports needs its world: many targets (the coverage past the buildings), or the
+    road tracker (:func:`gcs.config.estimator_kind`)."""
+    return scenario.multitarget is not None or estimator_kind(scenario) == "road"
 
 
 def _recorded_truths(path: Path) -> dict[int, dict[str, tuple[float, float]]]:

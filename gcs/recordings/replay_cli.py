@@ -18,7 +18,8 @@ from gcs.cli_errors import UsageError, existing_file, one_line, positive, set_co
 from gcs.config.world import build_world
 from gcs.adapters.engine_cli import add_acceptance_arguments, add_navigation_argument
 from gcs.recordings.recorded_scenario import recording_contents, replay_scenario
-from gcs.recordings.replay import NS_PER_S, process, republish, summarise, truth_error, truth_gospa, write_outputs
+from gcs.recordings.replay import (NS_PER_S, needs_world, process, republish, summarise, truth_error, truth_gospa,
+                                    write_outputs)
 from gcs.recordings.replay_view import cmd_view
 from gcs.scenarios import DEFAULT_SCENARIO, load_scenario, scenario_base_dir
 from protocols.errors import ProtocolError
@@ -152,8 +153,7 @@ def _print_info(info: dict, as_json: bool) -> None:
 
 def _process(args: argparse.Namespace) -> None:
     scenario = load_scenario(args.scenario)
-    needs_world = args.plan or scenario.multitarget is not None  # many targets: the coverage past the buildings
-    world = build_world(scenario, scenario_base_dir(args.scenario)) if needs_world else None
+    world = build_world(scenario, scenario_base_dir(args.scenario)) if args.plan or needs_world(scenario) else None
     tracks, plans, counters = process(args.file, scenario, args.prefix, world, args.seed, args.navigation,
                                       accept_unlisted=args.accept_unlisted, max_wait_s=args.max_wait, plan=args.plan)
     if args.out is not None:

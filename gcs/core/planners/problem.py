@@ -113,6 +113,11 @@ class PlanningProblem:
         Restricted airspace as a hard constraint (every planner's plan passes it).
     max_range_m : float
         The sensors' range (3-D), metres, for the sight objective.
+    target_samples : ndarray (T, S, 2) or None
+        Weighted samples of the target's position at k+1..k+T (the road tracker's prediction,
+        every branch it may have taken), for the sight objective; None: it samples the Gaussians.
+    target_sample_weights : ndarray (T, S) or None
+        Their weights, each row summing to 1.
     """
 
     vehicles: VehicleState
@@ -128,6 +133,8 @@ class PlanningProblem:
     sight: SightTable | None = None
     guard: AirspaceGuard = AirspaceGuard()
     max_range_m: float = float("inf")
+    target_samples: NDArray[np.float64] | None = None
+    target_sample_weights: NDArray[np.float64] | None = None
 
     @cached_property
     def prior_information(self) -> NDArray[np.float64]:

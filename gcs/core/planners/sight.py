@@ -13,6 +13,20 @@ on a building get weight 0 and the rest share the step's weight equally
 (the prediction conditioned on open ground); if every sample of a step is
 under a roof they keep equal weights.
 
+A prediction that comes as weighted samples (the road tracker's,
+:class:`gcs.core.roads.RoadHorizon`: particles driven on through the road graph,
+branching at junctions) is taken as it is: ``t_{j,s}`` are its samples and
+``w_{j,s}`` their weights, those under a roof (the off-road mode's) set to 0 and
+the rest normalised as above. The samples then lie down every street the car can
+have reached, each branch weighted by its probability, and the manoeuvre spread
+below is not added: the branches are the manoeuvres. More than ``B``
+(``branch_samples``) samples a step are thinned to ``B`` equally weighted ones by
+systematic resampling with the fixed offset 1/2 (sample ``b`` is the first whose
+cumulative weight reaches ``(b + 1/2) / B``): the road tracker gives a step's
+samples grouped by branch, so every branch keeps its weight to within ``1 / B``;
+the cost of the objective stays that of ``B`` samples, and no random number is
+drawn.
+
 **Visibility** ``v_{i,j,s}``: vehicle ``i`` at its own altitude ``h_i`` sees sample
 ``t_{j,s}`` (:class:`gcs.core.world.sight_table.SightTable`, within the sensor's
 range).
@@ -76,7 +90,7 @@ from gcs.core.kinematics import rollout
 from gcs.core.planners.problem import PlanningProblem
 from gcs.core.world.sight_table import SightTable
 
-__all__ = ["SightWeights", "VIOLATION_COST", "sample_pattern", "SightModel", "Contribution", "contribution", "TeamView",
+__all__ = ["SightWeights", "VIOLATION_COST", "sample_pattern", "thinned", "SightModel", "Contribution", "contribution", "TeamView",
            "joint_values"]
 
 VIOLATION_COST = 1000.0
@@ -89,7 +103,8 @@ class SightWeights:
 
     ``per_uav`` (beta), ``information`` (lambda), ``standoff`` (c < 1),
     ``standoff_m`` (d_r) and ``standoff_scale_m`` (d_s), ``turn_change`` (mu),
-    and ``samples`` (S) of the predicted target distribution per step.
+    ``samples`` (S) of the predicted target distribution per step, and
+    ``branch_samples`` (B) of a prediction that comes as samples (the road tracker's).
     """
 
     per_uav: float = 0.5
@@ -100,6 +115,7 @@ class SightWeights:
     turn_change: float = 0.002
     samples: int = 16
     manoeuvre: float = 0.6
+    branch_samples: int = 32
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.standoff < 1.0:
@@ -108,8 +124,9 @@ class SightWeights:
             raise ValueError("per_uav, information and turn_change must be >= 0")
         if not (self.standoff_m >= 0.0 and self.standoff_scale_m > 0.0):
             raise ValueError("standoff_m must be >= 0 and standoff_scale_m > 0")
-        if self.samples < 1:
-            raise ValueError(f"samples must be >= 1, got {self.samples!r}")
+        if min(self.samples, self.branch_samples) < 1:
+            raise ValueError(f"samples and branch_samples must be >= 1, got {self.samples!r}, "
+                             f"{self.branch_samples!r}")
 
 
 def sample_pattern(count: int) -> NDArray[np.float64]:
@@ -131,6 +148,33 @@ def sample_pattern(count: int) -> NDArray[np.float64]:
     values, vectors = np.linalg.eigh(cov)
     whitened: NDArray[np.float64] = points @ (vectors / np.sqrt(values)) @ vectors.T
     return whitened
+
+
+def thinned(samples: NDArray[np.float64], weights: NDArray[np.float64], count: int
+            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """At most ``count`` equally weighted samples (T, count, 2) of weighted ones (T, S, 2) with weights (T, S):
+    systematic resampling with the fixed offset 1/2 (module docstring); as they are when ``S <= count``."""
+    if samples.shape[1] <= count:
+        return samples, weights
+    cumulative = np.cumsum(weights, axis=1)
+    cumulative /= cumulative[:, -1:]
+    targets = (np.arange(count) + 0.5) / count
+    pick = np.minimum((cumulative[:, :, None] < targets[None, None, :]).sum(axis=1), samples.shape[1] - 1)
+    rows = np.take_along_axis(samples, pick[:, :, None], axis=1)
+    return rows, np.full(pick.shape, 1.0 / count)
+
+
+def _gaussian_samples(problem: PlanningProblem, weights: SightWeights) -> NDArray[np.float64]:
+    """``t_{j,s} = m_j + L_j z_s`` (T, S, 2) of the k+1..k+T Gaussians, widened by the manoeuvre spread."""
+    covs = problem.target_covs[:, :2, :2]
+    means = problem.target_means[:, :2]
+    now = means[0] - problem.target_means[0, 2:4] * problem.step_s if problem.target_means.shape[1] >= 4 else means[0]
+    ahead = np.hypot(*(means - now).T)  # how far the prediction extrapolates
+    spread = (weights.manoeuvre * ahead) ** 2
+    sampled = 0.5 * (covs + covs.swapaxes(-1, -2)) + spread[:, None, None] * np.eye(2)
+    chol = np.linalg.cholesky(sampled)
+    offsets: NDArray[np.float64] = np.einsum("tab,sb->tsa", chol, sample_pattern(weights.samples))
+    return means[:, None, :] + offsets
 
 
 @dataclass(frozen=True, eq=False)
@@ -163,17 +207,18 @@ class SightModel:
         if table is None:
             raise ValueError("the sight objective needs the problem's sight table (PlanningProblem.sight)")
         covs = problem.target_covs[:, :2, :2]
-        means = problem.target_means[:, :2]
-        now = means[0] - problem.target_means[0, 2:4] * problem.step_s if problem.target_means.shape[1] >= 4 else means[0]
-        ahead = np.hypot(*(means - now).T)  # how far the prediction extrapolates
-        spread = (weights.manoeuvre * ahead) ** 2
-        sampled = 0.5 * (covs + covs.swapaxes(-1, -2)) + spread[:, None, None] * np.eye(2)
-        chol = np.linalg.cholesky(sampled)
-        pattern = sample_pattern(weights.samples)
-        samples = means[:, None, :] + np.einsum("tab,sb->tsa", chol, pattern)
-        open_ground = table.field.at(samples) <= table.target_height_m
-        count = open_ground.sum(axis=1, keepdims=True)
-        w = np.where(count > 0, open_ground / np.maximum(count, 1), 1.0 / weights.samples)
+        if problem.target_samples is None:
+            samples = _gaussian_samples(problem, weights)
+            open_ground = table.field.at(samples) <= table.target_height_m
+            count = open_ground.sum(axis=1, keepdims=True)
+            w = np.where(count > 0, open_ground / np.maximum(count, 1), 1.0 / weights.samples)
+        else:
+            samples, prior = thinned(np.asarray(problem.target_samples, dtype=np.float64),
+                                     np.asarray(problem.target_sample_weights, dtype=np.float64),
+                                     weights.branch_samples)
+            kept = prior * (table.field.at(samples) <= table.target_height_m)
+            total = kept.sum(axis=1, keepdims=True)
+            w = np.where(total > 0.0, kept / np.where(total > 0.0, total, 1.0), prior)
         slopes = table.inverse_slopes(samples.reshape(-1, 2))
         return cls(problem, table, weights, samples, w, slopes, np.linalg.inv(covs).astype(np.float64, copy=False),
                    np.trace(covs, axis1=-2, axis2=-1))
@@ -189,12 +234,13 @@ class SightModel:
         dy = xy[:, :, None, 1] - self.samples[None, :, :, 1]
         horizontal2 = dx * dx + dy * dy
         rise = altitude_m - self.table.target_height_m
-        bins = self.table.bin_of(dx, dy)
-        rows = np.arange(t * s).reshape(1, t, s)
-        inverse = self.inverse_slopes[rows, bins]
         reach = self.problem.max_range_m
-        in_range = (horizontal2 + rise * rise <= reach * reach) & (horizontal2 <= self.table.reach_m ** 2)
-        return in_range & (np.sqrt(horizontal2) * inverse <= rise)
+        seen = (horizontal2 + rise * rise <= reach * reach) & (horizontal2 <= self.table.reach_m ** 2)
+        near = np.flatnonzero(seen)  # the roofs are asked about the pairs in range only
+        rows = np.broadcast_to(np.arange(t * s).reshape(1, t, s), seen.shape).ravel()[near]
+        inverse = self.inverse_slopes[rows, self.table.bin_of(dx.ravel()[near], dy.ravel()[near])]
+        seen.ravel()[near] = np.sqrt(horizontal2.ravel()[near]) * inverse <= rise
+        return seen
 
 
 @dataclass(frozen=True, eq=False)

@@ -13,7 +13,9 @@ The trackers (both subclass :class:`RoadMotion`, the shared road and off-road mo
 * :class:`RoadParticleFilter` -- :mod:`gcs.core.roads.particle` (particles on the graph);
 * :class:`RoadMixtureFilter` -- :mod:`gcs.core.roads.mixture` (Gaussians on road coordinates);
 * what a step's sensing says (:class:`Looks`, :func:`table_sees`) -- :mod:`gcs.core.roads.sensing`;
-  what they give back (:class:`RoadHorizon`) -- :mod:`gcs.core.roads.outputs`.
+  what they give back (:class:`RoadHorizon`) -- :mod:`gcs.core.roads.outputs`;
+* the particle filter as the tracking loop runs it, its draws seeded by each step's stamp
+  (:class:`RoadTracking`) -- :mod:`gcs.core.roads.tracking`.
 """
 
 from gcs.core.roads.graph import RoadGraph
@@ -23,9 +25,10 @@ from gcs.core.roads.outputs import RoadHorizon
 from gcs.core.roads.particle import RoadParticleEstimate, RoadParticleFilter
 from gcs.core.roads.sensing import Looks, table_sees
 from gcs.core.roads.sources import roads_from_geojson, roads_from_street_grid
+from gcs.core.roads.tracking import RoadTracking
 from gcs.core.roads.walk import walk
 
 __all__ = ["RoadGraph", "RoadMotion", "RoadHorizon", "Looks", "table_sees", "roads_from_street_grid",
            "roads_from_geojson", "walk", "RoadParticleFilter", "RoadParticleEstimate", "RoadMixtureFilter",
-           "RoadMixtureEstimate"]
+           "RoadMixtureEstimate", "RoadTracking"]
 

@@ -8,7 +8,9 @@ on ``[x, y, vx, vy]`` (the ``cv2d`` layout):
     \\bar x = \\sum_i w_i x_i, \\qquad
     P = \\sum_i w_i \\big(P_i + (x_i - \\bar x)(x_i - \\bar x)^T\\big)
 
-(``P_i = 0`` for a particle). ``\\bar x`` is the minimum mean-square-error
+(``P_i = 0`` for a particle), plus :data:`MIN_VARIANCE_M2` on the diagonal, so that a
+cloud collapsed onto a point or a line (a straight road) still has an invertible
+covariance. ``\\bar x`` is the minimum mean-square-error
 estimate, the point scored in the benchmarks; between two branches it can lie
 off the road, which is why :class:`RoadHorizon` also carries the branches.
 
@@ -31,7 +33,8 @@ from gcs.core.filters.prediction import HorizonPrediction
 __all__ = ["RoadHorizon", "moment_match", "normalise_log_weights", "forward_stamp", "MIN_VARIANCE_M2"]
 
 MIN_VARIANCE_M2 = 1.0
-"""Floor on the summary's position and velocity variances (m^2, m^2/s^2): a collapsed cloud stays invertible."""
+"""Added to the summary's position and velocity variances (m^2, m^2/s^2): a cloud collapsed onto a point, or
+onto a line along a road, keeps a positive-definite covariance."""
 
 
 def moment_match(weights: NDArray[np.float64], states: NDArray[np.float64],
@@ -43,9 +46,8 @@ def moment_match(weights: NDArray[np.float64], states: NDArray[np.float64],
     cov = np.einsum("...c,...cn,...cm->...nm", weights, d, d)
     if covs is not None:
         cov = cov + np.einsum("...c,...cnm->...nm", weights, covs)
-    n = states.shape[-1]
-    diagonal = np.arange(n)
-    cov[..., diagonal, diagonal] = np.maximum(cov[..., diagonal, diagonal], MIN_VARIANCE_M2)
+    diagonal = np.arange(states.shape[-1])
+    cov[..., diagonal, diagonal] += MIN_VARIANCE_M2
     return mean, 0.5 * (cov + np.swapaxes(cov, -1, -2))
 
 
@@ -70,7 +72,9 @@ def normalise_log_weights(log_w: NDArray[np.float64]) -> tuple[NDArray[np.float6
 class RoadHorizon(HorizonPrediction):
     """The k+1..k+n prediction: moment-matched ``states`` (T, 4), and ``samples`` (T, S, 2) with ``weights`` (T, S).
 
-    ``off_road`` (T,) is the predicted probability of the off-road mode at each step.
+    ``off_road`` (T,) is the predicted probability of the off-road mode at each step. A road tracker gives
+    each step's samples grouped by branch (all those of one edge together), so that thinning them
+    systematically (:func:`gcs.core.planners.sight.thinned`) keeps every branch's weight.
     """
 
     samples: NDArray[np.float64] | None = None

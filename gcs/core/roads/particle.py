@@ -187,7 +187,8 @@ class RoadParticleFilter(RoadMotion):
 
     def horizon(self, estimate: RoadParticleEstimate, step_s: float, steps: int, rng: np.random.Generator,
                 samples: int = 64) -> RoadHorizon:
-        """k+1..k+n: ``samples`` particles drawn by weight, each driven on through the graph (branching)."""
+        """k+1..k+n: ``samples`` particles drawn by weight, each driven on through the graph (branching). Each
+        step's samples come grouped by branch: by edge, then arc length along it, the off-road ones last."""
         if steps < 1:
             raise ValueError(f"steps must be >= 1, got {steps}")
         cloud = estimate.particles.subset(systematic(estimate.particles.weights, rng, samples))
@@ -195,7 +196,9 @@ class RoadParticleFilter(RoadMotion):
         states, off_road = [], []
         for _ in range(steps):
             cloud = self.move(cloud, step_ns / NS_PER_S, rng)
-            states.append(cloud.states)
+            by_branch = np.lexsort((cloud.xy[:, 1], cloud.xy[:, 0], cloud.s, np.where(cloud.on_road, cloud.edge, -1),
+                                    ~cloud.on_road))
+            states.append(cloud.states[by_branch])
             off_road.append(1.0 - cloud.on_road.mean())
         stamps = tuple(estimate.stamp_ns + j * step_ns for j in range(1, steps + 1))
         return RoadHorizon.from_samples(stamps, np.stack(states), np.full((steps, samples), 1.0 / samples),
