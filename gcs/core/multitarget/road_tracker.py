@@ -22,9 +22,10 @@ junctions and drive on along the streets while no vehicle sees the car). One sca
 5. new tracks start from the free detections (as the Gaussian tracker's), each a
    cloud drawn about the detection and put on the nearest roads.
 
-Randomness (the motion's noise, the branch draws, resampling) comes from a
-generator seeded by ``(seed, stamp_ns)``, so the same scans give the same tracks,
-bit for bit. The tracks' ``mean`` and ``cov`` are the clouds' summaries.
+Randomness (the motion's noise, the branch draws, resampling) comes from the
+generator of the single-target road tracker's update, seeded by ``seed`` and
+``stamp_ns`` (:meth:`gcs.core.roads.tracking.RoadTracking.generator`), so the same
+scans give the same tracks, bit for bit, live or replayed. The tracks' ``mean`` and ``cov`` are the clouds' summaries.
 """
 
 from __future__ import annotations
@@ -50,11 +51,10 @@ from gcs.core.multitarget.tracks import Lifecycle, TrackSet, advance
 from gcs.core.roads.outputs import normalise_log_weights
 from gcs.core.roads.particle import RoadParticleFilter
 from gcs.core.roads.sensing import Sees
+from gcs.core.roads.tracking import FUSE_STREAM, RoadTracking
 from gcs.core.tracker import Detection
 
 __all__ = ["RoadMultiTargetTracker"]
-
-_SEED_MASK = (1 << 64) - 1
 
 
 @dataclass(frozen=True)
@@ -76,8 +76,18 @@ class RoadMultiTargetTracker(MultiTargetTracker):
     detection_floor : float
         ``kappa``: a particle out of a vehicle's sight is detected with ``kappa P_D``
         (the sight test is approximate).
+    lane_std_m, lateral_psd_m2_s, lateral_limit_m : float
+        A road particle's offset from the centre line (the lanes, the street's width):
+        drawn ``N(0, lane_std_m^2)`` at birth, then a random walk of that density,
+        kept within the limit (:func:`~gcs.core.multitarget.road_clouds.drive`).
+    merge_scans, merge_overlap, merge_probability
+        The merging of unresolved tracks (:mod:`~gcs.core.multitarget.road_merging`):
+        the scans in a row, the shared road weight ``o_min`` and the gate's probability.
+    survival_per_s, initial_existence, min_existence : float
+        IPDA's existence (:mod:`~gcs.core.multitarget.road_existence`): ``p_s`` a second,
+        a new track's ``r``, and the ``r`` under which a track is deleted.
     seed : int
-        Mixed with each scan's stamp into the scan's generator.
+        Mixed with each scan's stamp into the scan's generator (>= 0).
     """
 
     roads: RoadParticleFilter | None = None
@@ -101,6 +111,8 @@ class RoadMultiTargetTracker(MultiTargetTracker):
             raise TypeError(f"roads must be a RoadParticleFilter, got {type(self.roads).__name__}")
         if self.particles < 2:
             raise ValueError(f"particles must be >= 2, got {self.particles}")
+        if self.seed < 0:
+            raise ValueError(f"seed must be >= 0, got {self.seed}")
         if not 0.0 < self.detection_floor <= 1.0:
             raise ValueError(f"detection_floor must be in (0, 1], got {self.detection_floor!r}")
 
@@ -125,7 +137,7 @@ class RoadMultiTargetTracker(MultiTargetTracker):
         every vehicle that scanned was (vehicle index -> ENU (3,)), those that detected nothing included; None:
         the vehicles with detections."""
         dt_s = elapsed_s(state, stamp_ns)
-        rng = np.random.default_rng([self.seed & _SEED_MASK, int(stamp_ns) & _SEED_MASK])
+        rng = RoadTracking(self.road_filter, seed=self.seed).generator(stamp_ns, FUSE_STREAM)
         batches = detection_batches(detections_by_vehicle, sensor)
         tracks = state.tracks
         clouds = state.clouds if state.clouds is not None else TrackClouds.empty(self.particles)

@@ -99,9 +99,10 @@ def test_the_looks_move_the_hidden_car_s_weight_into_the_shadow() -> None:
     three UAVs (a factor 0.1 each a scan): nothing is left there; the weight is on the east arm, and in the
     shadow of the junction (cars that slowed down)."""
     truths = [_turning_car(k)[None] for k in range(29)]
-    with_looks = _run(_road(association="jpda"), truths, np.random.default_rng(5))[28]
-    blind = RoadMultiTargetTracker(roads=RoadParticleFilter(CROSSROADS), association="jpda", min_existence=0.0,
-                                   **{**COMMON, "max_misses": 100})  # no looks; and kept, to be looked at
+    kept = {"min_existence": 0.0, **COMMON, "max_misses": 100}  # the track kept in both, to be looked at
+    with_looks = _run(RoadMultiTargetTracker(roads=RoadParticleFilter(CROSSROADS), sees=_sees, association="jpda",
+                                             **kept), truths, np.random.default_rng(5))[28]
+    blind = RoadMultiTargetTracker(roads=RoadParticleFilter(CROSSROADS), association="jpda", **kept)  # no looks
     without = _run(blind, truths, np.random.default_rng(5))[28]
 
     def shares(state) -> tuple[float, float]:
