@@ -48,12 +48,14 @@ def cmd_urban(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario)
     world = build_world(scenario)
     if args.gps_denied:
-        return urban_gps_denied(args, scenario, world)
+        from benchmarks.urban_runs import with_estimator
+
+        return urban_gps_denied(args, with_estimator(scenario, args.estimator) if args.estimator else scenario, world)
     try:
         report, records = urban_report.run_benchmark(
             args.scenario, scenario, world, runs=args.runs, seed=args.seed, planners=args.planners or PLANNERS,
             duration_s=args.duration, motion=args.motion, scaling=() if args.no_scaling else (3, 6, 10, 20),
-            workers=args.workers, dask=args.dask, progress=progress)
+            workers=args.workers, dask=args.dask, progress=progress, estimator=args.estimator)
     except DaskUnavailable as error:
         print(f"gcs-bench urban: {error}", file=sys.stderr)
         return 2

@@ -36,8 +36,8 @@ from benchmarks.lost_track import error_figures, longest_unseen, nees_inside
 from benchmarks.plots import cell, pyplot, write_markdown
 from benchmarks.plots import save as save_figure
 from benchmarks.urban import PLANNERS, RunRecord, run_closed_loop, with_vehicles
-from benchmarks.urban_runs import RunJob, run_jobs
-from gcs.config import Scenario
+from benchmarks.urban_runs import RunJob, run_jobs, with_estimator
+from gcs.config import Scenario, estimator_kind
 from gcs.core.world import World
 
 __all__ = ["K0_TWIN", "SCALING_PLANNERS", "SCORED", "paired_p", "run_benchmark", "summarise", "format_report",
@@ -123,15 +123,20 @@ def run_benchmark(
     workers: int = 1,
     dask: str | None = None,
     progress: Callable[[str], None] | None = None,
+    estimator: str | None = None,
 ) -> tuple[dict, dict[str, list[RunRecord]]]:
     """Paired runs of every planner, and the timing table; returns (report, records).
 
     ``scenario_name`` is what the runs load (a shipped name or a .toml path; the
     workers load it themselves), ``scenario`` and ``world`` its contents, for the
-    timing table, which adds UAVs to the scenario and runs here.
+    timing table, which adds UAVs to the scenario and runs here. ``estimator`` replaces the
+    scenario's ``[estimator] kind`` in every run (None: the scenario's).
     """
     say = progress or (lambda _msg: None)
-    jobs = [RunJob(scenario_name, name, seed + run, duration_s, motion) for run in range(runs) for name in planners]
+    if estimator is not None:
+        scenario = with_estimator(scenario, estimator)
+    jobs = [RunJob(scenario_name, name, seed + run, duration_s, motion, estimator=estimator)
+            for run in range(runs) for name in planners]
 
     def done(job: RunJob, record: RunRecord) -> None:
         say(f"seed {job.seed} {job.planner}: seen by any {record.seen_any}/{record.seen.shape[0]}, "
@@ -160,7 +165,7 @@ def run_benchmark(
     _compare(summaries)
     report = {
         "scenario": scenario.name, "runs": runs, "seed": seed,
-        "motion": motion or scenario.target.motion, "scored": SCORED,
+        "motion": motion or scenario.target.motion, "estimator": estimator_kind(scenario), "scored": SCORED,
         "ga": {"population": scenario.planner.population, "generations": scenario.planner.generations,
                "stall_generations": scenario.planner.stall_generations,
                "horizon_steps": scenario.planner.horizon_steps},
@@ -182,7 +187,7 @@ def format_report(report: dict) -> str:
     ga, sight = report["ga"], report["sight"]
     lines = [
         f"urban benchmark: {report['scenario']}, {report['runs']} paired runs from seed {report['seed']}, "
-        f"target motion {report['motion']}; sight planner horizon {sight['horizon_steps']} steps, "
+        f"target motion {report['motion']}, estimator {report.get('estimator', 'duif')}; sight planner horizon {sight['horizon_steps']} steps, "
         f"{sight['samples']} samples; GA {ga['population']} x {ga['generations']}, horizon {ga['horizon_steps']}",
         f"{'planner':<10}{'seen by any':>13}{'(min)':>7}{'seen per UAV':>22}{'RMSE m':>9}{'lost':>6}{'viol.':>7}"
         f"{'ms':>8}{'p99':>8}{'vs orbit':>10}{'p':>9}{'vs k+0':>8}{'p':>9}",

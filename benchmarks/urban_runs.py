@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 from benchmarks.urban import RunRecord, run_closed_loop
+from gcs.config import Scenario
 
 __all__ = ["RunJob", "run_job", "run_jobs", "DaskUnavailable"]
 
@@ -42,6 +43,8 @@ class RunJob:
     motion: str | None = None
     stall: int | None | str = "scenario"
     timed: bool = True
+    estimator: str | None = None
+    """``[estimator] kind`` in place of the scenario's (None: the scenario's)."""
 
 
 @lru_cache(maxsize=8)
@@ -55,11 +58,20 @@ def _scenario_and_world(scenario: str, thread: int):
     return loaded, build_world(loaded)
 
 
+def with_estimator(scenario: Scenario, kind: str) -> Scenario:
+    """``scenario`` with ``[estimator] kind = kind``, its other estimator settings kept."""
+    import msgspec
+
+    return msgspec.structs.replace(scenario, estimator=msgspec.structs.replace(scenario.estimator, kind=kind))
+
+
 def run_job(job: RunJob) -> RunRecord:
     """Run one job (the world is built once per thread and scenario)."""
     import time
 
     scenario, world = _scenario_and_world(job.scenario, threading.get_ident())
+    if job.estimator is not None:
+        scenario = with_estimator(scenario, job.estimator)
     return run_closed_loop(scenario, world, job.planner, job.seed, duration_s=job.duration_s, motion=job.motion,
                            stall=job.stall, clock=time.perf_counter if job.timed else None)
 

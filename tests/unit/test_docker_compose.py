@@ -193,7 +193,7 @@ def test_dockerfile_slim_non_root_installs_the_repository():
     assert "--no-cache-dir" in install and re.search(r"pip install\s+(--\S+\s+)*\.(\s|$)", install)
     assert "[" not in install, "no extras (tests) in the image"
     scripts = set(PYPROJECT["project"]["scripts"])
-    assert scripts == set(PROGRAMS)
+    assert set(PROGRAMS) <= scripts  # the image holds the ground station's programs (and gcs-bench, unused there)
     assert {container_argv(compose()["services"][n])[0] for n in OUR_SERVICES} <= scripts
 
 
