@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 
 from gcs.core.models.sensor import SensorModel
 from gcs.core.multitarget.batches import DetectionBatch, detection_batches
+from gcs.core.multitarget.diagnostics import ScanDiagnostics, scan_diagnostics
 from gcs.core.multitarget.gating import gate_threshold
 from gcs.core.multitarget.initiation import initial_states
 from gcs.core.multitarget.road_association import (costs_of, detection_probabilities, mixture_log_weights,
@@ -45,8 +46,7 @@ from gcs.core.multitarget.road_association import (costs_of, detection_probabili
 from gcs.core.multitarget.road_clouds import TrackClouds, drive, resample_degenerate, start_clouds
 from gcs.core.multitarget.road_existence import existence_log_ratio, predicted_existence, updated_existence
 from gcs.core.multitarget.road_merging import merged, unresolved
-from gcs.core.multitarget.tracker import MultiTargetState, MultiTargetTracker, ScanDiagnostics, elapsed_s, \
-    scan_diagnostics
+from gcs.core.multitarget.tracker import MultiTargetState, MultiTargetTracker, elapsed_s
 from gcs.core.multitarget.tracks import Lifecycle, TrackSet, advance
 from gcs.core.roads.outputs import normalise_log_weights
 from gcs.core.roads.particle import RoadParticleFilter

@@ -44,12 +44,13 @@ from gcs.core.models.motion import LinearMotionModel, constant_velocity
 from gcs.core.models.sensor import SensorModel
 from gcs.core.multitarget import filter as batched
 from gcs.core.multitarget.batches import DetectionBatch, detection_batches
+from gcs.core.multitarget.diagnostics import ScanDiagnostics, scan_diagnostics
 from gcs.core.multitarget.gating import gate, gate_threshold
 from gcs.core.multitarget.gnn import assignment_costs, gnn_assign
 from gcs.core.multitarget.initiation import ground_positions, initial_states, merge_candidates, starts_tracks
 from gcs.core.multitarget.jpda import DEFAULT_MAX_HYPOTHESES, jpda_marginals
 from gcs.core.multitarget.road_clouds import TrackClouds
-from gcs.core.multitarget.tracks import Advanced, TrackSet, advance
+from gcs.core.multitarget.tracks import TrackSet, advance
 from gcs.core.tracker import Detection
 
 __all__ = ["MultiTargetTracker", "MultiTargetState", "ScanDiagnostics"]
@@ -66,37 +67,6 @@ class MultiTargetState:
     stamp_ns: int | None = None
     next_id: int = 1
     clouds: TrackClouds | None = None
-
-
-@dataclass(frozen=True)
-class ScanDiagnostics:
-    """Counts of one scan, and the tracks it deleted (status DELETED)."""
-
-    detections: int
-    gated: int
-    """Detections inside at least one track's gate."""
-    associated: int
-    unassociated: int
-    initiated_ids: tuple[int, ...]
-    confirmed_ids: tuple[int, ...]
-    deleted: TrackSet
-    jpda_clusters: int = 0
-    jpda_clusters_over_cap: int = 0
-    fusion_fallbacks: int = 0
-    detected_by: Mapping[int, tuple[int, ...]] = field(default_factory=dict)
-    """Per vehicle index with detections, the ids of the tracks its association detected (module docstring)."""
-
-    @property
-    def initiations(self) -> int:
-        return len(self.initiated_ids)
-
-    @property
-    def confirmations(self) -> int:
-        return len(self.confirmed_ids)
-
-    @property
-    def deletions(self) -> int:
-        return self.deleted.size
 
 
 @dataclass(frozen=True)
@@ -299,19 +269,6 @@ def elapsed_s(state: MultiTargetState, stamp_ns: int) -> float:
     if dt_s < 0.0:
         raise ValueError(f"scan at {stamp_ns} ns is older than the tracks ({state.stamp_ns} ns)")
     return dt_s
-
-
-def scan_diagnostics(batches: Sequence[DetectionBatch], counts: Mapping[str, int], advanced: Advanced,
-                     born: TrackSet, detected_by: Mapping[int, tuple[int, ...]], fallbacks: int = 0
-                     ) -> ScanDiagnostics:
-    """The counts of one scan (:class:`ScanDiagnostics`) from what its steps did."""
-    total = sum(b.z.shape[0] for b in batches)
-    return ScanDiagnostics(
-        detections=total, gated=counts["gated"], associated=counts["associated"],
-        unassociated=total - counts["associated"], initiated_ids=tuple(born.ids.tolist()),
-        confirmed_ids=tuple(advanced.confirmed_ids.tolist()) + tuple(born.confirmed().ids.tolist()),
-        deleted=advanced.deleted, jpda_clusters=counts["clusters"], jpda_clusters_over_cap=counts["over"],
-        fusion_fallbacks=fallbacks, detected_by=dict(detected_by))
 
 
 def _position_definite(cov: NDArray[np.float64]) -> NDArray[np.bool_]:
