@@ -32,7 +32,8 @@ SUBCOMMANDS: tuple[Subcommand, ...] = (
     Subcommand("imm", f"{_TRACKING}:add_imm",
                "CV + coordinated-turn IMM vs the single-model DUIF on the street-following target"),
     Subcommand("multitarget", f"{_TRACKING}:add_multitarget",
-               "many ground targets: our GNN and JPDA vs Stone Soup's, GOSPA, track scores, ms per scan"),
+               "many ground targets: our GNN and JPDA (Gaussian and on the roads) vs Stone Soup's, GOSPA, track "
+               "scores, ms per scan"),
     Subcommand("sharing", f"{_TRACKING}:add_sharing",
                "three UAVs shared between many ground targets: the summed objective, assignment, fixed orbits"),
     Subcommand("scale", f"{_TRACKING}:add_scale",

@@ -40,12 +40,13 @@ __all__ = ["many_target_scenario", "ScanScene", "SharingScene", "confirmed"]
 
 
 def many_target_scenario(base: Scenario, association: str, pd: float, clutter: float, vehicles: int,
-                         starvation_s: float = 20.0, forget_s: float = 90.0) -> Scenario:
+                         starvation_s: float = 20.0, forget_s: float = 90.0, kind: str = "gaussian") -> Scenario:
     """``base`` (its city, sensor and first ``vehicles`` UAVs) tracking every target: ``[multitarget]`` with the
     benches' tracker (:data:`benchmarks.multitarget.PROCESS_NOISE`, :data:`~benchmarks.multitarget.MAX_MISSED_SCANS`,
-    :data:`~benchmarks.multitarget.MAX_POSITION_TRACE_M2`), its sensor's detection probability and clutter."""
+    :data:`~benchmarks.multitarget.MAX_POSITION_TRACE_M2`), its sensor's detection probability and clutter;
+    ``kind`` the tracker (``gaussian``, ``road`` or ``auto``, :mod:`gcs.config.multitarget`)."""
     sensor = msgspec.structs.replace(base.sensor, detection_probability=pd, clutter_rate=clutter)
-    config = MultiTargetConfig(association=association, accel_psd_m2_s3=mt.PROCESS_NOISE,
+    config = MultiTargetConfig(kind=kind, association=association, accel_psd_m2_s3=mt.PROCESS_NOISE,
                                max_misses=mt.MAX_MISSED_SCANS, max_position_trace_m2=mt.MAX_POSITION_TRACE_M2,
                                starvation_s=starvation_s, forget_s=forget_s)
     team = [msgspec.structs.replace(v, sensor=None) for v in base.vehicles[:vehicles]]

@@ -12,10 +12,13 @@ bench measures tracking) with the scenario's range/azimuth/elevation sensor and 
 maximum range. A vehicle sees a target only with a line of sight past the buildings
 (:meth:`gcs.core.world.World.line_of_sight`). Decision step 1 s.
 
-**Methods**, fed identical scans (:func:`sim_vehicles.truth.detections.scan`): ``gnn`` and
-``jpda``, our multi-target tracker as the daemon runs it: the engine (:class:`gcs.engine.engine.Engine`
-with ``[multitarget]``, :mod:`benchmarks.many_targets_loop`) fed each scan as the vehicles' sensor
-reports, its confirmed tracks read from what it publishes; and Stone Soup's GNN and JPDA
+**Methods**, fed identical scans (:func:`sim_vehicles.truth.detections.scan`): our multi-target
+tracker as the daemon runs it, the engine (:class:`gcs.engine.engine.Engine` with ``[multitarget]``,
+:mod:`benchmarks.many_targets_loop`) fed each scan as the vehicles' sensor reports, its confirmed
+tracks read from what it publishes: ``gnn_roads`` and ``jpda_roads`` the road tracker
+(``kind = "road"``, what ``auto`` runs in this city; :mod:`gcs.core.multitarget.road_tracker`, its
+motion and seed ``[estimator.road]``'s defaults), ``gnn`` and ``jpda`` the Gaussian tracker
+(``kind = "gaussian"``); and Stone Soup's GNN and JPDA
 (:mod:`benchmarks.stonesoup_peer`) on the scans themselves. The wall time is measured here with
 ``time.perf_counter`` (never in the core): for ours, the engine's whole decision step (the scan of
 :class:`gcs.core.multitarget.MultiTargetTracker`, the confirmed tracks' k+1..k+n predictions and their
@@ -57,7 +60,7 @@ ORBITS = ((1000.0, 1000.0, 400.0), (2000.0, 1000.0, 400.0), (1500.0, 2000.0, 400
 ORBIT_SPEED_MPS = 25.0
 RING_RADIUS_M = 1000.0
 """Distance from the city's centre (1500, 1500) of the orbits of UAVs beyond :data:`ORBITS`."""
-OURS = ("gnn", "jpda")
+OURS = ("gnn", "jpda", "gnn_roads", "jpda_roads")
 PEERS = ("stonesoup_gnn", "stonesoup_jpda")
 PROCESS_NOISE = 2.0
 """White-acceleration density (m^2/s^3) of every method's constant-velocity model: the street
@@ -160,14 +163,15 @@ def make_scans(world: World, scene: Scene, sensor: SensorModel, max_range_m: flo
     return scans
 
 
-def run_ours(association: str, scans, scene: Scene, config: BenchConfig, world: World, base: Scenario
-             ) -> MethodRun:
-    """Our tracker in the engine over the scans (module docstring); the time of each decision step."""
+def run_ours(association: str, scans, scene: Scene, config: BenchConfig, world: World, base: Scenario,
+             kind: str = "gaussian") -> MethodRun:
+    """Our tracker (``kind``: ``gaussian`` or ``road``) in the engine over the scans (module docstring); the time
+    of each decision step."""
     from benchmarks.closed_loop import EngineLoop, fly
     from benchmarks.many_targets_loop import ScanScene, confirmed, many_target_scenario
 
     vehicles = scene.vehicle_xyz.shape[1]
-    scenario = many_target_scenario(base, association, config.pd, config.clutter, vehicles)
+    scenario = many_target_scenario(base, association, config.pd, config.clutter, vehicles, kind=kind)
     roster = [v.id for v in scenario.vehicles]
     loop = EngineLoop(scenario, world, np.random.default_rng(0), plans=False)
     loop.declare(roster, 0.0)
@@ -212,6 +216,8 @@ def run_methods(scans, scene: Scene, config: BenchConfig, methods: Sequence[str]
     runners: dict[str, Callable[[], MethodRun]] = {
         "gnn": lambda: run_ours("gnn", scans, scene, config, world, base),
         "jpda": lambda: run_ours("jpda", scans, scene, config, world, base),
+        "gnn_roads": lambda: run_ours("gnn", scans, scene, config, world, base, "road"),
+        "jpda_roads": lambda: run_ours("jpda", scans, scene, config, world, base, "road"),
         "stonesoup_gnn": lambda: run_stonesoup("stonesoup_gnn", scans, config, max_range_m, sensor_height_m),
         "stonesoup_jpda": lambda: run_stonesoup("stonesoup_jpda", scans, config, max_range_m, sensor_height_m),
     }

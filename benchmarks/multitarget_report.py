@@ -4,8 +4,8 @@ Per method and over all runs: the mean over runs of each run's mean GOSPA and OS
 (after the warm-up) and of its track breaks, false tracks, id swaps and missed
 truth-steps; ``ms_per_scan`` is the median over every scan of every run. GOSPA is
 compared across seeds by the paired Wilcoxon signed-rank test (``scipy.stats.wilcoxon``)
-of per-seed GOSPA, ours against Stone Soup's method of the same association; the
-speed ratio is Stone Soup's JPDA ms per scan over ours, measured in the same run.
+of per-seed GOSPA, ours (Gaussian and on the roads) against Stone Soup's method of the
+same association, and so are the per-seed id swaps; the speed ratio is Stone Soup's JPDA ms per scan over ours, measured in the same run.
 """
 
 from __future__ import annotations
@@ -21,7 +21,8 @@ from benchmarks import multitarget as mt
 __all__ = ["FIGURES", "run_benchmark", "format_report", "write_json"]
 
 FIGURES = ("gospa", "ospa", "track_breaks", "false_tracks", "id_swaps", "missed", "ms_per_scan")
-PAIRS = (("gnn", "stonesoup_gnn"), ("jpda", "stonesoup_jpda"))
+PAIRS = (("gnn", "stonesoup_gnn"), ("jpda", "stonesoup_jpda"), ("gnn_roads", "stonesoup_gnn"),
+         ("jpda_roads", "stonesoup_jpda"))
 
 
 def run_benchmark(config: mt.BenchConfig, runs: int, seed: int, peers: bool,
@@ -75,22 +76,31 @@ def vars_of(config: mt.BenchConfig) -> dict:
 
 
 def paired_tests(per_seed: Sequence[dict], methods: Sequence[str]) -> dict:
-    """Wilcoxon p-value of per-seed GOSPA, ours vs the peer of the same association (None if not computable)."""
-    from scipy.stats import wilcoxon
-
+    """Wilcoxon p-value of per-seed GOSPA, ours vs the peer of the same association (None if not computable);
+    and of per-seed id swaps (``swaps_*``)."""
     out = {}
     for ours, peer in PAIRS:
         if ours not in methods or peer not in methods:
             continue
-        a = np.array([s["methods"][ours]["gospa"] for s in per_seed])
-        b = np.array([s["methods"][peer]["gospa"] for s in per_seed])
-        try:
-            p = float(wilcoxon(a, b).pvalue)
-        except ValueError:  # every difference zero, or too few seeds
-            p = None
-        out[f"{ours}_vs_{peer}"] = {"p_value": p, "mean_difference_m": float(np.mean(a - b)),
-                                    "seeds_ours_better": int(np.sum(a < b)), "seeds": len(a)}
+        a, b = (np.array([s["methods"][m]["gospa"] for s in per_seed]) for m in (ours, peer))
+        swaps_a, swaps_b = (np.array([s["methods"][m]["id_swaps"] for s in per_seed]) for m in (ours, peer))
+        out[f"{ours}_vs_{peer}"] = {"p_value": _wilcoxon(a, b), "mean_difference_m": float(np.mean(a - b)),
+                                    "seeds_ours_better": int(np.sum(a < b)), "seeds": len(a),
+                                    "swaps_p_value": _wilcoxon(swaps_a, swaps_b),
+                                    "swaps_mean_difference": float(np.mean(swaps_a - swaps_b)),
+                                    "seeds_ours_fewer_swaps": int(np.sum(swaps_a < swaps_b))}
     return out
+
+
+def _wilcoxon(a: np.ndarray, b: np.ndarray) -> float | None:
+    """The paired Wilcoxon signed-rank p-value of ``a`` against ``b``; None when every difference is zero or there
+    are too few seeds."""
+    from scipy.stats import wilcoxon
+
+    try:
+        return float(wilcoxon(a, b).pvalue)
+    except ValueError:
+        return None
 
 
 def speed_ratio(summary: dict) -> float | None:
@@ -117,8 +127,11 @@ def format_report(report: dict) -> str:
                      f"{row['ms_per_scan']:>10.2f}")
     for name, test in report["paired_tests"].items():
         p = "n/a" if test["p_value"] is None else f"{test['p_value']:.3g}"
+        swaps_p = "n/a" if test.get("swaps_p_value") is None else f"{test['swaps_p_value']:.3g}"
         lines.append(f"GOSPA {name}: mean difference {test['mean_difference_m']:+.1f} m, ours lower on "
-                     f"{test['seeds_ours_better']}/{test['seeds']} seeds, Wilcoxon p = {p}")
+                     f"{test['seeds_ours_better']}/{test['seeds']} seeds, Wilcoxon p = {p}; id swaps "
+                     f"{test.get('swaps_mean_difference', 0.0):+.1f} a run, fewer on "
+                     f"{test.get('seeds_ours_fewer_swaps', 0)}/{test['seeds']} seeds, Wilcoxon p = {swaps_p}")
     if report["speed_ratio_stonesoup_jpda_over_jpda"] is not None:
         lines.append(f"speed: stonesoup_jpda ms/scan / jpda ms/scan = {report['speed_ratio_stonesoup_jpda_over_jpda']:.1f}x")
     if report["note"]:

@@ -138,7 +138,9 @@ def add_imm(sub: argparse._SubParsersAction) -> None:
 def add_multitarget(sub: argparse._SubParsersAction) -> None:
     """Register ``gcs-bench multitarget``."""
     mtt = sub.add_parser(
-        "multitarget", help="many ground targets: our GNN and JPDA vs Stone Soup's, GOSPA, track scores, ms per scan",
+        "multitarget",
+        help="many ground targets: our GNN and JPDA (Gaussian and on the roads) vs Stone Soup's, GOSPA, track "
+             "scores, ms per scan",
         description="Street-following ground targets on the wang2012_urban city (two of them side by side for the "
                     "first part of the run), three UAVs on fixed orbits with the scenario's range/azimuth/elevation "
                     "sensor, occlusion by buildings, missed detections and clutter; every method is fed the same "

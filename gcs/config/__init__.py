@@ -288,7 +288,7 @@ def validate_scenario(scenario: Scenario) -> Scenario:
             problems.append(f"$.restricted[{index}].floor_m: must be below ceiling_m")
     problems += check_planner(scenario.planner)
     problems += check_multitarget(scenario.multitarget, [scenario.sensor_for(v) for v in scenario.vehicles],
-                                  scenario.planner.kind)
+                                  scenario.planner.kind, scenario.city)
     if problems:
         raise ScenarioError("; ".join(problems))
     return scenario

@@ -8,6 +8,13 @@ between the tracks by assignment (:mod:`gcs.core.multitarget.planning`). The sen
 ``detection_probability`` and ``clutter_rate`` (``[sensor]``) are the tracker's ``P_D``
 and clutter. The defaults are those ``gcs-bench multitarget`` and ``gcs-bench sharing``
 measure.
+
+``kind = "auto"`` (the default) is the road tracker
+(:class:`gcs.core.multitarget.road_tracker.RoadMultiTargetTracker`, every track a particle cloud on
+the road graph, its motion that of ``[estimator.road]``) wherever the world has a road graph, and
+the Gaussian tracker (:class:`gcs.core.multitarget.MultiTargetTracker`, constant velocity) elsewhere
+(:func:`multitarget_kind`), as ``[estimator] kind = "auto"`` chooses for one target. ``"gaussian"``
+names the Gaussian tracker on any world; ``"road"`` needs a road graph.
 """
 
 from __future__ import annotations
@@ -17,9 +24,11 @@ from typing import Annotated, Literal
 import msgspec
 
 from gcs.config.base import Config, NonNegative, Positive
+from gcs.config.city import CityConfig
+from gcs.config.estimator import has_road_graph
 from gcs.core.planner_names import MULTITARGET_PLANNERS
 
-__all__ = ["MultiTargetConfig", "check_multitarget"]
+__all__ = ["MultiTargetConfig", "check_multitarget", "multitarget_kind"]
 """The planners that share the UAVs between targets (the sequential sight search's ``solve_assigned``)."""
 
 Window = Annotated[int, msgspec.Meta(ge=1, le=62)]
@@ -28,6 +37,8 @@ Window = Annotated[int, msgspec.Meta(ge=1, le=62)]
 class MultiTargetConfig(Config, frozen=True):
     """The multi-target tracker and the sharing of the UAVs between its tracks.
 
+    ``kind``: ``auto``, ``road`` or ``gaussian`` (module docstring); ``road_particles``: the
+    particles of each road track.
     ``association``: ``gnn`` or ``jpda``; ``accel_psd_m2_s3``: the tracks' constant-velocity
     white acceleration; ``gate_probability``: ``P_G`` of the chi-square gate;
     ``confirm_m`` of ``confirm_n``: the confirmation rule; ``max_misses``: consecutive
@@ -38,6 +49,8 @@ class MultiTargetConfig(Config, frozen=True):
     track's target is still searched for.
     """
 
+    kind: Literal["auto", "road", "gaussian"] = "auto"
+    road_particles: Annotated[int, msgspec.Meta(ge=2, le=10_000)] = 200
     association: Literal["gnn", "jpda"] = "jpda"
     accel_psd_m2_s3: NonNegative = 2.0
     gate_probability: Annotated[float, msgspec.Meta(gt=0.0, lt=1.0)] = 0.99
@@ -50,13 +63,23 @@ class MultiTargetConfig(Config, frozen=True):
     forget_s: Positive = 90.0
 
 
-def check_multitarget(config: MultiTargetConfig | None, sensors: list, planner_kind: str) -> list[str]:
+def multitarget_kind(config: MultiTargetConfig, city: CityConfig) -> str:
+    """The many-target tracker a scenario runs: ``road`` or ``gaussian``, ``auto`` resolved (module docstring)."""
+    if config.kind != "auto":
+        return config.kind
+    return "road" if has_road_graph(city) else "gaussian"
+
+
+def check_multitarget(config: MultiTargetConfig | None, sensors: list, planner_kind: str,
+                      city: CityConfig | None = None) -> list[str]:
     """The rules a schema cannot express: M <= N; every vehicle's sensor (``sensors``, SensorConfig) measures
-    range (a track starts from one detection's ground position) and detects at all; and a planner that can
-    share the UAVs (``sight`` or ``sight_k0``)."""
+    range (a track starts from one detection's ground position) and detects at all; a planner that can
+    share the UAVs (``sight`` or ``sight_k0``); and ``kind = "road"`` in a ``city`` with a road graph."""
     if config is None:
         return []
     problems = []
+    if config.kind == "road" and city is not None and not has_road_graph(city):
+        problems.append("$.multitarget.kind: 'road' needs a road graph (a generated city, or [city] roads_geojson)")
     if config.confirm_m > config.confirm_n:
         problems.append(f"$.multitarget.confirm_m: {config.confirm_m} is more than confirm_n {config.confirm_n}")
     kinds = sorted({sensor.kind for sensor in sensors})

@@ -12,6 +12,13 @@ deletes becomes a lost target, searched for ``forget_s`` (:class:`gcs.core.multi
 The planner is given the confirmed tracks and the lost targets
 (:mod:`gcs.core.multitarget.planning`).
 
+The tracker is the one ``[multitarget] kind`` names (:func:`gcs.config.multitarget.multitarget_kind`; by
+default the road tracker wherever the world has a road graph): :func:`many_target_tracker` builds it,
+for the daemon and replay alike. The road tracker (:class:`~gcs.core.multitarget.road_tracker.RoadMultiTargetTracker`)
+moves its particles as ``[estimator.road]`` says (:func:`gcs.engine.tracker_factory.road_tracking`: the
+same motion, sight table and seed as the single-target road tracker), and is told where every vehicle
+that reported was, those that detected nothing included (their negative information).
+
 The tracker's detection probability and clutter are the scenario's sensor's
 (``detection_probability``; ``clutter_rate`` false detections per scan spread over the
 measurement volume of :func:`~gcs.core.multitarget.coverage.clutter_volume`, at least
@@ -22,11 +29,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from gcs.config import Scenario
+from gcs.config.multitarget import multitarget_kind
 from gcs.core.filters.estimate import GaussianEstimate
 from gcs.core.filters.prediction import HorizonPrediction
 from gcs.core.models.motion import constant_velocity
@@ -35,15 +44,17 @@ from gcs.core.multitarget.coverage import clutter_volume, coverage
 from gcs.core.multitarget.gating import gate_threshold
 from gcs.core.multitarget.lost import LostTargets
 from gcs.core.multitarget.planning import TargetsToPlan, targets_to_plan
+from gcs.core.multitarget.road_tracker import RoadMultiTargetTracker
 from gcs.core.target_tracker import TargetTracker
 from gcs.core.tracker import TrackerConfig
 from gcs.core.world import World
 from gcs.engine.fusion import scan_detections, track_message
 from gcs.engine.navigation import FleetNavigator
 from gcs.engine.steps import ReadyStep
+from gcs.engine.tracker_factory import road_tracking
 from protocols.messages import TrackEstimate
 
-__all__ = ["TrackKeeper", "Scanned", "MIN_CLUTTER_PER_SCAN", "FOUND_PROBABILITY", "track_name"]
+__all__ = ["TrackKeeper", "Scanned", "MIN_CLUTTER_PER_SCAN", "FOUND_PROBABILITY", "track_name", "many_target_tracker"]
 
 NS_PER_S = 1_000_000_000
 MIN_CLUTTER_PER_SCAN = 1e-3
@@ -71,6 +82,29 @@ class Scanned:
     diagnostics: ScanDiagnostics
 
 
+def many_target_tracker(scenario: Scenario, world: World | None, tracker: TrackerConfig) -> MultiTargetTracker:
+    """The scenario's many-target tracker (module docstring): the road tracker or the Gaussian one, with the
+    ``[multitarget]`` association, lifecycle and motion, and the sensor's detection probability and clutter.
+    ``auto`` without a world (estimation only, every track covered) is the Gaussian tracker. ValueError for a
+    scenario without ``[multitarget]``, or ``kind = "road"`` without a world with roads."""
+    config = scenario.multitarget
+    if config is None:
+        raise ValueError(f"scenario {scenario.name!r} has no [multitarget] table")
+    clutter = max(scenario.sensor.clutter_rate, MIN_CLUTTER_PER_SCAN) / clutter_volume(tracker.max_range_m)
+    common: dict[str, Any] = dict(
+        association=config.association, motion=constant_velocity(config.accel_psd_m2_s3),
+        detection_probability=scenario.sensor.detection_probability, gate_probability=config.gate_probability,
+        clutter_density=clutter, confirm_m=config.confirm_m, confirm_n=config.confirm_n,
+        max_misses=config.max_misses, max_position_trace_m2=config.max_position_trace_m2,
+        initial_velocity_std_mps=config.initial_velocity_std_mps)
+    kind = multitarget_kind(config, scenario.city)
+    if kind == "gaussian" or (config.kind == "auto" and (world is None or world.roads is None)):
+        return MultiTargetTracker(**common)
+    roads = road_tracking(scenario, world)
+    return RoadMultiTargetTracker(roads=roads.filter, sees=roads.sees, particles=config.road_particles,
+                                  seed=roads.seed, **common)
+
+
 class TrackKeeper:
     """The multi-target tracker's memory between steps; see the module docstring."""
 
@@ -80,13 +114,9 @@ class TrackKeeper:
             raise ValueError(f"scenario {scenario.name!r} has no [multitarget] table")
         self.config, self.world, self.tracker_config = config, world, tracker
         self.motion = constant_velocity(config.accel_psd_m2_s3)
-        clutter = max(scenario.sensor.clutter_rate, MIN_CLUTTER_PER_SCAN) / clutter_volume(tracker.max_range_m)
-        self.tracker: TargetTracker[MultiTargetState, ScanDiagnostics] = MultiTargetTracker(
-            association=config.association, motion=self.motion,
-            detection_probability=scenario.sensor.detection_probability, gate_probability=config.gate_probability,
-            clutter_density=clutter, confirm_m=config.confirm_m, confirm_n=config.confirm_n,
-            max_misses=config.max_misses, max_position_trace_m2=config.max_position_trace_m2,
-            initial_velocity_std_mps=config.initial_velocity_std_mps)
+        built = many_target_tracker(scenario, world, tracker)
+        self.tracker: TargetTracker[MultiTargetState, ScanDiagnostics] = built
+        self.road = built if isinstance(built, RoadMultiTargetTracker) else None
         self.state: MultiTargetState = self.tracker.start()
         self.lost = LostTargets.none()
         self._confirmed_ids: set[int] = set()
@@ -103,7 +133,14 @@ class TrackKeeper:
             in_view = (coverage(self.world, positions, config.sensors[0].target_height_m, config.max_range_m)
                        if len(positions) else _covers_nothing)
         before = self.state.stamp_ns
-        self.state, diagnostics = self.tracker.scan(self.state, ready.stamp_ns, detections, config.sensors, in_view)
+        if self.road is not None:  # every vehicle that reported, by roster index: where it was
+            reported = {r.vehicle_id for r in ready.reports}
+            indices = [i for i, vehicle in enumerate(roster) if vehicle in reported]
+            self.state, diagnostics = self.road.scan(self.state, ready.stamp_ns, detections, config.sensors, in_view,
+                                                     dict(zip(indices, positions)))
+        else:
+            self.state, diagnostics = self.tracker.scan(self.state, ready.stamp_ns, detections, config.sensors,
+                                                        in_view)
         confirmed = self.state.tracks.confirmed()
         if before is not None and ready.stamp_ns > before:
             self.lost = self.lost.advance(self.motion, (ready.stamp_ns - before) / NS_PER_S)

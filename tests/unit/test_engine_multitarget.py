@@ -109,17 +109,13 @@ def test_a_planner_that_cannot_share_the_vehicles_is_refused() -> None:
         Engine(SCENARIO, None, EngineOptions(planner="orbit"))
 
 
-def test_replay_tracks_and_plans_every_car_of_a_recording_and_scores_the_tracks_by_gospa(tmp_path) -> None:
-    """Six steps recorded with the vehicles' heartbeats, nav, reports and the cars' truths: replay confirms a
-    track on each car from the third step, plans every decision for all three vehicles. The truths are recorded
-    3-4-5 m off the cars the reports measure exactly, so each step with tracks has GOSPA sqrt(5^2 + 5^2) m (no
-    car missed, no false track)."""
+def _record_two_cars(path) -> None:
+    """Six steps recorded with the vehicles' heartbeats, nav, reports of both cars (exact), and the cars' truths
+    3-4-5 m off them."""
     from gcs.adapters.recording import Recorder
-    from gcs.recordings.replay import process, truth_gospa
     from protocols.keys import truth_key
     from protocols.messages import TargetTruth
 
-    path = tmp_path / "cars.mcap"
     with Recorder(path) as recorder:
         for k in range(6):
             t_ns = EPOCH_NS + k * S
@@ -135,7 +131,19 @@ def test_replay_tracks_and_plans_every_car_of_a_recording_and_scores_the_tracks_
                                       detections=tuple(_measurement(xyz, car) for car in CARS.values()))
                 recorder.write(nav_key(vehicle), *encode(nav), t_ns + slot * 10_000_000)
                 recorder.write(report_key(vehicle), *encode(report), t_ns + slot * 10_000_000)
-    tracks, plans, counters = process(path, SCENARIO, world=build_world(SCENARIO))
+
+
+def test_replay_tracks_and_plans_every_car_of_a_recording_and_scores_the_tracks_by_gospa(tmp_path) -> None:
+    """Replay (the Gaussian tracker, named) confirms a track on each car from the third step and plans every
+    decision for all three vehicles. The reports measure the cars exactly, so the tracks are on them; the truths
+    are 5 m off, so each step with tracks has GOSPA sqrt(5^2 + 5^2) m (no car missed, no false track)."""
+    from gcs.recordings.replay import process, truth_gospa
+
+    path = tmp_path / "cars.mcap"
+    _record_two_cars(path)
+    gaussian = msgspec.structs.replace(SCENARIO, multitarget=msgspec.structs.replace(SCENARIO.multitarget,
+                                                                                     kind="gaussian"))
+    tracks, plans, counters = process(path, gaussian, world=build_world(SCENARIO))
     assert counters.get("errors.decision", 0) == 0 and counters.get("errors.planning", 0) == 0, counters
     assert sorted({t.stamp_ns for t in tracks}) == [EPOCH_NS + k * S for k in range(2, 6)]
     assert len(tracks) == 2 * 4 and len({t.target_id for t in tracks}) == 2
@@ -145,6 +153,27 @@ def test_replay_tracks_and_plans_every_car_of_a_recording_and_scores_the_tracks_
     # steps 0-1 have no track: both cars missed, sqrt(2 c^2 / 2) = c = 100 m
     assert scored == 6 and max(errors) < 1e-6 and mean == pytest.approx((2 * 100.0 + 4 * math.sqrt(50.0)) / 6,
                                                                          abs=1e-6)
+
+
+def test_replay_in_a_city_with_roads_runs_the_road_tracker_the_same_twice(tmp_path) -> None:
+    """The scenario's own ``[multitarget]`` (``kind = "auto"``, a generated city): the road tracker. It confirms
+    the same two tracks at the same steps as the Gaussian one; its tracks are its clouds' means, within 10 m of
+    the cars (the clouds' lane offset, ``lane_std_m`` 4 m, and road spread, 3 m, about points measured exactly);
+    and a second replay gives the same tracks bit for bit (its draws seeded by the scenario and the stamps)."""
+    from gcs.recordings.replay import process
+
+    path = tmp_path / "cars.mcap"
+    _record_two_cars(path)
+    world = build_world(SCENARIO)
+    assert Engine(SCENARIO, world, EngineOptions()).keeper.road is not None
+    tracks, _, counters = process(path, SCENARIO, world=world, plan=False)
+    again, _, _ = process(path, SCENARIO, world=world, plan=False)
+    assert counters.get("errors.decision", 0) == 0, counters
+    assert sorted({t.stamp_ns for t in tracks}) == [EPOCH_NS + k * S for k in range(2, 6)]
+    assert len(tracks) == 2 * 4 and len({t.target_id for t in tracks}) == 2
+    assert max(min(math.hypot(t.state[0] - x, t.state[1] - y) for x, y in CARS.values()) for t in tracks) < 10.0
+    assert [(t.target_id, t.stamp_ns, t.state, t.covariance) for t in tracks] == \
+        [(t.target_id, t.stamp_ns, t.state, t.covariance) for t in again]
 
 
 def test_the_vehicles_are_given_back_once_there_is_nothing_to_track_or_search_for() -> None:

@@ -24,7 +24,7 @@ def test_bench_multitarget_writes_json_and_beats_no_tracks(tmp_path: Path) -> No
     done = _bench("--runs", "2", "--steps", "30", "--seed", "4", "--json", str(out))
     assert done.returncode == 0, done.stderr
     report = json.loads(out.read_text())
-    assert set(report["methods"]) == {"gnn", "jpda", "stonesoup_gnn", "stonesoup_jpda"}
+    assert set(report["methods"]) == {"gnn", "jpda", "gnn_roads", "jpda_roads", "stonesoup_gnn", "stonesoup_jpda"}
     c = 100.0
     assert "c = 100 m" in done.stdout
     empty = c * math.sqrt(5 / 2.0)  # GOSPA (p = 2, alpha = 2) of no tracks against 5 truths: sqrt(5 c^2 / 2)
@@ -39,7 +39,14 @@ def test_bench_multitarget_writes_json_and_beats_no_tracks(tmp_path: Path) -> No
     for name, row in report["methods"].items():  # the table's figure is the mean over the seeds
         assert row["gospa"] == pytest.approx(sum(s["methods"][name]["gospa"] for s in report["per_seed"]) / 2)
     assert report["config"]["runs"] == 2 and report["config"]["steps"] == 30 and report["config"]["targets"] == 5
-    assert set(report["paired_tests"]) == {"gnn_vs_stonesoup_gnn", "jpda_vs_stonesoup_jpda"}
+    assert set(report["paired_tests"]) == {"gnn_vs_stonesoup_gnn", "jpda_vs_stonesoup_jpda",
+                                           "gnn_roads_vs_stonesoup_gnn", "jpda_roads_vs_stonesoup_jpda"}
+    for pair, test in report["paired_tests"].items():  # the paired figures are the per-seed ones
+        ours, peer = pair.split("_vs_")
+        for figure, key in (("gospa", "mean_difference_m"), ("id_swaps", "swaps_mean_difference")):
+            differences = [s["methods"][ours][figure] - s["methods"][peer][figure] for s in report["per_seed"]]
+            assert test[key] == pytest.approx(sum(differences) / 2), (pair, figure)
+
     ratio = report["speed_ratio_stonesoup_jpda_over_jpda"]
     assert ratio == pytest.approx(report["methods"]["stonesoup_jpda"]["ms_per_scan"]
                                   / report["methods"]["jpda"]["ms_per_scan"])
@@ -50,7 +57,7 @@ def test_bench_multitarget_no_peers_runs_ours_only(tmp_path: Path) -> None:
     done = _bench("--runs", "1", "--steps", "15", "--targets", "3", "--no-peers", "--json", str(out))
     assert done.returncode == 0, done.stderr
     report = json.loads(out.read_text())
-    assert set(report["methods"]) == {"gnn", "jpda"}
+    assert set(report["methods"]) == {"gnn", "jpda", "gnn_roads", "jpda_roads"}
     assert report["paired_tests"] == {} and report["speed_ratio_stonesoup_jpda_over_jpda"] is None
 
 

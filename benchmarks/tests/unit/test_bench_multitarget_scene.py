@@ -55,6 +55,6 @@ def test_without_stone_soup_ours_run_and_the_report_says_so(monkeypatch) -> None
     notes = []
     report = multitarget_report.run_benchmark(BenchConfig(targets=2, steps=12, warm_up=2), runs=1, seed=0, peers=True,
                                               progress=notes.append)
-    assert set(report["methods"]) == {"gnn", "jpda"}
+    assert set(report["methods"]) == {"gnn", "jpda", "gnn_roads", "jpda_roads"}
     assert report["note"].startswith("Stone Soup peers not run") and report["note"] in notes
     assert report["note"] in multitarget_report.format_report(report).splitlines()

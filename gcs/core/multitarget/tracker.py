@@ -43,10 +43,13 @@ from gcs.core.filters.estimate import NS_PER_S
 from gcs.core.models.motion import LinearMotionModel, constant_velocity
 from gcs.core.models.sensor import SensorModel
 from gcs.core.multitarget import filter as batched
+from gcs.core.multitarget.batches import DetectionBatch, detection_batches
+from gcs.core.multitarget.diagnostics import ScanDiagnostics, scan_diagnostics
 from gcs.core.multitarget.gating import gate, gate_threshold
 from gcs.core.multitarget.gnn import assignment_costs, gnn_assign
 from gcs.core.multitarget.initiation import ground_positions, initial_states, merge_candidates, starts_tracks
 from gcs.core.multitarget.jpda import DEFAULT_MAX_HYPOTHESES, jpda_marginals
+from gcs.core.multitarget.road_clouds import TrackClouds
 from gcs.core.multitarget.tracks import TrackSet, advance
 from gcs.core.tracker import Detection
 
@@ -57,53 +60,13 @@ ASSOCIATIONS = ("gnn", "jpda")
 
 @dataclass(frozen=True)
 class MultiTargetState:
-    """The tracker's memory: the tracks, the stamp they are at (None before the first scan), the next id."""
+    """The tracker's memory: the tracks, the stamp they are at (None before the first scan), the next id; and,
+    for the road tracker (:mod:`~gcs.core.multitarget.road_tracker`), the rest of each track's state, row for row."""
 
     tracks: TrackSet = field(default_factory=TrackSet.empty)
     stamp_ns: int | None = None
     next_id: int = 1
-
-
-@dataclass(frozen=True)
-class ScanDiagnostics:
-    """Counts of one scan, and the tracks it deleted (status DELETED)."""
-
-    detections: int
-    gated: int
-    """Detections inside at least one track's gate."""
-    associated: int
-    unassociated: int
-    initiated_ids: tuple[int, ...]
-    confirmed_ids: tuple[int, ...]
-    deleted: TrackSet
-    jpda_clusters: int = 0
-    jpda_clusters_over_cap: int = 0
-    fusion_fallbacks: int = 0
-    detected_by: Mapping[int, tuple[int, ...]] = field(default_factory=dict)
-    """Per vehicle index with detections, the ids of the tracks its association detected (module docstring)."""
-
-    @property
-    def initiations(self) -> int:
-        return len(self.initiated_ids)
-
-    @property
-    def confirmations(self) -> int:
-        return len(self.confirmed_ids)
-
-    @property
-    def deletions(self) -> int:
-        return self.deleted.size
-
-
-@dataclass(frozen=True)
-class _Batch:
-    """One vehicle's detections as arrays."""
-
-    vehicle: int
-    sensor: SensorModel
-    z: NDArray[np.float64]
-    xyz: NDArray[np.float64]
-    pcov: NDArray[np.float64]
+    clouds: TrackClouds | None = None
 
 
 @dataclass(frozen=True)
@@ -175,17 +138,12 @@ class MultiTargetTracker:
         of sight past the buildings); a track out of every view is not counted
         missed (:mod:`~gcs.core.multitarget.tracks`). None: every track was covered.
         """
-        if not isinstance(stamp_ns, (int, np.integer)) or isinstance(stamp_ns, bool):
-            raise TypeError(f"stamp_ns must be an integer number of nanoseconds, got {type(stamp_ns).__name__}")
-        batches = _batches(detections_by_vehicle, sensor)
+        dt_s = elapsed_s(state, stamp_ns)
+        batches = detection_batches(detections_by_vehicle, sensor)
         tracks = state.tracks
         mean, cov = tracks.mean, tracks.cov
-        if state.stamp_ns is not None:
-            dt_s = (int(stamp_ns) - state.stamp_ns) / NS_PER_S
-            if dt_s < 0.0:
-                raise ValueError(f"scan at {stamp_ns} ns is older than the tracks ({state.stamp_ns} ns)")
-            if dt_s > 0.0 and tracks.size:
-                mean, cov = batched.predict(mean, cov, dt_s, self.motion)
+        if dt_s > 0.0 and tracks.size:
+            mean, cov = batched.predict(mean, cov, dt_s, self.motion)
         predicted_xy = mean[:, :2]
         a_parts, b_parts = [], []
         hit = np.zeros(tracks.size, dtype=bool)
@@ -215,42 +173,63 @@ class MultiTargetTracker:
                            self.max_position_trace_m2, looked)
         born = self._initiate(batches, free, state.next_id, advanced.kept)
         new_state = MultiTargetState(advanced.kept.concat(born), int(stamp_ns), state.next_id + born.size)
-        total = sum(b.z.shape[0] for b in batches)
-        diagnostics = ScanDiagnostics(
-            detections=total, gated=counts["gated"], associated=counts["associated"],
-            unassociated=total - counts["associated"], initiated_ids=tuple(born.ids.tolist()),
-            confirmed_ids=tuple(advanced.confirmed_ids.tolist()) + tuple(born.confirmed().ids.tolist()),
-            deleted=advanced.deleted, jpda_clusters=counts["clusters"], jpda_clusters_over_cap=counts["over"],
-            fusion_fallbacks=fallbacks, detected_by=detected_by)
-        return new_state, diagnostics
+        return new_state, scan_diagnostics(batches, counts, advanced, born, detected_by, fallbacks)
 
-    def _associate(self, mean: NDArray[np.float64], cov: NDArray[np.float64], batch: _Batch, counts: dict[str, int]
+    def _associate(self, mean: NDArray[np.float64], cov: NDArray[np.float64], batch: DetectionBatch,
+                   counts: dict[str, int]
                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_]]:
         """One vehicle: contributions ``A`` (T, 2, 2), ``b`` (T, 2), tracks detected (T,), detections used (n,)."""
-        inn = batched.innovations(mean, cov, batch.sensor, batch.z, batch.xyz, batch.pcov)
-        valid = gate(inn.d2, self.gate_probability, batch.sensor.dim)
+        inn, valid = self._gated(mean, cov, batch, counts)
         costs = assignment_costs(inn.log_likelihood, valid, self.detection_probability, self.gate_probability,
                                  self.clutter_density)
+        beta, detected, used = self._beta(costs, valid, counts)
+        if self.association == "gnn":
+            a, b = batched.assigned_contributions(inn, np.where(detected, beta.argmax(axis=1), -1))
+        else:
+            a, b = batched.mixture_contributions(inn, beta, cov[:, :2, :2])
+        return a, b, detected, used
+
+    def _gated(self, mean: NDArray[np.float64], cov: NDArray[np.float64], batch: DetectionBatch,
+               counts: dict[str, int]) -> tuple[batched.Innovations, NDArray[np.bool_]]:
+        """Innovations of every track (T, 4) against one vehicle's detections, and the gate (T, n)."""
+        inn = batched.innovations(mean, cov, batch.sensor, batch.z, batch.xyz, batch.pcov)
+        valid = gate(inn.d2, self.gate_probability, batch.sensor.dim)
         counts["gated"] += int(valid.any(axis=0).sum())
+        return inn, valid
+
+    def _beta(self, costs: NDArray[np.float64], valid: NDArray[np.bool_], counts: dict[str, int]
+              ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_]]:
+        """Association probabilities ``beta`` (T, n) by GNN (one-hot) or JPDA, the tracks detected (T,) and the
+        detections used (n,) (the module docstring's rules)."""
+        t_count, n_count = costs.shape
         if self.association == "gnn":
             assigned = gnn_assign(costs)
-            a, b = batched.assigned_contributions(inn, assigned)
-            used: NDArray[np.bool_] = np.zeros(batch.z.shape[0], dtype=bool)
-            used[assigned[assigned >= 0]] = True
             detected = assigned >= 0
+            beta = np.zeros((t_count, n_count))
+            beta[np.flatnonzero(detected), assigned[detected]] = 1.0
+            used: NDArray[np.bool_] = np.any(beta, axis=0)
         else:
             result = jpda_marginals(costs, valid, self.max_hypotheses)
-            a, b = batched.mixture_contributions(inn, result.beta, cov[:, :2, :2])
+            beta = result.beta
             used = np.any(valid, axis=0)
-            detected = result.beta.sum(axis=1) >= 0.5
+            detected = beta.sum(axis=1) >= 0.5
             counts["clusters"] += result.clusters
             counts["over"] += result.clusters_over_cap
         counts["associated"] += int(used.sum())
-        return a, b, detected, used
+        return beta, detected, used
 
-    def _initiate(self, batches: Sequence[_Batch], free: Sequence[NDArray[np.bool_]], next_id: int,
+    def _initiate(self, batches: Sequence[DetectionBatch], free: Sequence[NDArray[np.bool_]], next_id: int,
                   existing: TrackSet) -> TrackSet:
-        """Tentative tracks from the free detections of range-bearing sensors, merged across vehicles.
+        """Tentative tracks from the free detections (:meth:`_new_positions`), ids from ``next_id``."""
+        p, c = self._new_positions(batches, free, existing)
+        mean, cov = initial_states(p, c, self.initial_velocity_std_mps)
+        ids = np.arange(next_id, next_id + p.shape[0], dtype=np.int64)
+        return TrackSet.new(ids, mean, cov, confirm_at_once=self.confirm_m <= 1)
+
+    def _new_positions(self, batches: Sequence[DetectionBatch], free: Sequence[NDArray[np.bool_]], existing: TrackSet
+                       ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Ground positions (k, 2) and covariances (k, 2, 2) of new tracks: the free detections of range-bearing
+        sensors, merged across vehicles.
 
         A candidate whose ground position agrees with an existing track's (the
         2-dof chi-square gate on the difference, covariance ``P_track,pp + P_candidate``)
@@ -266,7 +245,7 @@ class MultiTargetTracker:
             covs.append(c)
             vehicles.append(np.full(p.shape[0], batch.vehicle))
         if not positions:
-            return TrackSet.empty()
+            return np.zeros((0, 2)), np.zeros((0, 2, 2))
         p, c = merge_candidates(np.concatenate(positions), np.concatenate(covs), np.concatenate(vehicles),
                                 gate_threshold(self.gate_probability, 2))
         threshold = gate_threshold(self.gate_probability, 2)
@@ -276,34 +255,23 @@ class MultiTargetTracker:
             d2 = np.einsum("kti,kti->kt", diff, np.linalg.solve(total, diff[..., None])[..., 0])
             keep = ~(d2 <= threshold).any(axis=1)
             p, c = p[keep], c[keep]
-        mean, cov = initial_states(p, c, self.initial_velocity_std_mps)
-        ids = np.arange(next_id, next_id + p.shape[0], dtype=np.int64)
-        return TrackSet.new(ids, mean, cov, confirm_at_once=self.confirm_m <= 1)
+        return p, c
+
+
+def elapsed_s(state: MultiTargetState, stamp_ns: int) -> float:
+    """Seconds from the tracks' stamp to ``stamp_ns`` (0 before the first scan); TypeError for a stamp that is no
+    integer, ValueError for one older than the tracks."""
+    if not isinstance(stamp_ns, (int, np.integer)) or isinstance(stamp_ns, bool):
+        raise TypeError(f"stamp_ns must be an integer number of nanoseconds, got {type(stamp_ns).__name__}")
+    if state.stamp_ns is None:
+        return 0.0
+    dt_s = (int(stamp_ns) - state.stamp_ns) / NS_PER_S
+    if dt_s < 0.0:
+        raise ValueError(f"scan at {stamp_ns} ns is older than the tracks ({state.stamp_ns} ns)")
+    return dt_s
 
 
 def _position_definite(cov: NDArray[np.float64]) -> NDArray[np.bool_]:
     """Whether each (T, 4, 4) covariance's position block is positive definite (2 x 2 test)."""
     pxx, pxy, pyy = cov[:, 0, 0], cov[:, 0, 1], cov[:, 1, 1]
     return (pxx > 0.0) & (pxx * pyy - pxy * pxy > 0.0)
-
-
-def _batches(detections_by_vehicle: Mapping[int, Sequence[Detection]] | Sequence[Sequence[Detection]],
-             sensor: SensorModel | Sequence[SensorModel]) -> list[_Batch]:
-    """Each vehicle's non-empty detection list as arrays."""
-    groups = detections_by_vehicle.values() if isinstance(detections_by_vehicle, Mapping) else detections_by_vehicle
-    out = []
-    for group in groups:
-        group = list(group)
-        if not group:
-            continue
-        if not all(isinstance(d, Detection) for d in group):
-            raise TypeError("detections must be gcs.core.tracker.Detection")
-        vehicle = group[0].vehicle
-        model = sensor if isinstance(sensor, SensorModel) else sensor[vehicle]
-        z = np.array([d.values for d in group], dtype=np.float64)
-        if z.shape[1] != model.dim:
-            raise ValueError(f"vehicle {vehicle}'s detections have {z.shape[1]} components, its sensor {model.dim}")
-        xyz = np.array([d.vehicle_xyz for d in group], dtype=np.float64)
-        pcov = np.stack([d.position_cov for d in group])
-        out.append(_Batch(vehicle, model, z, xyz, pcov))
-    return out

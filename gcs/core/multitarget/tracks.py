@@ -137,7 +137,8 @@ class Advanced:
 
 
 def advance(tracks: TrackSet, hit: NDArray[np.bool_], m: int, n: int, max_misses: int,
-            max_position_trace_m2: float, looked: NDArray[np.bool_] | None = None) -> Advanced:
+            max_position_trace_m2: float, looked: NDArray[np.bool_] | None = None,
+            drop: NDArray[np.bool_] | None = None) -> Advanced:
     """One scan of the lifecycle for every track: record hits, confirm by M of N, delete.
 
     Parameters
@@ -155,6 +156,8 @@ def advance(tracks: TrackSet, hit: NDArray[np.bool_], m: int, n: int, max_misses
     looked : ndarray of bool, shape (T,), optional
         Whether each track was in some vehicle's view on this scan; a track not
         looked at and not hit keeps its miss count. None: every track was looked at.
+    drop : ndarray of bool, shape (T,), optional
+        Tracks deleted whatever their hits (merged into another track).
     """
     if not 1 <= m <= n <= 62:
         raise ValueError(f"the M-of-N rule needs 1 <= M <= N <= 62, got M={m}, N={n}")
@@ -172,6 +175,8 @@ def advance(tracks: TrackSet, hit: NDArray[np.bool_], m: int, n: int, max_misses
     hopeless = tentative & ~confirm & (np.minimum(age, n) - hits > n - m)
     trace = tracks.cov[:, 0, 0] + tracks.cov[:, 1, 1]
     delete = hopeless | (misses >= max_misses) | ~(trace <= max_position_trace_m2)
+    if drop is not None:
+        delete |= np.asarray(drop, dtype=bool)
     updated = TrackSet(tracks.ids, tracks.mean, tracks.cov, status, window, age, misses)
     gone = updated.select(delete)
     gone = TrackSet(gone.ids, gone.mean, gone.cov, np.full(gone.size, Lifecycle.DELETED), gone.window, gone.age,

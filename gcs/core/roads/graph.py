@@ -211,6 +211,7 @@ class RoadGraph:
 
         return EdgeIndex.build(self)
 
-    def snap(self, points: ArrayLike) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
+    def snap(self, points: ArrayLike, within_m: float | None = None
+             ) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
         """Nearest edge of each point (..., 2): ``(edge, s, distance_m)``; see :meth:`EdgeIndex.nearest`."""
-        return self.index.nearest(points)
+        return self.index.nearest(points, within_m)

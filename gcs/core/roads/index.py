@@ -71,8 +71,13 @@ class EdgeIndex:
         cells.flags.writeable = False
         return cls(graph, origin, float(cell_m), (nx, ny), cells)
 
-    def nearest(self, points: ArrayLike) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
-        """``(edge, s, distance_m)`` of the nearest edge of each point (..., 2) (module docstring)."""
+    def nearest(self, points: ArrayLike, within_m: float | None = None
+                ) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
+        """``(edge, s, distance_m)`` of the nearest edge of each point (..., 2) (module docstring).
+
+        ``within_m`` (at most the cell size): only edges that near are of interest, so a
+        point farther than the cells reach is not tested against every edge; its
+        distance is ``inf`` (its edge and ``s`` mean nothing)."""
         q = np.asarray(points, dtype=np.float64)
         shape = q.shape[:-1]
         flat = q.reshape(-1, 2)
@@ -87,6 +92,9 @@ class EdgeIndex:
         rows = np.arange(len(flat))
         edge, arc, dist2 = candidates[rows, best], s[rows, best], d2[rows, best]
         far = ~(dist2 <= self.cell_m**2)
+        if within_m is not None and within_m <= self.cell_m:
+            dist2[far] = np.inf
+            far[:] = False
         if far.any():  # beyond the cells' reach: test every edge
             every = np.arange(len(self.graph))
             s_all, d2_all = _project(self.graph, np.broadcast_to(every, (int(far.sum()), len(every))), flat[far])

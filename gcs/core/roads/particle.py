@@ -108,10 +108,11 @@ class RoadParticleFilter(RoadMotion):
         stamp_ns = forward_stamp(estimate, stamp_ns)
         if stamp_ns == estimate.stamp_ns:
             return estimate
-        cloud = self._move(estimate.particles, (stamp_ns - estimate.stamp_ns) / NS_PER_S, rng)
+        cloud = self.move(estimate.particles, (stamp_ns - estimate.stamp_ns) / NS_PER_S, rng)
         return self._estimate(cloud, stamp_ns)
 
-    def _move(self, cloud: RoadParticles, dt: float, rng: np.random.Generator) -> RoadParticles:
+    def move(self, cloud: RoadParticles, dt: float, rng: np.random.Generator) -> RoadParticles:
+        """Every particle of ``cloud`` moved on by ``dt`` seconds (module docstring, motion steps 1-3); weights kept."""
         graph, n = self.graph, len(cloud.s)
         on_road = cloud.on_road.copy()
         edge, s, speed = cloud.edge.copy(), cloud.s.copy(), cloud.speed.copy()
@@ -121,7 +122,7 @@ class RoadParticleFilter(RoadMotion):
         vxy[leaving] = speed[leaving, None] * graph.direction[edge[leaving]]
         candidates = np.flatnonzero(~on_road & (u < -np.expm1(-self.rejoin_rate_per_s * dt)))
         if candidates.size:
-            e_new, s_new, gap = graph.snap(xy[candidates])
+            e_new, s_new, gap = graph.snap(xy[candidates], within_m=self.rejoin_m)
             near = candidates[gap <= self.rejoin_m]
             e_near, s_near = e_new[gap <= self.rejoin_m], s_new[gap <= self.rejoin_m]
             edge[near], s[near], speed[near] = aligned(graph, e_near, s_near, vxy[near])
@@ -194,7 +195,7 @@ class RoadParticleFilter(RoadMotion):
         step_ns = int(round(step_s * NS_PER_S))
         states, off_road = [], []
         for _ in range(steps):
-            cloud = self._move(cloud, step_ns / NS_PER_S, rng)
+            cloud = self.move(cloud, step_ns / NS_PER_S, rng)
             by_branch = np.lexsort((cloud.xy[:, 1], cloud.xy[:, 0], cloud.s, np.where(cloud.on_road, cloud.edge, -1),
                                     ~cloud.on_road))
             states.append(cloud.states[by_branch])

@@ -30,7 +30,9 @@ vehicle below a roof does not see past it.
 **Where it is approximate.** ``s`` is sampled every ``cell_m`` out to 100 m and
 every ``2 cell_m`` to ``reach_m`` (beyond, the sky is taken as open), the
 azimuth is taken at the centre of its bin, and a point's table is that of the
-nearest lattice node (``lattice_m`` apart). The planner's target positions are
+nearest lattice node (``lattice_m`` apart). The nodes cover the height field and
+``reach_m`` of open ground around it; a point farther out has no roof within
+reach and sees open sky. The planner's target positions are
 samples of a distribution tens of metres wide, so metre-scale errors do not
 change which plan wins; ``tests/unit/test_sight_table.py`` measures the
 agreement with the exact test.
@@ -173,15 +175,19 @@ class SightTable:
         di = np.floor(np.cos(theta)[:, None] * distances / cell).astype(np.intp)
         dj = np.floor(np.sin(theta)[:, None] * distances / cell).astype(np.intp)
         pad = int(np.abs(np.concatenate([di.ravel(), dj.ravel()])).max()) + 1
-        self._pad = pad
-        self._padded = np.pad(field.heights - np.float32(target_height_m), pad).clip(
+        self._lattice_cells = int(lattice_cells)
+        # Nodes cover the grid and ``margin`` cells of open ground around it (a whole number of lattice steps, so
+        # that the nodes sit where they would without it); farther out no roof is within reach: open sky.
+        self._margin = -(-pad // self._lattice_cells) * self._lattice_cells
+        self._pad = pad + self._margin
+        self._padded = np.pad(field.heights - np.float32(target_height_m), self._pad).clip(
             0.0, self.reference_altitude_m - self.target_height_m).astype(np.float32)
         self._flat = self._padded.ravel()
         self._offsets = di * self._padded.shape[1] + dj  # (bins, K) flat offsets
         self._inverse_distance = (1.0 / distances).astype(np.float32)
-        self._lattice_cells = int(lattice_cells)
         rows, cols = field.heights.shape
-        self._lattice_shape = (rows // self._lattice_cells + 1, cols // self._lattice_cells + 1)
+        self._lattice_shape = ((rows + 2 * self._margin) // self._lattice_cells + 1,
+                               (cols + 2 * self._margin) // self._lattice_cells + 1)
         self._row_of = np.full(self._lattice_shape[0] * self._lattice_shape[1], -1, dtype=np.intp)
         self._store = np.zeros((0, self.bins), dtype=np.float32)
 
@@ -193,9 +199,15 @@ class SightTable:
     def inverse_slopes(self, xy: ArrayLike) -> NDArray[np.float32]:
         """``1 / g(theta)`` (N, bins) at the nearest lattice node of each point (N, 2), 1/m scale."""
         points = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-        ox, oy = self.field.origin_xy
-        a = np.clip(np.rint((points[:, 0] - ox) / self.lattice_m).astype(np.intp), 0, self._lattice_shape[0] - 1)
-        b = np.clip(np.rint((points[:, 1] - oy) / self.lattice_m).astype(np.intp), 0, self._lattice_shape[1] - 1)
+        edge = self._margin * self.field.cell_m
+        ox, oy = self.field.origin_xy[0] - edge, self.field.origin_xy[1] - edge
+        a = np.rint((points[:, 0] - ox) / self.lattice_m).astype(np.intp)
+        b = np.rint((points[:, 1] - oy) / self.lattice_m).astype(np.intp)
+        covered = (a >= 0) & (a < self._lattice_shape[0]) & (b >= 0) & (b < self._lattice_shape[1])
+        if not covered.all():  # beyond the nodes no roof is within reach: open sky
+            out = np.zeros((len(points), self.bins), dtype=np.float32)
+            out[covered] = self.inverse_slopes(points[covered]) if covered.any() else out[covered]
+            return out
         nodes = a * self._lattice_shape[1] + b
         rows = self._row_of[nodes]
         missing = np.unique(nodes[rows < 0])
@@ -205,8 +217,9 @@ class SightTable:
                 self._store = self._store[:0]
                 missing = np.unique(nodes)
             step, cols = self._lattice_cells, self._padded.shape[1]
-            keys = (self._pad + (missing // self._lattice_shape[1]) * step) * cols \
-                + self._pad + (missing % self._lattice_shape[1]) * step
+            start = self._pad - self._margin  # the padded index of the first node
+            keys = (start + (missing // self._lattice_shape[1]) * step) * cols \
+                + start + (missing % self._lattice_shape[1]) * step
             tables = np.concatenate([self._compute(keys[c:c + _CHUNK_NODES]) for c in range(0, len(keys), _CHUNK_NODES)])
             self._row_of[missing] = np.arange(len(self._store), len(self._store) + len(missing))
             self._store = np.concatenate([self._store, tables])
