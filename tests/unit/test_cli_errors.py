@@ -255,10 +255,11 @@ def _stops_itself(signum: int, status: int):
                                                             (signal.SIGINT, 1, 1)])
 def test_a_command_stopped_by_a_signal_says_interrupted_and_exits_128_plus_its_number(capsys, signum, status,
                                                                                       expected) -> None:
+    before = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
     args = argparse.Namespace(handler=_stops_itself(signum, status), command_prog="gcs run")
     assert run_command(args) == expected  # a failure of its own (1) is not hidden behind the interruption
     assert capsys.readouterr().err.splitlines() == ["gcs run: interrupted"]
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # the previous handlers are back
+    assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before  # the previous handlers are back
 
 
 def test_ctrl_c_without_a_handler_is_one_line_and_130(capsys) -> None:

@@ -39,8 +39,10 @@ def test_gcs_bench_says_in_one_line_that_the_benchmarks_are_gcs_bench() -> None:
 def test_ctrl_c_stops_a_benchmark_and_its_workers_saying_interrupted_with_status_130() -> None:
     argv = ["urban", "--runs", "20", "--duration", "60", "--workers", "2", "--planners", "sight", "orbit",
             "--no-scaling"]
+    # as from a terminal: Ctrl-C at its default even where this test runs with SIGINT ignored (a background job)
     process = subprocess.Popen([script("gcs-bench"), *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                               text=True, start_new_session=True)
+                               text=True, start_new_session=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         lines = Lines(process.stderr)
         lines.wait_for(r"seed \d+ \w+: seen by any", timeout_s=300)
