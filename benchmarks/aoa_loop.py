@@ -21,10 +21,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from benchmarks.aoa import AoaScenario, LoopRecord, bound, path_violations
-from benchmarks.closed_loop import NS_PER_S, EngineLoop, IdealAirframes, fly
+from benchmarks.closed_loop import IN_PROCESS, NS_PER_S, EngineLoop, IdealAirframes, fly
 from gcs.config import Scenario
 from gcs.core.kinematics import VehicleState
-from gcs.engine.engine import EngineOptions
 from gcs.engine.plan_jobs import plan_job
 from gcs.scenarios import load_scenario
 from protocols.keys import nav_key, report_key, truth_key
@@ -116,7 +115,7 @@ def run_loop(setup: AoaScenario, planner: str, seed: int, sigma0_deg: Sequence[f
         iterations[job.stamp_ns] = 0 if result is None else result.generations
         return state, turn_rates, result
 
-    loop = EngineLoop(scenario, None, np.random.default_rng([seed, 3]), EngineOptions(plan_every_step=True),
+    loop = EngineLoop(scenario, None, np.random.default_rng([seed, 3]), IN_PROCESS,
                       planner=counted, clock=clock)
     scene = _AoaScene(setup, scenario, seed)
     config = loop.engine.tracker

@@ -7,8 +7,8 @@ liveliness, ``NavReport``, ``SensorReport`` and the targets' ``TargetTruth``), e
 the wire, goes in as an :class:`~gcs.engine.events.Arrived` input received at its stamp. The clock is the
 simulation's: it advances in ticks of :data:`SUBSTEP_S`, and at each tick a :class:`~gcs.engine.events.Tick`
 releases the decision steps that are ready (a step is complete once every vehicle alive has reported for
-it; the first one waits for its reorder window, ``max_wait_s``, as live, unless the benchmark sets it to 0, as
-``gcs-bench urban`` does: in process every report arrives at its own tick) and a
+it; in process every report arrives at its own tick, so there is no reorder window to wait for,
+:data:`IN_PROCESS`) and a
 :class:`~gcs.engine.events.PlannerFree` hands the newest fused step to the planner, which plans it at once
 with no deadline (:func:`gcs.engine.plan_at_once.plan_at_once`): the figures depend on the seeds alone,
 never on the machine or on the process a run is in. The paths of the finished plans
@@ -51,7 +51,7 @@ from protocols.codec import encode
 from protocols.keys import alive_key
 from protocols.messages import PlanCommand, TrackEstimate
 
-__all__ = ["SUBSTEP_S", "NS_PER_S", "Loiter", "EngineLoop", "IdealAirframes", "SimulatedScene", "fly"]
+__all__ = ["SUBSTEP_S", "NS_PER_S", "IN_PROCESS", "Loiter", "EngineLoop", "IdealAirframes", "SimulatedScene", "fly"]
 
 SUBSTEP_S = 0.1
 """The simulated clock's tick: inputs are handed over, steps released and the vehicles flown this often."""
@@ -66,6 +66,10 @@ class Loiter:
     radius_m: float
 
 
+IN_PROCESS = EngineOptions(plan_every_step=True, max_wait_s=0.0)
+"""The engine's options in process: every fused step planned, and no reorder window (``max_wait_s`` 0), so the
+first step is planned at its stamp as every later one is, as wang2012's loop does."""
+
 class EngineLoop:
     """The engine with a shell that carries out its actions at once (module docstring).
 
@@ -78,7 +82,7 @@ class EngineLoop:
     def __init__(self, scenario: Scenario, world: World | None, seed_rng: np.random.Generator,
                  options: EngineOptions | None = None, planner: JobPlanner = plan_job, plans: bool = True,
                  clock: Callable[[], float] | None = time.perf_counter) -> None:
-        self.engine = Engine(scenario, world, options or EngineOptions(plan_every_step=True))
+        self.engine = Engine(scenario, world, options or IN_PROCESS)
         self.rng, self.planner, self.plans, self.clock = seed_rng, planner, plans, clock
         self.step_s = scenario.time.step_s
         self.tracks: dict[int, list[TrackEstimate]] = defaultdict(list)

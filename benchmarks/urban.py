@@ -27,18 +27,17 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import msgspec
 import numpy as np
 from numpy.typing import NDArray
 
-from benchmarks.closed_loop import EngineLoop, IdealAirframes, fly
+from benchmarks.closed_loop import IN_PROCESS, EngineLoop, IdealAirframes, fly
 from benchmarks.urban_scene import NAVIGATIONS, UrbanScene, start_of
 from gcs.config import Scenario
 from gcs.core.planner_names import URBAN_PLANNERS as PLANNERS
 from gcs.core.world import World
-from gcs.engine.engine import EngineOptions
 from gcs.engine.tracker_factory import FROM_SCENARIO
 
 __all__ = ["PLANNERS", "LOST_M", "RunRecord", "run_closed_loop", "with_vehicles", "with_budget"]
@@ -135,10 +134,7 @@ def run_closed_loop(
         raise ValueError(f"unknown navigation {nav!r}; expected one of {', '.join(NAVIGATIONS)}")
     dt = scenario.time.step_s
     steps = int(round((duration_s or scenario.time.duration_s) / dt))
-    # every report reaches the engine at its own tick: no reorder window, so the first step is planned at its
-    # stamp as every later one is (live, the engine waits max_wait_s for the first step's late reports)
-    options = EngineOptions(planner=planner, navigation="skf" if nav == "skf" else "reported", plan_every_step=True,
-                            max_wait_s=0.0)
+    options = replace(IN_PROCESS, planner=planner, navigation="skf" if nav == "skf" else "reported")
     loop = EngineLoop(scenario, world, np.random.default_rng([seed, 3]), options, clock=clock)
     scene = UrbanScene(scenario, world, seed, steps, motion, nav)
     config = loop.engine.tracker

@@ -23,10 +23,11 @@ ALTITUDES = np.array([v.altitude_m for v in SCENARIO.vehicles])
 ETA = np.array([v.max_turn_rate_rad_s for v in SCENARIO.vehicles])
 
 
-def test_every_step_goes_through_the_engine_and_is_planned_and_only_the_first_waits_its_window() -> None:
+def test_every_step_goes_through_the_engine_and_is_planned_and_only_the_first_is_released_by_its_window() -> None:
     record = run_closed_loop(SCENARIO, WORLD, "sight", 5, duration_s=30.0, clock=None)
     counters = record.counters
     assert counters["accepted.report"] == 3 * 30 and counters["accepted.truth"] == 30
+    # the first step has no step before it to say it is complete: its (zero, in process) window releases it
     assert counters["decisions"] == 30 and counters["steps_released_by_timeout"] == 1
     assert not any(name.startswith("rejected.") for name in counters), counters
     assert np.isfinite(record.planned_turn_rate).all()
