@@ -19,8 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gcs.core.filters.estimate import GaussianEstimate
-from gcs.core.models.sensor import AZIMUTH, ELEVATION, RANGE, SensorModel
-from gcs.core.roads.sensing import DetectionGroup
+from gcs.core.models.sensor import AZIMUTH, ELEVATION, RANGE, DetectionGroup, SensorModel
 
 __all__ = ["Detection", "Sensing", "stack_detections", "vehicle_covariances", "initial_estimate"]
 

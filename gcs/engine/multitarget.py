@@ -35,7 +35,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gcs.config import Scenario
-from gcs.config.multitarget import multitarget_kind
 from gcs.core.filters.estimate import GaussianEstimate
 from gcs.core.filters.prediction import HorizonPrediction
 from gcs.core.models.motion import constant_velocity
@@ -97,8 +96,7 @@ def many_target_tracker(scenario: Scenario, world: World | None, tracker: Tracke
         clutter_density=clutter, confirm_m=config.confirm_m, confirm_n=config.confirm_n,
         max_misses=config.max_misses, max_position_trace_m2=config.max_position_trace_m2,
         initial_velocity_std_mps=config.initial_velocity_std_mps)
-    kind = multitarget_kind(config, scenario.city)
-    if kind == "gaussian" or (config.kind == "auto" and (world is None or world.roads is None)):
+    if config.kind == "gaussian" or (config.kind == "auto" and (world is None or world.roads is None)):
         return MultiTargetTracker(**common)
     roads = road_tracking(scenario, world)
     return RoadMultiTargetTracker(roads=roads.filter, sees=roads.sees, particles=config.road_particles,

@@ -93,7 +93,9 @@ def violations(source: str, filename: str = "<source>", packages: tuple[str, ...
     # a generator seeded where it is made is the caller's, not a global one: default_rng(seed) is allowed
     seeded = {id(node.func) for node in ast.walk(tree) if isinstance(node, ast.Call)
               and isinstance(node.func, ast.Attribute) and node.func.attr == SEEDED_CONSTRUCTOR
-              and (node.args or node.keywords)}
+              and (node.args or node.keywords)
+              and not any(isinstance(a, ast.Constant) and a.value is None
+                          for a in [*node.args, *(k.value for k in node.keywords)])}
     for node in ast.walk(tree):
         if isinstance(node, ast.Attribute):
             dotted = _dotted(node)
@@ -193,6 +195,8 @@ def test_importing_the_daemon_loads_the_adapters_and_zenoh() -> None:
         "import numpy\nnumpy.random.seed(1)",
         "import numpy as np\nrng = np.random.default_rng()",
         "import numpy as np\nrng = np.random.default_rng\nrng(3)",
+        "import numpy as np\nrng = np.random.default_rng(None)",
+        "import numpy as np\nrng = np.random.default_rng(seed=None)",
         "from numpy.random import rand",
         "import numpy.random as npr\nnpr.uniform()",
     ],

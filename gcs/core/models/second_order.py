@@ -37,16 +37,18 @@ MIN_HORIZONTAL_M2 = 1e-6
 """Floor of ``rho_h^2`` (a vehicle right above the target)."""
 
 
-def off_the_vertical(dx: NDArray[np.float64], dy: NDArray[np.float64]) -> tuple[NDArray[np.float64],
-                                                                                  NDArray[np.float64]]:
-    """``(dx, rho_h^2)`` with ``rho_h^2`` at least :data:`MIN_HORIZONTAL_M2`: straight above the target there is
-    no horizontal line of sight to speak of, and any direction will do (``dx`` is moved 1 mm east)."""
+def off_the_vertical(dx: NDArray[np.float64], dy: NDArray[np.float64]
+                     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """``(dx, dy, rho_h^2)`` with ``rho_h^2`` at least :data:`MIN_HORIZONTAL_M2`: straight above the target there
+    is no horizontal line of sight to speak of, and any direction will do (the target is moved to 1 mm east,
+    so that ``(dx, dy) / rho_h`` stays a unit vector)."""
     h2 = dx * dx + dy * dy
     straight_below = h2 < MIN_HORIZONTAL_M2
     if np.any(straight_below):
         dx = np.where(straight_below, 1e-3, dx)
-        h2 = np.maximum(h2, MIN_HORIZONTAL_M2)
-    return dx, h2
+        dy = np.where(straight_below, 0.0, dy)
+        h2 = np.where(straight_below, MIN_HORIZONTAL_M2, h2)
+    return dx, dy, h2
 
 
 def second_order_variance(components: Sequence[str], dx: NDArray[np.float64], dy: NDArray[np.float64],
@@ -56,7 +58,7 @@ def second_order_variance(components: Sequence[str], dx: NDArray[np.float64], dy
     ``dx, dy, dz`` (...): the target's position relative to the vehicle; ``position_cov``
     (..., 2, 2): the covariance of that relative horizontal position.
     """
-    dx, h2 = off_the_vertical(dx, dy)
+    dx, dy, h2 = off_the_vertical(dx, dy)
     h = np.sqrt(h2)
     ux, uy = dx / h, dy / h
     r2 = h2 + dz * dz

@@ -276,7 +276,7 @@ class SensorModel:
             Entries of the symmetric 2 x 2 matrix.
         """
         dx, dy, dz = self._relative(target_xy, vehicle_xyz)
-        dx, h2 = off_the_vertical(dx, dy)  # straight above: finite, the azimuth's term very large
+        dx, dy, h2 = off_the_vertical(dx, dy)  # straight above: finite, the azimuth's term very large
         r2 = h2 + dz * dz
         if extra_variance is None:
             inv_var = self.noise_information(None, target_xy, vehicle_xyz)

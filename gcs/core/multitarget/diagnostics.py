@@ -43,7 +43,6 @@ class ScanDiagnostics:
         return self.deleted.size
 
 
-
 def scan_diagnostics(batches: Sequence[DetectionBatch], counts: Mapping[str, int], advanced: Advanced,
                      born: TrackSet, detected_by: Mapping[int, tuple[int, ...]], fallbacks: int = 0
                      ) -> ScanDiagnostics:

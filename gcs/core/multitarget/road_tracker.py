@@ -68,9 +68,10 @@ class RoadMultiTargetTracker(MultiTargetTracker):
         ``spread_m`` too; its ``particles`` is not used: see ``particles``).
     sees : callable or None
         ``sees(points (P, 2), vehicle_xyz (V, 3)) -> (V, P)``: in the sensor's field
-        and in sight (:func:`gcs.core.roads.sensing.table_sees`). None: every vehicle
-        detects every particle with ``P_D`` (no negative information), and a miss
-        counts where ``in_view`` says.
+        and in sight (:func:`gcs.core.roads.sensing.table_sees`). None: no negative
+        information from the particles; a track is detected with ``P_D`` where
+        ``in_view`` says its mean is in view and ``kappa P_D`` elsewhere (``P_D``
+        everywhere without ``in_view``).
     particles : int
         Particles per track.
     detection_floor : float

@@ -15,8 +15,7 @@ horizon's streams apart (:data:`FUSE_STREAM`, :data:`HORIZON_STREAM`).
 **The state** is the estimate itself: a :class:`~gcs.core.roads.particle.RoadParticleEstimate`,
 the moment-matched ``cv2d`` Gaussian (mean and covariance of the mixture: the minimum
 mean-square-error point) carrying its particles, so everything that takes a Gaussian
-estimate takes it. Per track, the many-target tracker can keep one such state each and score
-its detections with :meth:`RoadTracking.log_likelihood`.
+estimate takes it.
 """
 
 from __future__ import annotations
@@ -98,7 +97,3 @@ class RoadTracking:
         (T, S), and the moment-matched Gaussians."""
         return self.filter.horizon(estimate, step_s, steps, self.generator(estimate.stamp_ns, HORIZON_STREAM),
                                    self.horizon_samples)
-
-    def log_likelihood(self, estimate: RoadParticleEstimate, group: DetectionGroup) -> NDArray[np.float64]:
-        """``ln p(z_j | track)`` of each detection of a group (k,), for association."""
-        return self.filter.log_likelihood(estimate, group)
