@@ -171,12 +171,11 @@ def _fuse_road(config: TrackerConfig, road: RoadTracking, estimate: GaussianEsti
     if ranged:
         start = initial_estimate(ranged[0], config.sensors[ranged[0].vehicle], stamp_ns,
                                  config.initial_position_std_m, config.initial_velocity_std_mps, 4)
-    elif len(detections) >= 2:
-        start = ml_initialise([config.sensors[d.vehicle] for d in detections], [d.values for d in detections],
-                              np.stack([d.vehicle_xyz for d in detections]), stamp_ns,
-                              config.initial_velocity_std_mps)
     else:
-        return None
+        bearings_fix = _bearings_fix(config, stamp_ns, detections)
+        if bearings_fix is None:
+            return None
+        start = bearings_fix
     return road.start(start, stacked, looks)
 
 
@@ -219,17 +218,21 @@ def _fuse_bearings(config: TrackerConfig, bearing_filter: VariableGainUKF, estim
                    stamp_ns: int, detections: Sequence[Detection]) -> GaussianEstimate | None:
     """zuo2021's estimator for bearing-only sensors: ML initialisation from the first scan of at
     least two bearings (section 2.3 (1)), then the variable-gain UKF (eq. 5-14) on every scan."""
-    sensors = [config.sensors[d.vehicle] for d in detections]
-    values = [d.values for d in detections]
-    positions = np.stack([d.vehicle_xyz for d in detections]) if detections else np.zeros((0, 3))
     if estimate is None:
-        if len(detections) < 2:
-            return None
-        return ml_initialise(sensors, values, positions, stamp_ns, config.initial_velocity_std_mps)
+        return _bearings_fix(config, stamp_ns, detections)
     prior = bearing_filter.predict(estimate, stamp_ns)
     if not detections:
         return prior
-    return bearing_filter.update(prior, sensors, values, positions)
+    return bearing_filter.update(prior, [config.sensors[d.vehicle] for d in detections],
+                                 [d.values for d in detections], np.stack([d.vehicle_xyz for d in detections]))
+
+
+def _bearings_fix(config: TrackerConfig, stamp_ns: int, detections: Sequence[Detection]) -> GaussianEstimate | None:
+    """zuo2021's ML fix (section 2.3 (1)) of a scan of at least two detections; None with fewer."""
+    if len(detections) < 2:
+        return None
+    return ml_initialise([config.sensors[d.vehicle] for d in detections], [d.values for d in detections],
+                         np.stack([d.vehicle_xyz for d in detections]), stamp_ns, config.initial_velocity_std_mps)
 
 
 def prediction(config: TrackerConfig, estimate: GaussianEstimate) -> HorizonPrediction:
