@@ -22,10 +22,12 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from functools import lru_cache
 
+import msgspec
+
 from benchmarks.urban import RunRecord, run_closed_loop
 from gcs.config import Scenario
 
-__all__ = ["RunJob", "run_job", "run_jobs", "DaskUnavailable"]
+__all__ = ["RunJob", "run_job", "run_jobs", "with_estimator", "DaskUnavailable"]
 
 
 class DaskUnavailable(RuntimeError):
@@ -60,8 +62,6 @@ def _scenario_and_world(scenario: str, thread: int):
 
 def with_estimator(scenario: Scenario, kind: str) -> Scenario:
     """``scenario`` with ``[estimator] kind = kind``, its other estimator settings kept."""
-    import msgspec
-
     return msgspec.structs.replace(scenario, estimator=msgspec.structs.replace(scenario.estimator, kind=kind))
 
 
