@@ -10,6 +10,8 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Callable
+from pathlib import Path
 
 from benchmarks import PLANNERS
 from gcs.cli_errors import UsageError
@@ -24,6 +26,13 @@ def wrote(paths) -> None:
         print(f"wrote {path}")
 
 
+def keep_json(write_json: Callable[[dict, Path], None], report: dict, path: Path | None) -> None:
+    """``--json FILE``: the report written there, and said so; nothing without the option."""
+    if path:
+        write_json(report, path)
+        wrote([path])
+
+
 def cmd_estimation(args: argparse.Namespace) -> int:
     from benchmarks import estimation
 
@@ -31,9 +40,7 @@ def cmd_estimation(args: argparse.Namespace) -> int:
         runs=args.runs, seed=args.seed, steps=args.steps, table_runs=args.table_runs, progress=progress
     )
     print(estimation.format_report(report))
-    if args.json:
-        estimation.write_json(report, args.json)
-        print(f"wrote {args.json}")
+    keep_json(estimation.write_json, report, args.json)
     if args.plots:
         wrote(estimation.write_plots(report, args.plots))
     return 0
@@ -60,9 +67,7 @@ def cmd_urban(args: argparse.Namespace) -> int:
         print(f"gcs-bench urban: {error}", file=sys.stderr)
         return 2
     print(urban_report.format_report(report))
-    if args.json:
-        urban_report.write_json(report, args.json)
-        print(f"wrote {args.json}")
+    keep_json(urban_report.write_json, report, args.json)
     if args.plots:
         wrote(urban_report.write_plots(report, records, world, args.plots))
     return 0
@@ -76,9 +81,7 @@ def urban_gps_denied(args: argparse.Namespace, scenario, world) -> int:
         navigations=args.navigation or urban_nav_report.NAVIGATION_MODES, duration_s=args.duration,
         motion=args.motion, progress=progress)
     print(urban_nav_report.format_report(report))
-    if args.json:
-        urban_nav_report.write_json(report, args.json)
-        print(f"wrote {args.json}")
+    keep_json(urban_nav_report.write_json, report, args.json)
     if args.plots:
         from benchmarks.navigation_plots import write_gps_denied_plots
 
@@ -105,9 +108,7 @@ def cmd_daemon(args: argparse.Namespace) -> int:
                                   navigation=args.navigation, rates=args.rates or (),
                                   load_niceness=args.load_niceness)
     print(daemon.format_report(report))
-    if args.json:
-        daemon.write_json(report, args.json)
-        print(f"wrote {args.json}")
+    keep_json(daemon.write_json, report, args.json)
     if args.plots:
         from benchmarks.daemon_plots import write_plots
 
@@ -141,9 +142,7 @@ def cmd_aoa(args: argparse.Namespace) -> int:
 
     report, records = aoa_report.run_benchmark(runs=args.runs, seed=args.seed, steps=args.steps, progress=progress)
     print(aoa_report.format_report(report))
-    if args.json:
-        aoa_report.write_json(report, args.json)
-        print(f"wrote {args.json}")
+    keep_json(aoa_report.write_json, report, args.json)
     if args.plots:
         wrote(aoa_report.write_plots(report, records, args.plots))
     return 0
@@ -176,9 +175,7 @@ def cmd_skf(args: argparse.Namespace) -> int:
                                       gps_outage_s=tuple(args.gps_outage) if args.gps_outage else None,
                                       progress=progress)
     print(skf_report.format_report(report))
-    if args.json:
-        skf_report.write_json(report, args.json)
-        print(f"wrote {args.json}")
+    keep_json(skf_report.write_json, report, args.json)
     if args.plots:
         from benchmarks.navigation_plots import write_skf_plots
 
@@ -195,9 +192,7 @@ def cmd_imm(args: argparse.Namespace) -> int:
     report = imm.run_benchmark(scenario, build_world(scenario), runs=args.runs, seed=args.seed, steps=args.steps,
                                progress=progress)
     print(imm.format_report(report))
-    if args.json:
-        imm.write_json(report, args.json)
-        print(f"wrote {args.json}")
+    keep_json(imm.write_json, report, args.json)
     if args.plots:
         from benchmarks.navigation_plots import write_imm_plots
 
@@ -238,9 +233,7 @@ def cmd_scale(args: argparse.Namespace) -> int:
 def _printed(report: dict, module, json_path) -> int:
     """Print ``module.format_report(report)``, write its JSON to ``json_path`` (a Path) if given; exit status 0."""
     print(module.format_report(report))
-    if json_path:
-        module.write_json(report, json_path)
-        print(f"wrote {json_path}")
+    keep_json(module.write_json, report, json_path)
     return 0
 
 
@@ -252,9 +245,7 @@ def cmd_autopilots(args: argparse.Namespace) -> int:
         duration_s=args.duration, compare_pursuit=args.compare_pursuit, workers=args.workers,
         identify_loops=args.identify, progress=progress)
     print(autopilots_report.format_report(report))
-    if args.json is not None:
-        autopilots_report.write_json(report, args.json)
-        wrote([args.json])
+    keep_json(autopilots_report.write_json, report, args.json)
     return 0
 
 
@@ -264,9 +255,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     report = demo_compare.run_benchmark(args.scenario, args.runs, args.seed, rate=args.rate, duration_s=args.duration,
                                         wait_for_plans=args.wait_for_plans, progress=progress)
     print(demo_compare.format_report(report))
-    if args.json is not None:
-        demo_compare.write_json(report, args.json)
-        wrote([args.json])
+    keep_json(demo_compare.write_json, report, args.json)
     return 0
 
 
@@ -286,9 +275,7 @@ def cmd_soak(args: argparse.Namespace) -> int:
         print(f"gcs-bench soak: error: {error}", file=sys.stderr)
         return 1
     print(soak.format_report(report))
-    if args.json:
-        soak.write_json(report, args.json)
-        print(f"wrote {args.json}")
+    keep_json(soak.write_json, report, args.json)
     if args.plots:
         from benchmarks.soak_plots import write_plots
 
