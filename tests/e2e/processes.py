@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ast
 import shutil
 import signal
 import subprocess
@@ -44,3 +45,19 @@ def output_read_by_nobody(command: list[str], timeout: float = 120.0) -> tuple[i
             process.kill()
             process.wait()
     return process.returncode, stderr
+
+
+HEAVY_MODULES = ("numpy", "scipy", "zenoh", "pymavlink", "matplotlib")
+"""What makes a command line start slowly (a second or more); ``--help`` and ``--version`` need none of it."""
+
+
+def heavy_modules_loaded(package: str, argv: list[str]) -> list[str]:
+    """The :data:`HEAVY_MODULES` that ``package.cli.main`` loads for ``argv`` (a fresh interpreter; the command
+    must exit 0)."""
+    code = (f"import sys; sys.argv = {argv!r}\n"
+            f"from {package}.cli import main\n"
+            "try:\n    main()\nexcept SystemExit as stop:\n    assert stop.code == 0, stop.code\n"
+            f"print(sorted(m for m in {HEAVY_MODULES!r} if m in sys.modules), file=sys.stderr)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    return ast.literal_eval(done.stderr.strip().splitlines()[-1])

@@ -11,6 +11,7 @@ import pytest
 
 from gcs import cli as gcs_cli
 from sim_vehicles import cli as sim_cli
+from tests.e2e.processes import heavy_modules_loaded
 
 
 def _subcommands(parser) -> set[str]:
@@ -56,15 +57,7 @@ def test_the_listing_shows_each_subcommands_own_help_line(command_line) -> None:
 @pytest.mark.parametrize("argv", [["gcs", "--help"], ["gcs", "--version"], ["sim-vehicles", "--help"],
                                   ["sim-vehicles", "--version"]], ids=" ".join)
 def test_help_and_version_load_no_heavy_module(argv: list[str]) -> None:
-    # what makes a command line start slowly (a second or more); --help and --version need none of it
-    code = (f"import sys; sys.argv = {argv!r}\n"
-            f"from {'gcs' if argv[0] == 'gcs' else 'sim_vehicles'}.cli import main\n"
-            "try:\n    main()\nexcept SystemExit as stop:\n    assert stop.code == 0, stop.code\n"
-            "heavy = ('numpy', 'scipy', 'zenoh', 'pymavlink', 'matplotlib')\n"
-            "print(sorted(m for m in heavy if m in sys.modules), file=sys.stderr)")
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
-    assert done.returncode == 0, done.stderr
-    assert done.stderr.strip().splitlines()[-1] == "[]"
+    assert heavy_modules_loaded("gcs" if argv[0] == "gcs" else "sim_vehicles", argv) == []
 
 
 def test_gcs_status_loads_neither_scipy_nor_the_daemon() -> None:
