@@ -6,7 +6,6 @@ from __future__ import annotations
 import os
 import signal
 import subprocess
-import sys
 
 from tests.e2e.processes import heavy_modules_loaded, script
 from tests.loopback import Lines
