@@ -37,6 +37,9 @@ shell); telemetry is timed by its arrival on that clock, not by the autopilot's
 wall time at launch: the bridge's wall clock, since a real aircraft flies in real
 time. Stamps fall on whole physics steps, reports on multiples of their period.
 
+Positions at lat = lon = 0, which an autopilot sends before its GPS has a fix, are dropped and counted
+(``positions_without_fix``), and logged once.
+
 Liveliness: a vehicle is alive while its last good GLOBAL_POSITION_INT is at most
 ``stale_after_s`` old; :meth:`PayloadBridge.advance` says when to declare its token
 and when to withdraw it (and publishes nothing for it meanwhile). Bad telemetry
@@ -58,7 +61,7 @@ from gcs.config import Scenario
 from gcs.core.geometry import wrap_angle
 from gcs.core.world import World
 from protocols.messages import GpsFix, InsIncrement, NavReport, SensorReport, TargetTruth
-from sim_vehicles.payload_telemetry import BadTelemetry, GpsStatus, Pose, VehicleTelemetry
+from sim_vehicles.payload_telemetry import BadTelemetry, GpsStatus, NoFix, Pose, VehicleTelemetry
 from sim_vehicles.scene import Scene
 from sim_vehicles.truth.fixed_wing import AirframeState
 
@@ -91,7 +94,8 @@ def summary_line(vehicle_id: str, counts: Counter) -> str:
     """The closing summary's line for one vehicle's :attr:`PayloadBridge.counts`."""
     return (f"{vehicle_id}: {counts['messages']} MAVLink messages read, {counts['nav_reports']} nav reports, "
             f"{counts['reports']} sensor reports ({counts['detections']} detections), {counts['bad_telemetry']} bad "
-            f"telemetry, liveliness withdrawn {counts['withdrawn']} times")
+            f"telemetry, {counts['positions_without_fix']} positions without a GPS fix, liveliness withdrawn "
+            f"{counts['withdrawn']} times")
 
 
 @dataclass
@@ -141,7 +145,8 @@ class PayloadBridge:
 
     @property
     def counts(self) -> dict[str, Counter]:
-        """Per vehicle: MAVLink ``messages`` read, ``bad_telemetry``, sensor ``reports`` (``detections``),
+        """Per vehicle: MAVLink ``messages`` read, ``bad_telemetry``, ``positions_without_fix``, sensor ``reports``
+        (``detections``),
         ``nav_reports``, and how often its liveliness was ``withdrawn``."""
         return {vid: bridged.counts for vid, bridged in self.vehicles.items()}
 
@@ -151,6 +156,11 @@ class PayloadBridge:
         bridged.counts["messages"] += 1
         try:
             bridged.telemetry.ingest(message, now_s)
+        except NoFix:
+            bridged.counts["positions_without_fix"] += 1
+            if bridged.counts["positions_without_fix"] == 1:
+                log.info("%s: positions at lat 0, lon 0 (no GPS fix yet) are dropped until it has a fix", vehicle_id)
+            return False
         except BadTelemetry as error:
             bridged.counts["bad_telemetry"] += 1
             n = bridged.counts["bad_telemetry"]

@@ -100,6 +100,7 @@ class PayloadRunner:
         self.opened = threading.Event()
         """Set once the links and the Zenoh session are open (tests wait on it)."""
         self._requested: set[str] = set()
+        self._connects: dict[str, int | None] = {}
         self._start = 0.0
         self.announcer = ScenarioAnnouncer(bridge.scenario)
 
@@ -175,6 +176,10 @@ class PayloadRunner:
 
     def _receive(self, now_s: float) -> None:
         for connection, link in self.links.items():
+            connects = getattr(link, "connects", None)  # a TCP link that reconnected: its autopilot asked again
+            if connects != self._connects.setdefault(connection, connects):
+                self._connects[connection] = connects
+                self._requested -= set(self._by_sysid[connection].values())
             for _ in range(_MAX_READ):
                 if (message := link.recv_msg()) is None:
                     break

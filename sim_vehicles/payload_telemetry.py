@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 from gcs.adapters.mavlink_wire import ned_yaw_from_enu_heading
 from gcs.core.geometry import LocalFrame, wrap_angle
 
-__all__ = ["BadTelemetry", "GpsStatus", "MAX_DISTANCE_FROM_HOME_M", "Pose", "USER_RANGE_ERROR_M", "VehicleTelemetry",
+__all__ = ["BadTelemetry", "GpsStatus", "NoFix", "MAX_DISTANCE_FROM_HOME_M", "Pose", "USER_RANGE_ERROR_M", "VehicleTelemetry",
            "gps_status", "position_from_global"]
 
 USER_RANGE_ERROR_M = 3.0
@@ -44,6 +44,10 @@ _UNKNOWN_U16, _UNKNOWN_SATELLITES = 65535, 255
 
 class BadTelemetry(ValueError):
     """A telemetry message that cannot be a pose (the message says why)."""
+
+
+class NoFix(BadTelemetry):
+    """A GLOBAL_POSITION_INT at exactly lat = lon = 0: what an autopilot sends before its GPS has a fix."""
 
 
 @dataclass(frozen=True)
@@ -74,9 +78,12 @@ def position_from_global(message, frame: LocalFrame) -> tuple[NDArray[np.float64
     """GLOBAL_POSITION_INT -> ``(position (3,) ENU m, velocity (3,) ENU m/s, heading ENU rad or None)``.
 
     ``x, y`` from ``lat``/``lon`` (1e7 degrees) at the origin height plus ``relative_alt`` (mm), ``z =
-    relative_alt``; velocity ``(vy, vx, -vz) / 100``; ``hdg`` (cdeg NED, 65535 unknown). BadTelemetry for a
-    position off the globe, too high or too far from home, or a heading out of range.
+    relative_alt``; velocity ``(vy, vx, -vz) / 100``; ``hdg`` (cdeg NED, 65535 unknown). :class:`NoFix` for
+    lat = lon = 0, BadTelemetry for a position off the globe, too high or too far from home, or a heading out
+    of range.
     """
+    if message.lat == 0 and message.lon == 0:
+        raise NoFix("position lat 0, lon 0: no GPS fix yet")
     lat, lon, altitude_m = message.lat * 1e-7, message.lon * 1e-7, message.relative_alt * 1e-3
     if not (abs(lat) <= 90.0 and abs(lon) <= 180.0):
         raise BadTelemetry(f"position lat {lat:g}, lon {lon:g} is off the globe")

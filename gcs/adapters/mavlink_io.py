@@ -230,6 +230,12 @@ class MavlinkCommander:
         if outcome == "bad_telemetry":
             self._count("bad_telemetry", vehicle)
             return
+        if outcome == "no_fix":
+            self._count("positions_without_fix", vehicle)
+            if vehicle.counters["positions_without_fix"] == 1:
+                log.info("%s: positions at lat 0, lon 0 (no GPS fix yet) are dropped until it has a fix",
+                         vehicle_id)
+            return
         if outcome != "heartbeat":
             return
         self._count("heartbeats", vehicle)

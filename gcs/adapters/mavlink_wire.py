@@ -124,6 +124,9 @@ def check_connection(connection: str) -> str:
 def open_connection(connection: str, source_system: int, source_component: int = 1) -> mavutil.mavfile:
     """Open a pymavlink connection (MAVLink 2, ``ardupilotmega``) with a clear error on failure.
 
+    A TCP client (``tcp:``) connects in the background and again whenever the peer goes
+    (:class:`~gcs.adapters.mavlink_tcp.RetryingTcp`): an autopilot that is not up yet is waited for.
+
     A UDP port to listen on (``udpin:``, ``udp:``) is bound for this connection alone
     (:func:`bind_udp_exclusively`): ValueError when another program holds it."""
     text = normalise_connection(connection)
@@ -131,6 +134,11 @@ def open_connection(connection: str, source_system: int, source_component: int =
     try:
         if scheme in ("udpin", "udp"):
             return _listening_udp(text, address, source_system, source_component)
+        if scheme == "tcp":  # an autopilot that is not up yet, or goes away, is waited for
+            from gcs.adapters.mavlink_tcp import RetryingTcp  # it builds on this module
+
+            mavutil.set_dialect("ardupilotmega")  # as mavlink_connection(dialect=...) does
+            return RetryingTcp(address, source_system=source_system, source_component=source_component)
         return mavutil.mavlink_connection(text, source_system=source_system, source_component=source_component,
                                           dialect="ardupilotmega", autoreconnect=True)
     except (OSError, ValueError) as error:

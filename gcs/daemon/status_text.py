@@ -67,6 +67,7 @@ COUNTERS: dict[str, str] = {
     "mavlink.bad_signature": "messages refused for a missing or wrong signature (signing on)",
     "mavlink.unknown_sysid": "messages from a system id outside the scenario's vehicles (ignored)",
     "mavlink.bad_telemetry": "telemetry outside any plausible range (ignored)",
+    "mavlink.positions_without_fix": "positions at lat 0, lon 0, sent before the GPS has a fix (dropped)",
 }
 """Every counter of :class:`~protocols.messages.DaemonStatus` by exact name (those of :data:`COUNTER_FAMILIES`
 aside): what it counts since the daemon started. Only counters above zero are in a status."""

@@ -90,6 +90,8 @@ def test_absurd_telemetry_is_ignored_and_counted_by_the_caller() -> None:
     assert update_from_message(link, nan_yaw, 0.0, FRAME) == "bad_telemetry" and link.heading_enu_rad is None
     off_globe = mavlink.MAVLink_global_position_int_message(0, 2**31 - 1, 0, 0, 0, 0, 0, 0, 65535)
     assert update_from_message(link, off_globe, 0.0, FRAME) == "bad_telemetry" and link.position_enu_m is None
+    no_fix = mavlink.MAVLink_global_position_int_message(0, 0, 0, 0, 0, 0, 0, 0, 65535)
+    assert update_from_message(link, no_fix, 0.5, FRAME) == "no_fix" and link.position_enu_m is None
     good = mavlink.MAVLink_global_position_int_message(0, 282200000, 1129900000, 250000, 200000, 100, 0, 0, 9000)
     assert update_from_message(link, good, 1.0, FRAME) is None
     assert np.allclose(link.position_enu_m, [0.0, 0.0, 200.0], atol=1e-6)

@@ -122,7 +122,8 @@ def test_global_position_int_becomes_enu_position_velocity_and_heading() -> None
                          [(0, math.pi / 2), (18000, -math.pi / 2), (27000, math.pi), (4500, math.pi / 4)])
 def test_hdg_in_centidegrees_ned_becomes_enu(hdg_cdeg: int, enu: float) -> None:
     link = VehicleLink("uav1", 1)
-    update_from_message(link, mavlink.MAVLink_global_position_int_message(0, 0, 0, 0, 0, 0, 0, 0, hdg_cdeg), 0.0, FRAME)
+    position = mavlink.MAVLink_global_position_int_message(0, 282200000, 1129900000, 0, 0, 0, 0, 0, hdg_cdeg)
+    update_from_message(link, position, 0.0, FRAME)
     assert wrap_angle(link.heading_enu_rad - enu) == pytest.approx(0.0, abs=1e-9)
 
 

@@ -8,6 +8,8 @@ telemetry's arrival times.
 
 from __future__ import annotations
 
+import logging
+
 import math
 
 import numpy as np
@@ -101,11 +103,11 @@ def test_gps_raw_int_gives_fix_accuracy_and_satellites() -> None:
 def test_bad_telemetry_is_counted_and_changes_nothing() -> None:
     b = bridge()
     feed(b, 0.0, global_position(100.0, 200.0, 150.0), gps_raw())
-    bad = [global_position(0, 0, 150.0, lat_e7=95 * 10**7), global_position(0, 0, 150.0, lat_e7=0, lon_e7=0),
+    bad = [global_position(0, 0, 150.0, lat_e7=95 * 10**7), global_position(0, 0, 150.0, lat_e7=1, lon_e7=0),
            global_position(0, 0, 150.0, hdg_cdeg=40000), attitude(float("nan")), gps_raw(fix_type=12)]
     assert [b.ingest("uav1", m, 0.1) for m in bad] == [False] * 5
     counts = b.counts["uav1"]
-    assert (counts["messages"], counts["bad_telemetry"]) == (7, 5)
+    assert (counts["messages"], counts["bad_telemetry"], counts["positions_without_fix"]) == (7, 5, 0)
     navs = published(b.advance(0.2), "nav")
     assert len(navs) == 2  # t = 0 and 0.2 (nav_rate_hz 5)
     np.testing.assert_allclose(b.vehicles["uav1"].telemetry.pose(0.2).position_enu_m, [100.0, 200.0, 150.0],
@@ -210,3 +212,15 @@ def test_liveliness_is_withdrawn_on_stale_telemetry_and_declared_when_it_returns
     stale = [r for r in reports if 2.5e9 < r.stamp_ns - EPOCH_NS < 3.0e9]
     assert stale == []  # nothing published while withdrawn
     assert b.counts["uav1"]["withdrawn"] == 1 and b.counts["uav3"]["nav_reports"] == 0
+
+
+def test_positions_before_a_gps_fix_are_dropped_counted_and_logged_once(caplog) -> None:
+    b = bridge()
+    before_fix = [global_position(0, 0, 0.0, lat_e7=0, lon_e7=0) for _ in range(3)]
+    with caplog.at_level(logging.INFO, logger="sim_vehicles.payload"):
+        assert [b.ingest("uav1", m, 0.1 * k) for k, m in enumerate(before_fix)] == [False] * 3
+    counts = b.counts["uav1"]
+    assert (counts["positions_without_fix"], counts["bad_telemetry"]) == (3, 0)
+    assert sum("no GPS fix yet" in r.getMessage() for r in caplog.records) == 1
+    assert b.vehicles["uav1"].telemetry.position_enu_m is None  # nothing to publish from
+    assert b.ingest("uav1", global_position(100.0, 200.0, 150.0), 0.4)
