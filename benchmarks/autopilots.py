@@ -37,15 +37,16 @@ from numpy.typing import NDArray
 from scipy.linalg import expm
 from scipy.optimize import least_squares
 
-from gcs.adapters.mavlink_commands import SendMemory, due_actions
+from gcs.adapters.mavlink_commands import LATERAL_ACCEL_MARGIN, SendMemory, due_actions
 from gcs.adapters.mavlink_link import HeadingCommand, VehicleLink, steering_command, update_from_message
 from gcs.adapters.mavlink_wire import ARDUPLANE_MODES, GCS_SYSID, mavlink, ned_yaw_from_enu_heading
 from gcs.config import Scenario
 from gcs.config.simulation import AirframeConfig
 from gcs.core.geometry import LocalFrame, wrap_angle
-from gcs.core.steering import SAMPLES_PER_STEP, CourseLoop, PlannedPath, course_loop
+from gcs.core.steering import IDENTIFIED_AT_TURN_RATE_RAD_S, SAMPLES_PER_STEP, CourseLoop, PlannedPath, course_loop
 from gcs.core.world import World
 from benchmarks.closed_loop import EngineLoop
+from benchmarks.course_following import SteeringSample
 from gcs.engine.records import step_error_m
 from gcs.engine.engine import EngineOptions
 from protocols.keys import nav_key, report_key, truth_key
@@ -53,13 +54,16 @@ from sim_vehicles.personalities import make_autopilot
 from sim_vehicles.scene import Scene
 from sim_vehicles.truth.fixed_wing import Airframe, AirframeState
 
-__all__ = ["FlightRecord", "STEERINGS", "fly", "identify", "step_response", "with_autopilot"]
+__all__ = ["FlightRecord", "STEERINGS", "fit_course_loop", "fit_turn_efficiency", "fly", "identify", "step_response",
+           "with_autopilot"]
 
 STEER_RATE_HZ = 4.0
 """The daemon's steering rate (:data:`gcs.engine.memory.STEER_RATE_HZ`), per second of vehicle time."""
 STREAM_RATE_HZ = 5.0
 """The telemetry rate the daemon asks for (:data:`gcs.adapters.mavlink_commands.DEFAULT_STREAM_RATE_HZ`)."""
 SETTLE_S = 10.0
+SMALL_STEP_DEG, LARGE_STEP_DEG = 10.0, 90.0
+"""The course steps a course loop is identified from (the same for a personality and for ArduPlane SITL)."""
 """Course errors are counted from this long after the first plan."""
 PURSUIT_STEPS = 4
 STEERINGS = ("lead", "pursuit")
@@ -77,15 +81,21 @@ def with_autopilot(scenario: Scenario, personality: str) -> Scenario:
 @dataclass
 class FlightRecord:
     """One flight: who saw the target at each decision step (steps, V), the fused position error (steps,; with
-    ``[multitarget]`` the step's GOSPA against every target, :func:`gcs.engine.records.step_error_m`), and
-    each vehicle's course errors against its planned path at each steering instant after :data:`SETTLE_S`."""
+    ``[multitarget]`` the step's GOSPA against every target, :func:`gcs.engine.records.step_error_m`), each
+    vehicle's :class:`~benchmarks.course_following.SteeringSample` at each steering instant after
+    :data:`SETTLE_S`, and the turn-rate limit the vehicles were planned at."""
 
     personality: str
     steering: str
     seed: int
     seen: NDArray[np.bool_]
     errors_m: NDArray[np.float64]
-    course_errors_rad: list[list[float]] = field(default_factory=list)
+    steering_samples: list[list[SteeringSample]] = field(default_factory=list)
+    max_turn_rate_rad_s: float = IDENTIFIED_AT_TURN_RATE_RAD_S
+
+    @property
+    def course_errors_rad(self) -> list[list[float]]:
+        return [[s.course_error_rad for s in samples] for samples in self.steering_samples]
 
     @property
     def seen_any(self) -> int:
@@ -123,7 +133,7 @@ class _Vehicle:
     loop: CourseLoop
     memory: SendMemory = field(default_factory=SendMemory)
     path: PlannedPath | None = None
-    course_errors: list[float] = field(default_factory=list)
+    samples: list[SteeringSample] = field(default_factory=list)
 
 
 def _steer(vehicle: _Vehicle, steering: str, now: float) -> HeadingCommand | None:
@@ -201,7 +211,9 @@ def fly(scenario: Scenario, world: World, personality: str, seed: int, duration_
                 if vehicle.path is not None and first_plan_s is not None and now - first_plan_s >= SETTLE_S:
                     state = scene.vehicles[vid].state
                     index = vehicle.path.nearest(state.position_enu_m)
-                    vehicle.course_errors.append(wrap_angle(state.course_rad(scene.wind) - vehicle.path.courses[index]))
+                    course = state.course_rad(scene.wind)
+                    vehicle.samples.append(SteeringSample(now, course, wrap_angle(course - vehicle.path.courses[index]),
+                                                          float(vehicle.path.turn_rates[index])))
         for vid, vehicle in vehicles.items():
             truth = scene.vehicles[vid]
             actions, vehicle.memory = due_actions(
@@ -220,23 +232,27 @@ def fly(scenario: Scenario, world: World, personality: str, seed: int, duration_
         seen[record.index] = [record.seen[v] for v in roster]
         error = step_error_m(record)
         errors[record.index] = np.nan if error is None else error
-    return FlightRecord(personality, steering, seed, seen, errors, [v.course_errors for v in vehicles.values()])
+    return FlightRecord(personality, steering, seed, seen, errors, [v.samples for v in vehicles.values()],
+                        float(np.min(engine.tracker.max_turn_rate)))
 
 
 # ------------------------------------------------------------------ step responses
 
 
 def step_response(personality: str, step_deg: float, seconds: float = 20.0, airspeed_mps: float = 25.0,
-                  max_turn_rate_rad_s: float = 0.2, dt: float = 0.05) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+                  max_turn_rate_rad_s: float = IDENTIFIED_AT_TURN_RATE_RAD_S, dt: float = 0.05,
+                  turn_efficiency: float | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Times (s) and turn rates (rad/s) after GUIDED_CHANGE_HEADING turns the course ``step_deg`` to the left,
-    from straight flight east in GUIDED, lateral acceleration limit ``V omega_max`` as the daemon sends it
-    (before its margin)."""
+    from straight flight east in GUIDED, with the lateral acceleration limit the daemon sends
+    (``margin V omega_max``); ``turn_efficiency`` replaces the ``arduplane`` personality's."""
     frame = LocalFrame(47.0, 8.0, 400.0)
     config = AirframeConfig()
     gcs = mavlink.MAVLink(None, srcSystem=GCS_SYSID, srcComponent=mavlink.MAV_COMP_ID_MISSIONPLANNER)
     encoder = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
     wire = _Wire()
     autopilot = make_autopilot(personality, 1, frame, config, airspeed_mps, 200.0, encoder)
+    if turn_efficiency is not None:
+        autopilot.turn_efficiency = turn_efficiency
     airframe = Airframe(config, max_turn_rate_rad_s, (0.0, 0.0))
     state = AirframeState(np.array([0.0, 0.0, 200.0]), heading_rad=0.0, roll_rad=0.0, airspeed_mps=airspeed_mps)
     autopilot.start(state)
@@ -249,7 +265,7 @@ def step_response(personality: str, step_deg: float, seconds: float = 20.0, airs
     course_ned = math.degrees(ned_yaw_from_enu_heading(math.radians(step_deg))) % 360.0
     send(gcs.command_int_encode(1, 1, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_GUIDED_CHANGE_HEADING, 0, 0,
                                 mavlink.HEADING_TYPE_COURSE_OVER_GROUND, course_ned,
-                                airspeed_mps * max_turn_rate_rad_s, 0, 0, 0, 0))
+                                LATERAL_ACCEL_MARGIN * airspeed_mps * max_turn_rate_rad_s, 0, 0, 0, 0))
     times, rates = [], []
     t = 0.0
     for _ in range(int(round(seconds / dt))):
@@ -274,17 +290,42 @@ def _model_rates(gain: float, lag: float, step_rad: float, times: NDArray[np.flo
     return np.array(out)
 
 
-def identify(personality: str, airspeed_mps: float = 25.0, max_turn_rate_rad_s: float = 0.2) -> CourseLoop:
-    """The personality's course loop: ``K`` and ``tau`` fitted (least squares on the turn rate) to a 10 degree
-    step, and the largest turn rate of a 90 degree step."""
-    step = 10.0
-    times, rates = step_response(personality, step, airspeed_mps=airspeed_mps, max_turn_rate_rad_s=max_turn_rate_rad_s)
+def fit_course_loop(times: NDArray[np.float64], small: NDArray[np.float64], large: NDArray[np.float64],
+                    airspeed_mps: float, bank_to_turn: bool) -> CourseLoop:
+    """The course loop of step responses, every ``times[0]`` s: ``K`` and ``tau`` fitted (least squares on the turn
+    rate) to the :data:`SMALL_STEP_DEG` step's rates ``small``, and the largest turn rate the 90th percentile of the
+    :data:`LARGE_STEP_DEG` step's rates ``large`` (its plateau at the bank limit)."""
     dt = float(times[0])
 
     def residuals(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        return _model_rates(x[0], x[1], math.radians(step), times, dt) - rates
+        return _model_rates(x[0], x[1], math.radians(SMALL_STEP_DEG), times, dt) - small
 
     fit = least_squares(residuals, x0=[0.5, 0.5], bounds=([1e-3, 1e-3], [10.0, 10.0]))
-    _, large = step_response(personality, 90.0, airspeed_mps=airspeed_mps, max_turn_rate_rad_s=max_turn_rate_rad_s)
-    return CourseLoop(gain_per_s=float(fit.x[0]), lag_s=float(fit.x[1]), max_turn_rate_rad_s=float(np.max(large)),
-                      airspeed_mps=airspeed_mps, bank_to_turn=course_loop(personality).bank_to_turn)
+    return CourseLoop(gain_per_s=float(fit.x[0]), lag_s=float(fit.x[1]),
+                      max_turn_rate_rad_s=float(np.percentile(large, 90)), airspeed_mps=airspeed_mps,
+                      bank_to_turn=bank_to_turn)
+
+
+def identify(personality: str, airspeed_mps: float = 25.0, turn_efficiency: float | None = None) -> CourseLoop:
+    """The personality's course loop (:func:`fit_course_loop` on its :func:`step_response` to course steps of
+    :data:`SMALL_STEP_DEG` and :data:`LARGE_STEP_DEG`)."""
+    times, small = step_response(personality, SMALL_STEP_DEG, airspeed_mps=airspeed_mps,
+                                 turn_efficiency=turn_efficiency)
+    _, large = step_response(personality, LARGE_STEP_DEG, airspeed_mps=airspeed_mps, turn_efficiency=turn_efficiency)
+    return fit_course_loop(times, small, large, airspeed_mps, course_loop(personality).bank_to_turn)
+
+
+def fit_turn_efficiency(times: NDArray[np.float64], small: NDArray[np.float64], large: NDArray[np.float64],
+                        airspeed_mps: float = 25.0) -> float:
+    """The ``arduplane`` personality's turn efficiency (:data:`sim_vehicles.arduplane.TURN_EFFICIENCY`) whose step
+    responses are nearest (least squares over both steps' rates) to ``small`` and ``large``, measured every
+    ``times[0]`` s on the real autopilot."""
+    seconds = float(times[-1])
+
+    def residuals(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        _, fit_small = step_response("arduplane", SMALL_STEP_DEG, seconds, airspeed_mps, turn_efficiency=x[0])
+        _, fit_large = step_response("arduplane", LARGE_STEP_DEG, seconds, airspeed_mps, turn_efficiency=x[0])
+        n = len(times)
+        return np.concatenate([fit_small[:n] - small, fit_large[:n] - large])
+
+    return float(least_squares(residuals, x0=[0.8], bounds=([0.2], [1.0])).x[0])

@@ -11,8 +11,10 @@ beside them the paired Wilcoxon signed-rank p of seen-by-any against the
 course loop as measured from step responses, beside the one the daemon steers
 with (:data:`gcs.core.steering.COURSE_LOOPS`).
 
-JSON: ``personalities.<name>.{course_error_deg_median, seen_any_mean, rmse_m,
-seen_per_uav_mean, seen_any, p_vs_ideal, seen_any_ratio, rmse_ratio}``, and
+JSON: ``personalities.<name>.{course_error_deg_median, course_error_deg_p90, course_error_deg_max,
+turn_rate_achieved_deg_s_median, turn_rate_planned_deg_s, turn_rate_ratio, seen_any_mean, rmse_m,
+seen_per_uav_mean, seen_any, p_vs_ideal, seen_any_ratio, rmse_ratio}`` (the course following of
+:mod:`benchmarks.course_following`), and
 ``steering_pursuit.<name>`` likewise when the pursuit encoding is compared.
 """
 
@@ -29,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.autopilots import FlightRecord, fly, identify
+from benchmarks.course_following import course_following
 from benchmarks.urban_report import paired_p
 from gcs.core.steering import COURSE_LOOPS
 
@@ -55,21 +58,27 @@ def _fly(job: tuple[str, str, str, int, float | None]) -> FlightRecord:
 
 
 def summarise(records: Sequence[FlightRecord]) -> dict:
-    """Means over the flights of one personality; course errors and position errors pooled."""
+    """Means over the flights of one personality; course following (:func:`benchmarks.course_following.
+    course_following`) and position errors pooled, and each run's RMSE."""
     errors = np.concatenate([r.errors_m for r in records])
     errors = errors[np.isfinite(errors)]
-    course = np.abs(np.concatenate([np.concatenate([np.asarray(e) for e in r.course_errors_rad]) for r in records]))
+    samples = [vehicle for r in records for vehicle in r.steering_samples]
     return {
         "runs": len(records),
         "seeds": [r.seed for r in records],
         "steps": int(records[0].seen.shape[0]),
-        "course_error_deg_median": float(np.degrees(np.median(course))) if course.size else float("nan"),
-        "course_error_deg_p90": float(np.degrees(np.percentile(course, 90))) if course.size else float("nan"),
+        **course_following(samples, min(r.max_turn_rate_rad_s for r in records)),
+        "rmse_m_per_run": [_rmse(r.errors_m) for r in records],
         "seen_any": [r.seen_any for r in records],
         "seen_any_mean": float(np.mean([r.seen_any for r in records])),
         "seen_per_uav_mean": [float(x) for x in np.mean([r.seen_per_uav for r in records], axis=0)],
         "rmse_m": float(np.sqrt(np.mean(errors**2))) if errors.size else float("nan"),
     }
+
+
+def _rmse(errors: np.ndarray) -> float:
+    scored = errors[np.isfinite(errors)]
+    return float(np.sqrt(np.mean(scored**2))) if scored.size else float("nan")
 
 
 def _compare(summaries: dict[str, dict], reference: dict | None) -> None:
@@ -122,7 +131,9 @@ def _rows(summaries: dict[str, dict], label: str) -> list[str]:
         versus = "" if "p_vs_ideal" not in s else (
             f" | {s['seen_any_ratio']:.3f} | {s['rmse_ratio']:.3f} | {s['p_vs_ideal']:.3g}")
         out.append(f"| {name} ({label}) | {s['course_error_deg_median']:.2f} | {s['course_error_deg_p90']:.2f} | "
-                   f"{s['seen_any_mean']:.1f}/{s['steps']} | {per_uav} | {s['rmse_m']:.1f}{versus} |")
+                   f"{s['turn_rate_achieved_deg_s_median']:.2f} / {s['turn_rate_planned_deg_s']:.2f} "
+                   f"({100 * s['turn_rate_ratio']:.0f}%) | {s['seen_any_mean']:.1f}/{s['steps']} | {per_uav} | "
+                   f"{s['rmse_m']:.1f}{versus} |")
     return out
 
 
@@ -130,9 +141,9 @@ def format_report(report: dict) -> str:
     """The report as markdown tables."""
     lines = [f"gcs-bench autopilots: {report['scenario']}, {report['runs']} paired seeds from {report['seed']}, "
              f"{report['duration_s']:.0f} s each", "",
-             "| autopilot (steering) | course error median (deg) | p90 (deg) | seen by any | per UAV | RMSE (m) "
-             "| seen vs ideal | RMSE vs ideal | p vs ideal |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "| autopilot (steering) | course error median (deg) | p90 (deg) | turn rate at the limit, achieved / "
+             "planned (deg/s) | seen by any | per UAV | RMSE (m) | seen vs ideal | RMSE vs ideal | p vs ideal |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     lines += _rows(report["personalities"], "lead")
     lines += _rows(report.get("steering_pursuit", {}), "pursuit")
     loops = report.get("course_loops")

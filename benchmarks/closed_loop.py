@@ -66,7 +66,7 @@ class Loiter:
     radius_m: float
 
 
-IN_PROCESS = EngineOptions(plan_every_step=True, max_wait_s=0.0)
+IN_PROCESS = EngineOptions(plan_every_step=True, max_wait_s=0.0, autopilot_turn_rates=False)
 """The engine's options in process: every fused step planned, and no reorder window (``max_wait_s`` 0), so the
 first step is planned at its stamp as every later one is, as wang2012's loop does."""
 

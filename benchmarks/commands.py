@@ -240,6 +240,8 @@ def _printed(report: dict, module, json_path) -> int:
 def cmd_autopilots(args: argparse.Namespace) -> int:
     from benchmarks import autopilots_report
 
+    if args.sitl is not None:
+        return _autopilots_sitl(args)
     report = autopilots_report.run_benchmark(
         args.scenario, args.runs, args.seed, personalities=args.autopilot or autopilots_report.PERSONALITIES,
         duration_s=args.duration, compare_pursuit=args.compare_pursuit, workers=args.workers,
@@ -247,6 +249,36 @@ def cmd_autopilots(args: argparse.Namespace) -> int:
     print(autopilots_report.format_report(report))
     keep_json(autopilots_report.write_json, report, args.json)
     return 0
+
+
+def _autopilots_sitl(args: argparse.Namespace) -> int:
+    """``gcs-bench autopilots --sitl PATH`` (:mod:`benchmarks.autopilots_sitl`)."""
+    from benchmarks import autopilots_sitl
+    from benchmarks.sitl.arduplane import find_binary
+    from benchmarks.sitl.namespace import namespace_problem
+    from gcs.scenarios import load_scenario
+
+    try:
+        binary = find_binary(args.sitl)
+    except ValueError as error:
+        raise UsageError(f"--sitl: {error}") from None
+    if (problem := namespace_problem()) is not None:
+        raise UsageError(f"--sitl: SITL runs in a network namespace of its own, and {problem}")
+    if args.identify:
+        found = autopilots_sitl.identify_sitl(binary)
+        print(autopilots_sitl.format_identification(found))
+        keep_json(_write_json, found, args.json)
+        return 0
+    scenario = load_scenario(args.scenario)
+    report = autopilots_sitl.compare(args.scenario, binary, args.runs, args.seed,
+                                     args.duration or scenario.time.duration_s, progress=progress)
+    print(autopilots_sitl.format_comparison(report))
+    keep_json(_write_json, report, args.json)
+    return 0
+
+
+def _write_json(report: dict, path: Path) -> None:
+    path.write_text(json.dumps(report, indent=2) + "\n")
 
 
 def cmd_demo(args: argparse.Namespace) -> int:

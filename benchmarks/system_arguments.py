@@ -138,7 +138,11 @@ def add_autopilots(sub: argparse._SubParsersAction) -> None:
     aps.add_argument("--compare-pursuit", action="store_true",
                      help="also fly every personality steered by pursuit of a point 4 s on the plan, without lead")
     aps.add_argument("--identify", action="store_true",
-                     help="also print each personality's course loop identified from step responses")
+                     help="also print each personality's course loop identified from step responses (with --sitl: "
+                          "the real ArduPlane's, and the personality fitted to it)")
+    aps.add_argument("--sitl", metavar="PATH",
+                     help="fly the real ArduPlane (an ArduPilot SITL binary, 'arduplane', run in a network "
+                          "namespace of its own, in real time) beside the arduplane personality on the same seeds")
     aps.add_argument("--workers", type=positive_int, default=1, help="processes to fly the seeds in (default 1)")
     aps.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     aps.set_defaults(handler=outputs_checked(commands.cmd_autopilots), autopilot=None)

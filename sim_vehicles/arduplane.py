@@ -32,6 +32,13 @@ ArduPlane's own sources (file names under ``ArduPlane/`` unless said otherwise):
   1Hz"); REQUEST_DATA_STREAM and SET_MESSAGE_INTERVAL change them
   (:mod:`sim_vehicles.streams`).
 
+* **The turn a bank gives.** ArduPlane SITL's ``plane`` model flies the bank its roll
+  controller is asked for, but turns at only a share of the coordinated-turn rate
+  ``g tan(phi) / V`` for that bank (sideslip: its rudder mix does not coordinate the
+  turn fully). The personality asks the airframe for the bank whose coordinated turn is
+  that share, :data:`TURN_EFFICIENCY` of the demanded bank's, fitted to SITL's course
+  steps by ``gcs-bench autopilots --identify --sitl`` (docs/benchmarks.md).
+
 Mode numbers, HEARTBEAT and the other commands are the ideal autopilot's, which
 already uses ArduPlane's numbers and results.
 """
@@ -48,8 +55,11 @@ from sim_vehicles.guided_heading import MIN_ACCEL_LIMIT_MPS2, GuidedHeadingPid, 
 from sim_vehicles.streams import STREAMED_MESSAGES
 from sim_vehicles.truth.fixed_wing import AirframeState
 
-__all__ = ["ArduPlaneAutopilot", "GuidedHeading"]
+__all__ = ["ArduPlaneAutopilot", "GuidedHeading", "TURN_EFFICIENCY"]
 
+TURN_EFFICIENCY = 0.76
+"""The turn rate ArduPlane SITL's plane achieves at a bank, as a share of the coordinated turn ``g tan(phi) / V``
+(module docstring): the least-squares fit of the personality's 10 and 90 degree course steps to SITL's."""
 _AUTO = ARDUPLANE_MODES["AUTO"]
 _HEADING_TYPE_COG, _HEADING_TYPE_HEADING, _HEADING_TYPE_DEFAULT = 0, 1, 2
 _PID_PARAMS = {"GUIDED_P": "kp", "GUIDED_I": "ki", "GUIDED_D": "kd", "GUIDED_IMAX": "imax",
@@ -78,6 +88,7 @@ class ArduPlaneAutopilot(SimAutopilot):
     pid: GuidedHeadingPid = field(default_factory=GuidedHeadingPid)
     pid_limited: bool = False
     bank_demand_cd: float = 0.0
+    turn_efficiency: float = TURN_EFFICIENCY
     _last_update_s: float | None = None
 
     def __post_init__(self) -> None:
@@ -112,8 +123,8 @@ class ArduPlaneAutopilot(SimAutopilot):
         desired = self.pid.update_error(error, dt, self.pid_limited)
         self.pid_limited = abs(desired) >= limit
         self.bank_demand_cd = min(max(desired, -limit), limit)
-        self.guidance = replace(self.guidance, roll_command_rad=math.radians(self.bank_demand_cd / 100.0),
-                                direction_rad=target.direction_rad)
+        bank = math.atan(self.turn_efficiency * math.tan(math.radians(self.bank_demand_cd / 100.0)))
+        self.guidance = replace(self.guidance, roll_command_rad=bank, direction_rad=target.direction_rad)
 
     # ------------------------------------------------------------- commands
 

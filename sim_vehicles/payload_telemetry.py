@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from gcs.adapters.mavlink_wire import ned_yaw_from_enu_heading
+from gcs.adapters.mavlink_wire import before_gps_fix, ned_yaw_from_enu_heading
 from gcs.core.geometry import LocalFrame, wrap_angle
 
 __all__ = ["BadTelemetry", "GpsStatus", "NoFix", "MAX_DISTANCE_FROM_HOME_M", "Pose", "USER_RANGE_ERROR_M", "VehicleTelemetry",
@@ -47,7 +47,8 @@ class BadTelemetry(ValueError):
 
 
 class NoFix(BadTelemetry):
-    """A GLOBAL_POSITION_INT at exactly lat = lon = 0: what an autopilot sends before its GPS has a fix."""
+    """A GLOBAL_POSITION_INT at about lat = lon = 0: what an autopilot sends before its GPS has a fix
+    (:func:`gcs.adapters.mavlink_wire.before_gps_fix`)."""
 
 
 @dataclass(frozen=True)
@@ -78,12 +79,12 @@ def position_from_global(message, frame: LocalFrame) -> tuple[NDArray[np.float64
     """GLOBAL_POSITION_INT -> ``(position (3,) ENU m, velocity (3,) ENU m/s, heading ENU rad or None)``.
 
     ``x, y`` from ``lat``/``lon`` (1e7 degrees) at the origin height plus ``relative_alt`` (mm), ``z =
-    relative_alt``; velocity ``(vy, vx, -vz) / 100``; ``hdg`` (cdeg NED, 65535 unknown). :class:`NoFix` for
+    relative_alt``; velocity ``(vy, vx, -vz) / 100``; ``hdg`` (cdeg NED, 65535 unknown). :class:`NoFix` near
     lat = lon = 0, BadTelemetry for a position off the globe, too high or too far from home, or a heading out
     of range.
     """
-    if message.lat == 0 and message.lon == 0:
-        raise NoFix("position lat 0, lon 0: no GPS fix yet")
+    if before_gps_fix(message.lat, message.lon):
+        raise NoFix(f"position lat {message.lat * 1e-7:g}, lon {message.lon * 1e-7:g}: no GPS fix yet")
     lat, lon, altitude_m = message.lat * 1e-7, message.lon * 1e-7, message.relative_alt * 1e-3
     if not (abs(lat) <= 90.0 and abs(lon) <= 180.0):
         raise BadTelemetry(f"position lat {lat:g}, lon {lon:g} is off the globe")

@@ -151,6 +151,10 @@ class MavlinkCommander:
         """The vehicle's MAVLink state (KeyError for a vehicle not in the roster)."""
         return self._vehicles[vehicle_id]
 
+    def connection(self, vehicle_id: str):
+        """The pymavlink connection the vehicle is reached through (shared by the vehicles of one link)."""
+        return self._link_of[vehicle_id].conn
+
     def bound_connections(self) -> dict[str, str]:
         """Each vehicle's connection as bound (a listening port of 0 replaced by the one the system chose)."""
         return {vid: link.bound() for vid, link in self._link_of.items()}

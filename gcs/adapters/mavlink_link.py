@@ -17,7 +17,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from gcs.adapters.mavlink_wire import ARDUPLANE_MODE_NAMES, ARDUPLANE_MODES, mavlink, ned_yaw_from_enu_heading
+from gcs.adapters.mavlink_wire import (ARDUPLANE_MODE_NAMES, ARDUPLANE_MODES, before_gps_fix, mavlink,
+                                      ned_yaw_from_enu_heading)
 from gcs.core.geometry import LocalFrame
 from gcs.core.steering import CourseLoop, PlannedPath, follow
 
@@ -113,8 +114,8 @@ class VehicleLink:
 def update_from_message(link: VehicleLink, message, now_s: float, frame: LocalFrame) -> str | None:
     """Apply one message from the vehicle to ``link``; returns ``"heartbeat"`` for a vehicle HEARTBEAT and
     ``"bad_telemetry"`` for a position off the globe (or beyond :data:`MAX_ABS_ALTITUDE_M`), a heading out of
-    range or a non-finite yaw, and ``"no_fix"`` for a position of exactly lat = lon = 0 (what an autopilot
-    sends before its GPS has a fix), which change nothing (the caller counts them).
+    range or a non-finite yaw, and ``"no_fix"`` for a position at about lat = lon = 0 (what an autopilot
+    sends before its GPS has a fix, :func:`~gcs.adapters.mavlink_wire.before_gps_fix`), which change nothing (the caller counts them).
 
     GLOBAL_POSITION_INT: ``x, y`` from lat/lon through ``frame`` (at the origin
     height plus ``relative_alt``), ``z = relative_alt``; velocity NED cm/s ->
@@ -131,7 +132,8 @@ def update_from_message(link: VehicleLink, message, now_s: float, frame: LocalFr
         link.last_heartbeat_s = now_s
         return "heartbeat"
     if kind == "GLOBAL_POSITION_INT":
-        if message.lat == 0 and message.lon == 0:  # an autopilot without a GPS fix yet reports 0, 0
+        if before_gps_fix(message.lat, message.lon):  # an autopilot without a GPS fix yet reports about 0, 0
+            link.arrivals[kind] += 1  # the stream flows at its rate all the same
             return "no_fix"
         lat, lon, altitude_m = message.lat * 1e-7, message.lon * 1e-7, message.relative_alt * 1e-3
         if not (abs(lat) <= 90.0 and abs(lon) <= 180.0 and abs(altitude_m) <= MAX_ABS_ALTITUDE_M

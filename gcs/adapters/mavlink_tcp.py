@@ -32,6 +32,8 @@ RETRY_S = 1.0
 """Seconds between connection attempts while the peer does not answer."""
 CONNECT_TIMEOUT_S = 5.0
 """A connection attempt that has neither succeeded nor failed after this long is abandoned and tried again."""
+CLOSE_WAIT_S = 0.5
+"""How long closing waits for the peer to take what was written and close its side."""
 _GONE = (errno.ECONNRESET, errno.EPIPE, errno.ECONNABORTED, errno.ENOTCONN, errno.ETIMEDOUT, errno.EHOSTUNREACH)
 
 
@@ -155,6 +157,24 @@ class RetryingTcp(mavutil.mavfile):
             self._drop(errno.errorcode.get(error.errno or 0, str(error)))
 
     def close(self) -> None:
+        """Close gracefully: what was written goes out before the connection ends (a socket closed with unread
+        input is reset at once, and its unsent output lost: the hand-back of a daemon that stops among it)."""
         if self.port is not None:
+            if self.connected:
+                self._drain_and_finish()
             self.port.close()
         self.port, self.connected, self.fd = None, False, None  # type: ignore[assignment]
+
+    def _drain_and_finish(self) -> None:
+        """Send FIN after the pending output, and read what the peer still sends until it closes too (at most
+        :data:`CLOSE_WAIT_S`)."""
+        assert self.port is not None
+        try:
+            self.port.shutdown(socket.SHUT_WR)
+            deadline = self.clock() + CLOSE_WAIT_S
+            while (left := deadline - self.clock()) > 0:
+                readable, _, _ = select.select([self.port], [], [], left)
+                if readable and not self.port.recv(65536):
+                    return
+        except OSError:
+            return

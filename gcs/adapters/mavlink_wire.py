@@ -40,6 +40,7 @@ if TYPE_CHECKING:  # the class of mavlink.MAVLink (pymavlink has no type informa
 __all__ = [
     "ARDUPLANE_MODES",
     "ARDUPLANE_MODE_NAMES",
+    "before_gps_fix",
     "GCS_SYSID",
     "mavlink",
     "mavutil",
@@ -119,6 +120,17 @@ def check_connection(connection: str) -> str:
             raise ValueError(f"MAVLink connection {connection!r}: host {host!r} does not resolve ({error}); give "
                              "an address of this machine to listen on, e.g. 127.0.0.1 or 0.0.0.0") from None
     return text
+
+
+NO_FIX_DEG = 0.01
+"""A GLOBAL_POSITION_INT within this many degrees of lat = lon = 0 comes from an autopilot without a GPS fix:
+it reports 0, 0, or its estimator's drift from there before the fix (about 1 km; the Gulf of Guinea off
+Null Island is no place to track cars)."""
+
+
+def before_gps_fix(lat_e7: int, lon_e7: int) -> bool:
+    """Whether a position (1e7 degrees) is one an autopilot sends before its GPS has a fix (:data:`NO_FIX_DEG`)."""
+    return abs(lat_e7) < NO_FIX_DEG * 1e7 and abs(lon_e7) < NO_FIX_DEG * 1e7
 
 
 def open_connection(connection: str, source_system: int, source_component: int = 1) -> mavutil.mavfile:

@@ -17,8 +17,12 @@ by ``gcs-bench autopilots --identify``): small course errors ``e`` are closed at
     \\qquad |\\omega| \\le \\omega_{max}.
 
 ArduPlane's loop is a bank demand ``phi = k_p e`` (GUIDED_P, 5000 centidegrees a
-radian) and a coordinated turn ``omega = g tan(phi) / V``, so ``K = g k_p / V``:
-0.34 /s at 25 m/s, a 2.9 s time constant for a small step.
+radian) and a turn ``omega = eta g tan(phi) / V``, where ``eta`` (0.76 on SITL) is the
+share of the coordinated turn the plane achieves at a bank, so ``K = eta g k_p / V``:
+0.27 /s at 25 m/s, a 3.7 s time constant for a small step. Its largest turn rate is
+set by the bank limit ``atan(a / g)`` that the lateral acceleration limit ``a`` of each
+command gives: 0.177 rad/s under the daemon's commands at 0.2 rad/s, which is what
+the planner plans an ArduPlane at (:meth:`CourseLoop.flyable_turn_rate`).
 
 **Path following** (:func:`follow`). From the point of the path nearest the
 vehicle: its signed cross-track error ``d`` (left of the path positive), the
@@ -57,8 +61,11 @@ from numpy.typing import NDArray
 from gcs.core.geometry import wrap_angle
 from gcs.core.kinematics import VehicleState, rollout
 
-__all__ = ["CourseLoop", "COURSE_LOOPS", "PlannedPath", "Steering", "course_loop", "follow"]
+__all__ = ["CourseLoop", "COURSE_LOOPS", "IDENTIFIED_AT_TURN_RATE_RAD_S", "PlannedPath", "Steering", "course_loop", "follow"]
 
+IDENTIFIED_AT_TURN_RATE_RAD_S = 0.2
+"""The configured turn-rate limit of the vehicle a course loop is identified on (the daemon sends its course steps
+with the lateral acceleration limit ``margin V`` times it)."""
 SAMPLES_PER_STEP = 10
 """Points per plan step on a :class:`PlannedPath` (0.1 s apart with 1 s steps)."""
 LOOKAHEAD_S = 4.0
@@ -84,18 +91,26 @@ class CourseLoop:
         """``K`` at another airspeed."""
         return self.gain_per_s * (self.airspeed_mps / max(airspeed_mps, 1.0) if self.bank_to_turn else 1.0)
 
+    def flyable_turn_rate(self, configured_rad_s: float) -> float:
+        """The turn-rate limit to plan a vehicle at whose airframe is configured for ``configured_rad_s``: the rate
+        this autopilot reaches under the daemon's commands. The lateral acceleration limit the daemon sends,
+        and so the rate reached, scale with the configured limit; the loop was identified at
+        :data:`IDENTIFIED_AT_TURN_RATE_RAD_S`."""
+        return configured_rad_s * min(1.0, self.max_turn_rate_rad_s / IDENTIFIED_AT_TURN_RATE_RAD_S)
+
 
 COURSE_LOOPS: dict[str, CourseLoop] = {
     "ideal": CourseLoop(gain_per_s=0.991, lag_s=0.513, max_turn_rate_rad_s=0.2, airspeed_mps=25.0,
                         bank_to_turn=False),
-    "arduplane": CourseLoop(gain_per_s=0.347, lag_s=0.505, max_turn_rate_rad_s=0.2, airspeed_mps=25.0,
+    "arduplane": CourseLoop(gain_per_s=0.268, lag_s=0.218, max_turn_rate_rad_s=0.177, airspeed_mps=25.0,
                             bank_to_turn=True),
 }
-"""The course loops of the simulated autopilots, as ``gcs-bench autopilots --identify`` measures them on a
-25 m/s airframe (benchmarks/tests identifies them again and compares; tests/unit/test_steering.py holds
-them to their closed forms). A vehicle is steered
-with the loop of the autopilot its scenario names; ``px4`` flies toward its carrot with the airframe's
-own course loop, ``ideal``'s, which an autopilot without an entry takes too."""
+"""The course loops a vehicle is steered with, by the autopilot its scenario names, at 25 m/s. ``arduplane`` is
+the real ArduPlane's, identified on ArduPilot's SITL by ``gcs-bench autopilots --identify --sitl`` (and
+re-identified by its tests where SITL is at hand); ``ideal`` is the simulated ideal airframe's, as
+``gcs-bench autopilots --identify`` measures it (benchmarks/tests identifies it again and compares;
+tests/unit/test_steering.py holds both to their closed forms). ``px4`` flies toward its carrot with the
+airframe's own course loop, ``ideal``'s, which an autopilot without an entry takes too."""
 
 
 def course_loop(autopilot: str) -> CourseLoop:

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 from gcs import __version__
 from gcs.adapters.live_map.outputs import LiveMap
@@ -40,7 +40,7 @@ from gcs.adapters.zenoh_io import Received, ZenohIO
 from gcs.adapters.zenoh_session import listening_endpoints
 from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
-from gcs.core.steering import course_loop
+from gcs.core.steering import PlannedPath, course_loop
 from gcs.core.world import World
 from gcs.daemon.daemon_status import daemon_status
 from gcs.daemon.heap import HeapFreezer
@@ -94,6 +94,9 @@ class Daemon:
         """The endpoints the Zenoh session listens on, once open (a port of 0 read back)."""
         self.mavlink_bound: dict[str, str] = {}
         """Each vehicle's MAVLink connection as bound, once open (a port of 0 read back)."""
+        self.on_steered: Callable[[float, Sequence[tuple[str, PlannedPath]]], None] | None = None
+        """Called after each steering pass with the loop time and the path each vehicle was steered along (the
+        benchmarks measure how the vehicles follow them)."""
 
     # The engine's parts, as the daemon's (status, tests and the live map read them).
     roster = property(lambda self: self.engine.roster)
@@ -153,7 +156,8 @@ class Daemon:
                 max_turn_rate_rad_s={v.id: v.max_turn_rate_rad_s for v in self.scenario.vehicles},
                 stream_rate_hz=self.options.stream_rate_hz, takeover=self.options.takeover)
         self.plan_runner = start_plan_runner(self.options.plan_runner, self.scenario, self.world, self.planner_name,
-                                             self.options.seed, self._subset, self.options.plan_process_niceness)
+                                             self.options.seed, self._subset, self.options.plan_process_niceness,
+                                             self.engine.options.autopilot_turn_rates)
         if self.options.http is not None or self.options.foxglove is not None:
             try:
                 self.live = LiveMap.open(self.options.http, self.scenario, self.world,
@@ -327,6 +331,8 @@ class Daemon:
         steered = self.engine.steer()
         if self.commander is not None:
             steer_along_paths(self.commander, steered, self.course_loops, now, self.loop.data_rate)
+        if self.on_steered is not None:
+            self.on_steered(now, steered)
 
     # ----------------------------------------------------------------- status
 

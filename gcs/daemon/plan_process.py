@@ -35,12 +35,13 @@ __all__ = ["ProcessPlanRunner"]
 log = logging.getLogger(__name__)
 
 
-def _serve(conn, scenario: Scenario, world: World, planner_name: str, seed: int, niceness: int) -> None:
+def _serve(conn, scenario: Scenario, world: World, planner_name: str, seed: int, niceness: int,
+           autopilot_turn_rates: bool) -> None:
     """The planner process: build the tracker, then plan each job received until told to stop."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group; the daemon stops us
     lower_priority(niceness)
     try:
-        tracker = tracker_config(scenario, world, planner_name)
+        tracker = tracker_config(scenario, world, planner_name, autopilot_turn_rates=autopilot_turn_rates)
     except Exception as error:
         conn.send(("error", f"{type(error).__name__}: {error}"))
         return
@@ -79,8 +80,9 @@ class ProcessPlanRunner(PlanRunner):
     """
 
     def __init__(self, scenario: Scenario, world: World, planner_name: str, seed: int,
-                 niceness: int = PLAN_PROCESS_NICENESS) -> None:
-        self._arguments = (scenario, world, planner_name, seed, check_niceness(niceness, "the planner's"))
+                 niceness: int = PLAN_PROCESS_NICENESS, autopilot_turn_rates: bool = False) -> None:
+        self._arguments = (scenario, world, planner_name, seed, check_niceness(niceness, "the planner's"),
+                           autopilot_turn_rates)
         self.superseded = 0
         self.restarts = 0
         self._in_flight: PlanJob | None = None

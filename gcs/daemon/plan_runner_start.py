@@ -22,11 +22,12 @@ __all__ = ["start_plan_runner"]
 
 def start_plan_runner(runner: str, scenario: Scenario, world: World, planner_name: str, seed: int,
                       configs: Callable[[tuple[int, ...]], TrackerConfig],
-                      niceness: int = PLAN_PROCESS_NICENESS) -> PlanRunner:
+                      niceness: int = PLAN_PROCESS_NICENESS, autopilot_turn_rates: bool = False) -> PlanRunner:
     """The plan runner ``runner`` names (:data:`PLAN_RUNNERS`), running planner ``planner_name``; ``configs`` maps
-    roster indices to their tracker; ``niceness``: the process's, below the daemon's."""
+    roster indices to their tracker; ``niceness``: the process's, below the daemon's; ``autopilot_turn_rates``:
+    the engine's option of that name, for the process's own tracker."""
     if runner == "process":
-        return ProcessPlanRunner(scenario, world, planner_name, seed, niceness)
+        return ProcessPlanRunner(scenario, world, planner_name, seed, niceness, autopilot_turn_rates)
     if runner == "thread":
         return ThreadPlanRunner(configs, np.random.default_rng(seed))
     if runner == "inline":

@@ -78,7 +78,8 @@ class Engine:
         self.navigator = self.acceptance.navigator
         self.alive = self.acceptance.alive
         self.planner_name = options.planner or scenario_planner(scenario)
-        self.tracker: TrackerConfig = tracker_config(scenario, world, self.planner_name)
+        self.tracker: TrackerConfig = tracker_config(scenario, world, self.planner_name,
+                                                     autopilot_turn_rates=options.autopilot_turn_rates)
         self._observer_sensor = observer_sensor_model(scenario)
         self.loop = LoopMemory()
         self.counters: Counter[str] = Counter()

@@ -18,7 +18,11 @@ class EngineOptions:
     ``plan_fraction``: share of a step of data time the planner may use; ``handback_after_lost_s``:
     stamp time without the target before the vehicles are given back; ``plan_every_step``: hand every
     fused step to a free planner, without the :func:`~gcs.engine.memory.plan_interval_s` that spares a
-    live loop's time (``gcs replay --plan``, whose plans are reproducible and made at leisure).
+    live loop's time (``gcs replay --plan``, whose plans are reproducible and made at leisure);
+    ``autopilot_turn_rates``: plan each vehicle at the turn rate its autopilot reaches under the daemon's
+    commands (:meth:`gcs.core.steering.CourseLoop.flyable_turn_rate`), as the daemon steers real and
+    simulated autopilots; False plans at the scenario's own limits, for vehicles that fly the plan
+    itself (the benchmarks' in-process loops).
     """
 
     prefix: str = "gcs"
@@ -29,3 +33,4 @@ class EngineOptions:
     plan_fraction: float = 0.6
     handback_after_lost_s: float = 60.0
     plan_every_step: bool = False
+    autopilot_turn_rates: bool = True

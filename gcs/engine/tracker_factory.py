@@ -32,10 +32,11 @@ from gcs.core.planners.one_step import HeadingSolver
 from gcs.core.planners.problem import Planner, Visibility
 from gcs.core.roads import RoadParticleFilter, table_sees
 from gcs.core.roads.tracking import RoadTracking
+from gcs.core.steering import course_loop
 from gcs.core.tracker import TrackerConfig
 from gcs.core.world import VisibilityMaps, World
 
-__all__ = ["FROM_SCENARIO", "LOOKS_REACH_M", "horizon_steps", "sight_weights", "filter_sensor_models",
+__all__ = ["FROM_SCENARIO", "LOOKS_REACH_M", "horizon_steps", "planning_turn_rates", "sight_weights", "filter_sensor_models",
            "observer_sensor_model", "tracker_config", "target_imm", "road_tracking", "scenario_planner", "subset_config"]
 
 FROM_SCENARIO: Final = "scenario"
@@ -131,9 +132,22 @@ def horizon_steps(scenario: Scenario, planner: str) -> int:
     return cfg.horizon_steps if planner in GA_PLANNERS else cfg.sight.horizon_steps
 
 
+def planning_turn_rates(scenario: Scenario, autopilot_turn_rates: bool) -> NDArray[np.float64]:
+    """Each vehicle's turn-rate limit for the planner: its configured one, or with ``autopilot_turn_rates`` what
+    the course loop of its autopilot reaches at it (:meth:`gcs.core.steering.CourseLoop.flyable_turn_rate`)."""
+    rates = [v.max_turn_rate_rad_s if not autopilot_turn_rates
+             else course_loop(scenario.autopilot_for(v)).flyable_turn_rate(v.max_turn_rate_rad_s)
+             for v in scenario.vehicles]
+    return np.array(rates, dtype=np.float64)
+
+
 def tracker_config(scenario: Scenario, world: World | None, planner: str, generations: int | None = None,
-                   stall: int | None | Literal["scenario"] = FROM_SCENARIO) -> TrackerConfig:
+                   stall: int | None | Literal["scenario"] = FROM_SCENARIO,
+                   autopilot_turn_rates: bool = False) -> TrackerConfig:
     """The tracker for a scenario and one of :data:`PLANNERS`.
+
+    With ``autopilot_turn_rates`` each vehicle is planned at the turn rate its autopilot reaches
+    (:func:`planning_turn_rates`), else at its configured limit.
 
     ``world`` None gives a tracker for estimation only (no visibility regions or
     restricted airspace for the planner), e.g. ``gcs replay --process``; the road
@@ -154,7 +168,7 @@ def tracker_config(scenario: Scenario, world: World | None, planner: str, genera
         uif=UnscentedInformationFilter(motion),
         sensors=sensors,
         planner=search,
-        max_turn_rate=np.array([v.max_turn_rate_rad_s for v in scenario.vehicles]),
+        max_turn_rate=planning_turn_rates(scenario, autopilot_turn_rates),
         step_s=scenario.time.step_s,
         horizon_steps=horizon_steps(scenario, planner) if planner in URBAN_PLANNERS + SEARCH_VARIANTS
         else cfg.horizon_steps,

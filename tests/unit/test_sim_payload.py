@@ -103,7 +103,7 @@ def test_gps_raw_int_gives_fix_accuracy_and_satellites() -> None:
 def test_bad_telemetry_is_counted_and_changes_nothing() -> None:
     b = bridge()
     feed(b, 0.0, global_position(100.0, 200.0, 150.0), gps_raw())
-    bad = [global_position(0, 0, 150.0, lat_e7=95 * 10**7), global_position(0, 0, 150.0, lat_e7=1, lon_e7=0),
+    bad = [global_position(0, 0, 150.0, lat_e7=95 * 10**7), global_position(0, 0, 150.0, lat_e7=2 * 10**6, lon_e7=0),
            global_position(0, 0, 150.0, hdg_cdeg=40000), attitude(float("nan")), gps_raw(fix_type=12)]
     assert [b.ingest("uav1", m, 0.1) for m in bad] == [False] * 5
     counts = b.counts["uav1"]
@@ -216,7 +216,7 @@ def test_liveliness_is_withdrawn_on_stale_telemetry_and_declared_when_it_returns
 
 def test_positions_before_a_gps_fix_are_dropped_counted_and_logged_once(caplog) -> None:
     b = bridge()
-    before_fix = [global_position(0, 0, 0.0, lat_e7=0, lon_e7=0) for _ in range(3)]
+    before_fix = [global_position(0, 0, 0.0, lat_e7=lat, lon_e7=lon) for lat, lon in ((0, 0), (1930, 2330), (-2904, -205))]
     with caplog.at_level(logging.INFO, logger="sim_vehicles.payload"):
         assert [b.ingest("uav1", m, 0.1 * k) for k, m in enumerate(before_fix)] == [False] * 3
     counts = b.counts["uav1"]
