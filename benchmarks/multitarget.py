@@ -182,7 +182,7 @@ def clutter_density(world: World, scene: Scene, sensor: SensorModel, max_range_m
     the elevation noise ``sigma_theta`` (the range noise adds nothing at these ranges), so
     on that surface the density per m rad^2 is
 
-    .. math:: \lambda(\rho) = \frac{\text{rate}\; \rho}{\pi R_h^2 \sqrt{2 \pi}\, \sigma_\theta}
+    .. math:: \\lambda(\\rho) = \\frac{\\text{rate}\\; \\rho}{\\pi R_h^2 \\sqrt{2 \\pi}\\, \\sigma_\\theta}
 
     evaluated at ``rho``, the median slant range of the truths in some UAV's field
     (:func:`in_field`) over the scene."""
