@@ -38,6 +38,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 from stonesoup.base import Property
+from stonesoup.dataassociator.base import DataAssociator
 from stonesoup.deleter.base import Deleter
 from stonesoup.initiator.base import Initiator
 from stonesoup.models.measurement.linear import LinearGaussian
@@ -47,6 +48,7 @@ from stonesoup.types.multihypothesis import MultipleHypothesis
 from stonesoup.types.prediction import GaussianStatePrediction
 from stonesoup.types.track import Track
 from stonesoup.types.update import Update
+from stonesoup.updater.base import Updater
 
 __all__ = ["ScanClock", "OrderedDetection", "NumberedTrack", "detected_at", "CoveredMissDeleter", "ScanInitiator",
            "GroundInitiator"]
@@ -155,8 +157,8 @@ class ScanInitiator(Initiator):
 
     clock: ScanClock = Property(doc="The scan being fed")
     initiator: Initiator = Property(doc="Starts a tentative track from one detection")
-    data_associator: object = Property(doc="Associates the tentative tracks with a set's detections")
-    updater: object = Property(doc="Updates a tentative track with its detection")
+    data_associator: DataAssociator = Property(doc="Associates the tentative tracks with a set's detections")
+    updater: Updater = Property(doc="Updates a tentative track with its detection")
     confirm_m: int = Property(doc="Hits that confirm")
     confirm_n: int = Property(doc="Of the last so many scans")
 
@@ -205,7 +207,7 @@ class GroundInitiator(Initiator):
     """Stone Soup's one-detection initiator, then the track put on the ground (module docstring)."""
 
     initiator: Initiator = Property(doc="A SimpleMeasurementInitiator on the detections' own models")
-    updater: object = Property(doc="A KalmanUpdater for the height pseudo-measurement")
+    updater: Updater = Property(doc="A KalmanUpdater for the height pseudo-measurement")
     target_height_m: float = Property(doc="The targets' known height, the state's z")
     ndim_state: int = Property(default=6, doc="State size; z is element 4")
 
