@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from benchmarks.aoa import AoaScenario, LoopRecord, bound, path_violations
-from benchmarks.closed_loop import IN_PROCESS, NS_PER_S, EngineLoop, IdealAirframes, fly
+from benchmarks.closed_loop import IN_PROCESS, NS_PER_S, EngineLoop, IdealAirframes, fly_step
 from gcs.config import Scenario
 from gcs.core.kinematics import VehicleState
 from gcs.engine.plan_jobs import plan_job
@@ -30,7 +30,7 @@ from protocols.keys import nav_key, report_key, truth_key
 from protocols.messages import NavReport, SensorReport, TargetTruth
 from sim_vehicles.scene import wire_measurement
 
-__all__ = ["ENGINE_PLANNERS", "aoa_scenario", "run_loop"]
+__all__ = ["ENGINE_PLANNERS", "aoa_scenario", "run_loop", "run_alternated"]
 
 ENGINE_PLANNERS = {"gcrlb_lm": "gcrlb_lm", "crlb_lm": "crlb_lm", "straight_line": "straight"}
 """The planners of Figs. 3-6 (:data:`benchmarks.aoa.PLANNERS`) and the names the engine knows them by."""
@@ -107,25 +107,52 @@ class _AoaScene:
 def run_loop(setup: AoaScenario, planner: str, seed: int, sigma0_deg: Sequence[float] = (1.0, 1.0, 1.0),
              clock: Callable[[], float] | None = None) -> LoopRecord:
     """One closed-loop run with ``len(sigma0_deg)`` UAVs (module docstring); ``clock`` times each plan job."""
-    scenario = aoa_scenario(setup, planner, sigma0_deg)
-    iterations: dict[int, int] = {}
+    return run_alternated(setup, [planner], seed, sigma0_deg, clock)[planner]
 
-    def counted(job, config, rng):
+
+def run_alternated(setup: AoaScenario, planners: Sequence[str], seed: int,
+                   sigma0_deg: Sequence[float] = (1.0, 1.0, 1.0),
+                   clock: Callable[[], float] | None = None) -> dict[str, LoopRecord]:
+    """One closed-loop run of each planner on the same seed, stepped alternately: step ``k`` of every planner,
+    then step ``k + 1``, the order rotated by one each step, so a change in the machine's load lands on all."""
+    runs = [_LoopRun(setup, name, seed, sigma0_deg, clock) for name in planners]
+    for k in range(setup.steps):
+        for i in range(len(runs)):
+            runs[(i + k) % len(runs)].step(k)
+    return {name: run.record() for name, run in zip(planners, runs)}
+
+
+class _LoopRun:
+    """One planner's closed loop, stepped by the caller."""
+
+    def __init__(self, setup: AoaScenario, planner: str, seed: int, sigma0_deg: Sequence[float],
+                 clock: Callable[[], float] | None) -> None:
+        scenario = aoa_scenario(setup, planner, sigma0_deg)
+        self.setup, self.planner, self.seed, self.sigma0_deg = setup, planner, seed, tuple(sigma0_deg)
+        self.iterations: dict[int, int] = {}
+        self.loop = EngineLoop(scenario, None, np.random.default_rng([seed, 3]), IN_PROCESS,
+                               planner=self._counted, clock=clock)
+        self.scene = _AoaScene(setup, scenario, seed)
+        start = VehicleState(setup.starts(len(sigma0_deg))[:, :2],
+                             np.array([v.start_heading_rad for v in scenario.vehicles]),
+                             np.full(len(sigma0_deg), setup.speed_mps),
+                             np.array([v.altitude_m for v in scenario.vehicles]))
+        self.airframes = IdealAirframes(self.scene.roster, start, self.loop.engine.tracker.max_turn_rate, setup.step_s,
+                                        scenario.simulation.airframe.loiter_radius_m)
+        self.loop.declare(self.scene.roster, 0.0)
+
+    def _counted(self, job, config, rng):
         state, turn_rates, result = plan_job(job, config, rng)
-        iterations[job.stamp_ns] = 0 if result is None else result.generations
+        self.iterations[job.stamp_ns] = 0 if result is None else result.generations
         return state, turn_rates, result
 
-    loop = EngineLoop(scenario, None, np.random.default_rng([seed, 3]), IN_PROCESS,
-                      planner=counted, clock=clock)
-    scene = _AoaScene(setup, scenario, seed)
-    config = loop.engine.tracker
-    start = VehicleState(setup.starts(len(sigma0_deg))[:, :2], np.array([v.start_heading_rad for v in scenario.vehicles]),
-                         np.full(len(sigma0_deg), setup.speed_mps), np.array([v.altitude_m for v in scenario.vehicles]))
-    airframes = IdealAirframes(scene.roster, start, config.max_turn_rate, setup.step_s,
-                               scenario.simulation.airframe.loiter_radius_m)
-    loop.declare(scene.roster, 0.0)
-    fly(loop, scene, setup.steps, airframes)
-    return _record(setup, planner, seed, sigma0_deg, loop, scene, iterations)
+    def step(self, k: int) -> None:
+        fly_step(self.loop, self.scene, k, self.airframes)
+        if k == self.setup.steps - 1:
+            self.loop.finish(self.setup.steps * self.loop.step_s)
+
+    def record(self) -> LoopRecord:
+        return _record(self.setup, self.planner, self.seed, self.sigma0_deg, self.loop, self.scene, self.iterations)
 
 
 def _record(setup: AoaScenario, planner: str, seed: int, sigma0_deg: Sequence[float], loop: EngineLoop,

@@ -12,6 +12,11 @@ MSE is the mean over runs of the squared position error at a step; ``final_mse``
 is at the last step. Means of squared errors are dominated by the worst runs, so
 the median is reported beside them, and the planners' pairing is tested with the
 Wilcoxon signed-rank test on the runs' final squared errors.
+
+The three planners of Figs. 3-6 fly each seed alternated step by step in this process
+(:func:`benchmarks.aoa_loop.run_alternated`), so a change in the machine's load lands on
+all three; each planner's plan time per step is given as its median, interquartile range
+and 99th percentile, and GCRLB-LM's over CRLB-LM's step by step as a median and IQR.
 """
 
 from __future__ import annotations
@@ -25,7 +30,7 @@ import numpy as np
 from scipy.stats import wilcoxon
 
 from benchmarks.aoa import ESTIMATORS, PLANNERS, AoaScenario, LoopRecord, run_estimators
-from benchmarks.aoa_loop import run_loop
+from benchmarks.aoa_loop import run_alternated, run_loop
 from benchmarks.plots import pyplot, write_markdown
 from benchmarks.plots import save as save_figure
 
@@ -57,12 +62,24 @@ def _loop_summary(records: Sequence[LoopRecord]) -> dict:
         "violations": int(sum(kinds.values())),
         "violations_by_kind": kinds,
         "step_ms_median": float(np.median(solve_ms)) if solve_ms.size else float("nan"),
+        "step_ms_p25": float(np.percentile(solve_ms, 25)) if solve_ms.size else float("nan"),
+        "step_ms_p75": float(np.percentile(solve_ms, 75)) if solve_ms.size else float("nan"),
         "step_ms_p99": float(np.percentile(solve_ms, 99)) if solve_ms.size else float("nan"),
         "iterations_median": float(np.median(np.concatenate([r.iterations for r in records]))),
         "mse_curve": _curve(se.mean(axis=0)),
         "median_curve": _curve(np.median(se, axis=0)),
         "bound_curve": _curve(bound.mean(axis=0)),
     }
+
+
+def _step_ratio(a: Sequence[LoopRecord], b: Sequence[LoopRecord]) -> dict[str, float]:
+    """``a``'s plan time over ``b``'s, step by step on the same seeds (the planners alternated): median and IQR."""
+    ratio = np.concatenate([ra.solve_s / rb.solve_s for ra, rb in zip(a, b)])
+    ratio = ratio[np.isfinite(ratio)]
+    if not ratio.size:
+        return {"median": float("nan"), "p25": float("nan"), "p75": float("nan")}
+    p25, median, p75 = np.percentile(ratio, [25.0, 50.0, 75.0])
+    return {"median": float(median), "p25": float(p25), "p75": float(p75)}
 
 
 def _paired(a: Sequence[LoopRecord], b: Sequence[LoopRecord]) -> dict:
@@ -90,8 +107,8 @@ def run_benchmark(
     for run in range(runs):
         run_seed = seed + run
         estimates.append(run_estimators(scenario, run_seed))
-        for name in PLANNERS:
-            planners[name].append(run_loop(scenario, name, run_seed, clock=clock))
+        for name, record in run_alternated(scenario, PLANNERS, run_seed, clock=clock).items():
+            planners[name].append(record)
         for n in SENSOR_COUNTS:
             if n != 3:
                 counts[n].append(run_loop(scenario, "gcrlb_lm", run_seed, (1.0,) * n, clock=clock))
@@ -120,6 +137,7 @@ def run_benchmark(
         "planners": summary,
         "paired": {"gcrlb_lm_vs_crlb_lm": _paired(planners["gcrlb_lm"], planners["crlb_lm"]),
                    "crlb_lm_vs_straight_line": _paired(planners["crlb_lm"], planners["straight_line"])},
+        "step_time_gcrlb_lm_over_crlb_lm": _step_ratio(planners["gcrlb_lm"], planners["crlb_lm"]),
         "sensor_count": {str(n): _loop_summary(counts[n]) for n in SENSOR_COUNTS},
         "accuracy": {"equal": summary["gcrlb_lm"], "unequal": _loop_summary(unequal)},
     }
@@ -146,20 +164,27 @@ def format_report(report: dict) -> str:
 
     def loop_table(title: str, rows: dict[str, dict], label: str) -> None:
         lines.extend(["", title, f"{label:<16}{'final MSE':>12}{'final median':>14}{'MSE over time':>15}"
-                      f"{'bound':>11}{'violations':>12}{'step ms':>9}{'p99':>8}{'LM iter':>9}"])
+                      f"{'bound':>11}{'violations':>12}{'step ms':>9}{'IQR':>12}{'p99':>8}{'LM iter':>9}"])
         for name, p in rows.items():
             lines.append(f"{name:<16}{p['final_mse']:>12.4g}{p['final_se_median']:>14.4g}{p['mean_mse']:>15.4g}"
                          f"{p['final_bound']:>11.4g}{p['violations']:>12}{p['step_ms_median']:>9.2f}"
-                         f"{p['step_ms_p99']:>8.2f}{p['iterations_median']:>9.0f}")
+                         f"{_iqr(p):>12}{p['step_ms_p99']:>8.2f}{p['iterations_median']:>9.0f}")
 
     loop_table("Planners (Figs. 3-6; 3 UAVs, VG-UKF estimates), position error m^2:", report["planners"], "planner")
     for name, p in report["paired"].items():
         lines.append(f"  {name}: smaller final error in {p['wins']}/{p['runs']} paired runs, "
                      f"Wilcoxon p = {p['wilcoxon_p']:.3g}")
+    ratio = report["step_time_gcrlb_lm_over_crlb_lm"]
+    lines.append(f"  plan time gcrlb_lm / crlb_lm, step by step (the planners alternated): {ratio['median']:.2f} "
+                 f"median (IQR {ratio['p25']:.2f}-{ratio['p75']:.2f})")
     loop_table("Sensor count (Fig. 7; GCRLB-LM, sigma0 1 deg):", report["sensor_count"], "UAVs")
     loop_table("Sensor accuracy (Fig. 8; GCRLB-LM, sigma0 1/1/1 vs 1/0.8/0.1 deg):", report["accuracy"], "accuracy")
     lines.extend(["", "Goals: " + ", ".join(f"{goal} {'met' if ok else 'NOT met'}" for goal, ok in report["goals"].items())])
     return "\n".join(lines)
+
+
+def _iqr(row: dict) -> str:
+    return f"{row['step_ms_p25']:.2f}-{row['step_ms_p75']:.2f}"
 
 
 def write_json(report: dict, path: Path) -> None:
@@ -170,11 +195,11 @@ def write_json(report: dict, path: Path) -> None:
 def write_table(report: dict, directory: Path, written: list[Path] | None = None) -> Path:
     """``aoa.md``: the estimators', planners', sensor-count and accuracy tables, and the goals."""
     loop_columns = ["final MSE m^2", "final median m^2", "MSE over time m^2", "bound m^2", "violations",
-                    "step ms (median)", "step ms (p99)", "LM iterations (median)"]
+                    "step ms (median)", "step ms (IQR)", "step ms (p99)", "LM iterations (median)"]
 
     def loop_rows(rows: dict) -> list[tuple]:
         return [(name, p["final_mse"], p["final_se_median"], p["mean_mse"], p["final_bound"], p["violations"],
-                 p["step_ms_median"], p["step_ms_p99"], p["iterations_median"]) for name, p in rows.items()]
+                 p["step_ms_median"], _iqr(p), p["step_ms_p99"], p["iterations_median"]) for name, p in rows.items()]
 
     estimators = [(name, e["final_mse"], e["final_se_median"], e["mean_mse"]) for name, e in report["estimators"].items()]
     paired = [(name, p["wins"], p["runs"], p["wilcoxon_p"]) for name, p in report["paired"].items()]

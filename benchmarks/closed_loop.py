@@ -51,7 +51,8 @@ from protocols.codec import encode
 from protocols.keys import alive_key
 from protocols.messages import PlanCommand, TrackEstimate
 
-__all__ = ["SUBSTEP_S", "NS_PER_S", "IN_PROCESS", "Loiter", "EngineLoop", "IdealAirframes", "SimulatedScene", "fly"]
+__all__ = ["SUBSTEP_S", "NS_PER_S", "IN_PROCESS", "Loiter", "EngineLoop", "IdealAirframes", "SimulatedScene", "fly",
+           "fly_step"]
 
 SUBSTEP_S = 0.1
 """The simulated clock's tick: inputs are handed over, steps released and the vehicles flown this often."""
@@ -202,20 +203,26 @@ class SimulatedScene(Protocol):
 
 def fly(loop: EngineLoop, scene: SimulatedScene, steps: int, airframes: IdealAirframes | None = None,
         after_tick: Callable[[int, int], None] | None = None) -> None:
-    """Run ``steps`` decision steps: at every tick the scene's messages, the tick, then the flight to the next
-    tick (``airframes`` None: the scene moves its vehicles itself). ``after_tick(step, substep)`` sees each."""
-    per_step = round(loop.step_s / SUBSTEP_S)
+    """Run ``steps`` decision steps (:func:`fly_step` each), then finish the loop."""
     for k in range(steps):
-        for sub in range(per_step):
-            now = (k * per_step + sub) * SUBSTEP_S
-            vehicles = None if airframes is None else airframes.state
-            for key, message in scene.messages(k, sub, vehicles):
-                loop.send(key, message, now)
-            loop.tick(now)
-            if after_tick is not None:
-                after_tick(k, sub)
-            if airframes is not None:
-                before = airframes.state
-                airframes.fly(SUBSTEP_S, airframes.turn_rates(now, loop.paths()))
-                scene.flown(before, airframes.state, SUBSTEP_S)
+        fly_step(loop, scene, k, airframes, after_tick)
     loop.finish(steps * loop.step_s)
+
+
+def fly_step(loop: EngineLoop, scene: SimulatedScene, k: int, airframes: IdealAirframes | None = None,
+             after_tick: Callable[[int, int], None] | None = None) -> None:
+    """Decision step ``k``: at every tick the scene's messages, the tick, then the flight to the next tick
+    (``airframes`` None: the scene moves its vehicles itself). ``after_tick(step, substep)`` sees each."""
+    per_step = round(loop.step_s / SUBSTEP_S)
+    for sub in range(per_step):
+        now = (k * per_step + sub) * SUBSTEP_S
+        vehicles = None if airframes is None else airframes.state
+        for key, message in scene.messages(k, sub, vehicles):
+            loop.send(key, message, now)
+        loop.tick(now)
+        if after_tick is not None:
+            after_tick(k, sub)
+        if airframes is not None:
+            before = airframes.state
+            airframes.fly(SUBSTEP_S, airframes.turn_rates(now, loop.paths()))
+            scene.flown(before, airframes.state, SUBSTEP_S)

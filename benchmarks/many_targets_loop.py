@@ -30,6 +30,7 @@ from gcs.config import Scenario
 from gcs.config.multitarget import MultiTargetConfig
 from gcs.core.kinematics import VehicleState
 from gcs.core.models.sensor import SensorModel
+from gcs.core.multitarget.coverage import clutter_volume
 from gcs.core.world import World
 from protocols.keys import nav_key, report_key, truth_key
 from protocols.messages import NavReport, SensorReport, TargetTruth
@@ -40,11 +41,16 @@ __all__ = ["many_target_scenario", "ScanScene", "SharingScene", "confirmed"]
 
 
 def many_target_scenario(base: Scenario, association: str, pd: float, clutter: float, vehicles: int,
-                         starvation_s: float = 20.0, forget_s: float = 90.0, kind: str = "gaussian") -> Scenario:
+                         starvation_s: float = 20.0, forget_s: float = 90.0, kind: str = "gaussian",
+                         clutter_density: float | None = None) -> Scenario:
     """``base`` (its city, sensor and first ``vehicles`` UAVs) tracking every target: ``[multitarget]`` with the
     benches' tracker (:data:`benchmarks.multitarget.PROCESS_NOISE`, :data:`~benchmarks.multitarget.MAX_MISSED_SCANS`,
     :data:`~benchmarks.multitarget.MAX_POSITION_TRACE_M2`), its sensor's detection probability and clutter;
-    ``kind`` the tracker (``gaussian``, ``road`` or ``auto``, :mod:`gcs.config.multitarget`)."""
+    ``kind`` the tracker (``gaussian``, ``road`` or ``auto``, :mod:`gcs.config.multitarget`). ``clutter_density``
+    (false detections per m rad^2): the tracker's clutter density, given as the clutter rate the engine spreads
+    over its measurement volume (:func:`gcs.core.multitarget.coverage.clutter_volume`); None: ``clutter``."""
+    if clutter_density is not None:
+        clutter = clutter_density * clutter_volume(base.sensor.max_range_m)
     sensor = msgspec.structs.replace(base.sensor, detection_probability=pd, clutter_rate=clutter)
     config = MultiTargetConfig(kind=kind, association=association, accel_psd_m2_s3=mt.PROCESS_NOISE,
                                max_misses=mt.MAX_MISSED_SCANS, max_position_trace_m2=mt.MAX_POSITION_TRACE_M2,

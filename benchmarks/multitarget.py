@@ -12,17 +12,19 @@ bench measures tracking) with the scenario's range/azimuth/elevation sensor and 
 maximum range. A vehicle sees a target only with a line of sight past the buildings
 (:meth:`gcs.core.world.World.line_of_sight`). Decision step 1 s.
 
-**Methods**, fed identical scans (:func:`sim_vehicles.truth.detections.scan`): our multi-target
-tracker as the daemon runs it, the engine (:class:`gcs.engine.engine.Engine` with ``[multitarget]``,
-:mod:`benchmarks.many_targets_loop`) fed each scan as the vehicles' sensor reports, its confirmed
-tracks read from what it publishes: ``gnn_roads`` and ``jpda_roads`` the road tracker
-(``kind = "road"``, what ``auto`` runs in this city; :mod:`gcs.core.multitarget.road_tracker`, its
-motion and seed ``[estimator.road]``'s defaults), ``gnn`` and ``jpda`` the Gaussian tracker
-(``kind = "gaussian"``); and Stone Soup's GNN and JPDA
-(:mod:`benchmarks.stonesoup_peer`) on the scans themselves. The wall time is measured here with
-``time.perf_counter`` (never in the core): for ours, the engine's whole decision step (the scan of
-:class:`gcs.core.multitarget.MultiTargetTracker`, the confirmed tracks' k+1..k+n predictions and their
-``TrackEstimate`` s; the reports' decoding is not in it), for the peers their tracker's step.
+**Methods**, fed identical scans (:func:`sim_vehicles.truth.detections.scan`), alternated scan by
+scan (:mod:`benchmarks.multitarget_methods`): our multi-target tracker as the daemon runs it, the
+engine (:class:`gcs.engine.engine.Engine` with ``[multitarget]``, :mod:`benchmarks.many_targets_loop`)
+fed each scan as the vehicles' sensor reports, its confirmed tracks read from what it publishes:
+``gnn_roads`` and ``jpda_roads`` the road tracker (``kind = "road"``, what ``auto`` runs in this
+city; :mod:`gcs.core.multitarget.road_tracker`, its motion and seed ``[estimator.road]``'s
+defaults), ``gnn`` and ``jpda`` the Gaussian tracker (``kind = "gaussian"``); and Stone Soup's GNN
+and JPDA (:mod:`benchmarks.stonesoup_peer`) on the scans themselves, configured as ours: the same
+coverage, M-of-N confirmation, deletion, gate, detection probability and clutter density
+(:func:`clutter_density`). The wall time is measured here with ``time.perf_counter`` (never in the
+core): for ours, the engine's whole decision step (the scan of
+:class:`gcs.core.multitarget.MultiTargetTracker`, the confirmed tracks' k+1..k+n predictions and
+their ``TrackEstimate`` s; the reports' decoding is not in it), for the peers their tracker's step.
 
 **Scores** per run and method over the steps after ``warm_up`` (:func:`score_run`): mean
 GOSPA (c = :data:`CUTOFF_M`, p = 2, alpha = 2) and OSPA (same c and p) of the confirmed
@@ -39,16 +41,17 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from gcs.config import Scenario
+from gcs.config.multitarget import MultiTargetConfig
 from gcs.core.metrics import StepTracks, gospa, ospa, track_scores
-from gcs.core.models.sensor import SensorModel
+from gcs.core.models.sensor import ELEVATION, SensorModel
 from gcs.core.multitarget.coverage import coverage, in_field, sight_matrix
 from gcs.core.world import World
 from sim_vehicles.truth.detections import scan as detection_scan
 from sim_vehicles.truth.target import StreetTarget, TargetState
 
 __all__ = ["CUTOFF_M", "ORDER_P", "ORBITS", "OURS", "PEERS", "BenchConfig", "Scene", "MethodRun", "orbits", "make_scene",
-           "make_scans", "sight_matrix", "in_field", "coverage", "run_ours", "run_stonesoup", "score_run"]
+           "make_scans", "sight_matrix", "in_field", "coverage", "clutter_density", "clutter_density_at",
+           "score_run"]
 
 CUTOFF_M = 100.0
 """GOSPA / OSPA cut-off c, metres: twice the cross-range error of one 0.05 rad azimuth at 1 km."""
@@ -66,7 +69,11 @@ PROCESS_NOISE = 2.0
 """White-acceleration density (m^2/s^3) of every method's constant-velocity model: the street
 targets turn at right angles at 10 m/s."""
 MAX_MISSED_SCANS = 5
-"""Consecutive scans without a detection that delete a confirmed track, for every method (the peers' default)."""
+"""Consecutive scans in which some UAV covered a track and none detected it that delete it, for every method."""
+CONFIRM_M, CONFIRM_N = MultiTargetConfig().confirm_m, MultiTargetConfig().confirm_n
+"""Every method confirms a track detected on M of the last N scans (``[multitarget]``'s defaults)."""
+GATE_PROBABILITY = MultiTargetConfig().gate_probability
+"""Every method's chi-square gate probability, in the 3 dimensions of (range, azimuth, elevation)."""
 MAX_POSITION_TRACE_M2 = 2.0e4
 """Trace of a track's (x, y) covariance above which every method deletes it (100 m per axis)."""
 
@@ -163,38 +170,38 @@ def make_scans(world: World, scene: Scene, sensor: SensorModel, max_range_m: flo
     return scans
 
 
-def run_ours(association: str, scans, scene: Scene, config: BenchConfig, world: World, base: Scenario,
-             kind: str = "gaussian") -> MethodRun:
-    """Our tracker (``kind``: ``gaussian`` or ``road``) in the engine over the scans (module docstring); the time
-    of each decision step."""
-    from benchmarks.closed_loop import EngineLoop, fly
-    from benchmarks.many_targets_loop import ScanScene, confirmed, many_target_scenario
+def clutter_density(world: World, scene: Scene, sensor: SensorModel, max_range_m: float, rate: float) -> float:
+    """False detections per m rad^2 of (range, azimuth, elevation) where the targets are seen, for every method.
 
-    vehicles = scene.vehicle_xyz.shape[1]
-    scenario = many_target_scenario(base, association, config.pd, config.clutter, vehicles, kind=kind)
-    roster = [v.id for v in scenario.vehicles]
-    loop = EngineLoop(scenario, world, np.random.default_rng(0), plans=False)
-    loop.declare(roster, 0.0)
-    sensor = loop.engine.tracker.sensors[0]
-    fly(loop, ScanScene(roster, scene, scans, sensor, scenario.time.step_s), len(scans))
-    steps = [confirmed(loop, k) for k in range(len(scans))]
-    return MethodRun(tuple(ids for ids, _ in steps), tuple(xy for _, xy in steps),
-                     tuple(loop.tick_seconds[k] for k in range(len(scans))))
+    The simulator draws ``rate`` clutter points per UAV and scan uniformly over the ground
+    disc of radius ``R_h`` within slant range (:mod:`sim_vehicles.truth.clutter`), density
+    ``rate / (pi R_h^2)`` per m^2. A ground point at slant range ``rho`` from a UAV at
+    height ``dz`` above it has horizontal range ``r_h = sqrt(rho^2 - dz^2)``, and
+    ``r_h dr_h = rho drho``, so per m of slant range and rad of azimuth the density is
+    ``rate rho / (pi R_h^2)``; the ground points lie on one elevation per range, spread by
+    the elevation noise ``sigma_theta`` (the range noise adds nothing at these ranges), so
+    on that surface the density per m rad^2 is
+
+    .. math:: \\lambda(\\rho) = \\frac{\\text{rate}\\; \\rho}{\\pi R_h^2 \\sqrt{2 \\pi}\\, \\sigma_\\theta}
+
+    evaluated at ``rho``, the median slant range of the truths in some UAV's field
+    (:func:`in_field`) over the scene."""
+    height = sensor.target_height_m
+    ranges = []
+    for truths, vehicles in zip(scene.truth_xy, scene.vehicle_xyz):
+        field = in_field(world, truths, vehicles, height, max_range_m)
+        slant = np.sqrt(((truths[None] - vehicles[:, None, :2]) ** 2).sum(-1) + (vehicles[:, None, 2] - height) ** 2)
+        ranges.append(slant[field])
+    rho = float(np.median(np.concatenate(ranges))) if any(r.size for r in ranges) else max_range_m / 2.0
+    sigma = float(np.sqrt(sensor.noise_variance(np.array([rho, 0.0, 0.0]))[sensor.components.index(ELEVATION)]))
+    return clutter_density_at(rho, rate, max_range_m, float(np.mean(scene.vehicle_xyz[..., 2])) - height, sigma)
 
 
-def run_stonesoup(name: str, scans, config: BenchConfig, max_range_m: float, sensor_height_m: float) -> MethodRun:
-    """Stone Soup's GNN or JPDA (:mod:`benchmarks.stonesoup_peer`) over the same scans."""
-    from benchmarks import stonesoup_peer
-
-    peer = stonesoup_peer.PeerConfig(vehicles=len(scans[0][1]), process_noise=PROCESS_NOISE, pd=config.pd,
-                                     clutter_rate=config.clutter, max_range_m=max_range_m,
-                                     sensor_height_m=sensor_height_m, max_missed_scans=MAX_MISSED_SCANS,
-                                     max_position_var_m2=MAX_POSITION_TRACE_M2)
-    make = stonesoup_peer.gnn_tracker if name == "stonesoup_gnn" else stonesoup_peer.jpda_tracker
-    run = stonesoup_peer.run_peer(make(peer), scans)
-    ids = tuple(tuple(t[0] for t in step) for step in run.tracks)
-    xy = tuple(np.array([[t[1], t[2]] for t in step], dtype=np.float64).reshape(-1, 2) for step in run.tracks)
-    return MethodRun(ids, xy, run.seconds)
+def clutter_density_at(rho_m: float, rate: float, max_range_m: float, dz_m: float, sigma_theta_rad: float) -> float:
+    """``lambda(rho)`` of :func:`clutter_density`: per m rad^2 at slant range ``rho_m`` from a UAV ``dz_m`` above
+    the ground, ``rate`` clutter points a scan, elevation noise ``sigma_theta_rad``."""
+    disc_m2 = math.pi * (max_range_m**2 - dz_m * dz_m)
+    return rate * rho_m / (disc_m2 * math.sqrt(2.0 * math.pi) * sigma_theta_rad)
 
 
 def score_run(run: MethodRun, truth_xy: NDArray[np.float64], warm_up: int) -> dict[str, float]:
@@ -208,17 +215,3 @@ def score_run(run: MethodRun, truth_xy: NDArray[np.float64], warm_up: int) -> di
     return {"gospa": float(np.mean(gospas)), "ospa": float(np.mean(ospas)), "track_breaks": scores.track_breaks,
             "false_tracks": scores.false_tracks, "id_swaps": scores.id_swaps, "missed": scores.missed,
             "ms_per_scan": 1e3 * float(np.median(run.seconds))}
-
-
-def run_methods(scans, scene: Scene, config: BenchConfig, methods: Sequence[str], max_range_m: float,
-                sensor_height_m: float, world: World, base: Scenario) -> dict[str, MethodRun]:
-    """Every method over the same scans (ours through the engine, on ``base``'s city and UAVs)."""
-    runners: dict[str, Callable[[], MethodRun]] = {
-        "gnn": lambda: run_ours("gnn", scans, scene, config, world, base),
-        "jpda": lambda: run_ours("jpda", scans, scene, config, world, base),
-        "gnn_roads": lambda: run_ours("gnn", scans, scene, config, world, base, "road"),
-        "jpda_roads": lambda: run_ours("jpda", scans, scene, config, world, base, "road"),
-        "stonesoup_gnn": lambda: run_stonesoup("stonesoup_gnn", scans, config, max_range_m, sensor_height_m),
-        "stonesoup_jpda": lambda: run_stonesoup("stonesoup_jpda", scans, config, max_range_m, sensor_height_m),
-    }
-    return {name: runners[name]() for name in methods}

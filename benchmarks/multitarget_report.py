@@ -2,10 +2,14 @@
 
 Per method and over all runs: the mean over runs of each run's mean GOSPA and OSPA
 (after the warm-up) and of its track breaks, false tracks, id swaps and missed
-truth-steps; ``ms_per_scan`` is the median over every scan of every run. GOSPA is
-compared across seeds by the paired Wilcoxon signed-rank test (``scipy.stats.wilcoxon``)
-of per-seed GOSPA, ours (Gaussian and on the roads) against Stone Soup's method of the
-same association, and so are the per-seed id swaps; the speed ratio is Stone Soup's JPDA ms per scan over ours, measured in the same run.
+truth-steps; ``ms_per_scan`` is the median over every scan of every run, with its
+interquartile range (``ms_per_scan_p25``, ``ms_per_scan_p75``). GOSPA is compared across
+seeds by the paired Wilcoxon signed-rank test (``scipy.stats.wilcoxon``) of per-seed
+GOSPA, ours (Gaussian and on the roads) against Stone Soup's method of the same
+association, and so are the per-seed id swaps. The methods run alternated scan by scan
+(:mod:`benchmarks.multitarget_methods`), so each scan's times are paired: the speed ratio
+of Stone Soup's JPDA over ours (``jpda`` and ``jpda_roads``) is the median of the per-scan
+ratios, with their interquartile range.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks import multitarget as mt
+from benchmarks.multitarget_methods import run_methods
 
 __all__ = ["FIGURES", "run_benchmark", "format_report", "write_json"]
 
@@ -48,11 +53,14 @@ def run_benchmark(config: mt.BenchConfig, runs: int, seed: int, peers: bool,
             progress(note)
     per_seed: list[dict] = []
     seconds: dict[str, list[float]] = {m: [] for m in methods}
+    densities = []
     for run in range(runs):
         rng = np.random.default_rng(seed + run)
         scene = mt.make_scene(world, altitudes, config, rng)
         scans = mt.make_scans(world, scene, sensor, max_range, config, rng)
-        results = mt.run_methods(scans, scene, config, methods, max_range, float(np.mean(altitudes)), world, scenario)
+        density = mt.clutter_density(world, scene, sensor, max_range, config.clutter)
+        densities.append(density)
+        results = run_methods(scans, scene, config, methods, world, scenario, sensor.target_height_m, density)
         scores = {m: mt.score_run(r, scene.truth_xy, config.warm_up) for m, r in results.items()}
         for m, r in results.items():
             seconds[m].extend(r.seconds)
@@ -61,13 +69,16 @@ def run_benchmark(config: mt.BenchConfig, runs: int, seed: int, peers: bool,
     summary = {}
     for m in methods:
         row = {f: float(np.mean([s["methods"][m][f] for s in per_seed])) for f in FIGURES if f != "ms_per_scan"}
-        row["ms_per_scan"] = 1e3 * float(np.median(seconds[m]))
+        row["ms_per_scan"], row["ms_per_scan_p25"], row["ms_per_scan_p75"] = spread(1e3 * np.array(seconds[m]))
         summary[m] = row
     return {"methods": summary, "config": {**vars_of(config), "runs": runs, "seed": seed, "peers": peers},
             "gospa_cutoff_m": mt.CUTOFF_M, "gospa_p": mt.ORDER_P, "gospa_alpha": 2.0,
             "empty_gospa_m": mt.CUTOFF_M * float(np.sqrt(config.targets / 2.0)),
             "occlusion": "buildings (line of sight)", "paired_tests": paired_tests(per_seed, methods),
-            "speed_ratio_stonesoup_jpda_over_jpda": speed_ratio(summary), "note": note, "per_seed": per_seed}
+            "clutter_density_per_m_rad2": [float(d) for d in densities],
+            "speed_ratio_stonesoup_jpda_over_jpda": speed_ratio(seconds, "jpda"),
+            "speed_ratio_stonesoup_jpda_over_jpda_roads": speed_ratio(seconds, "jpda_roads"), "note": note,
+            "per_seed": per_seed}
 
 
 def vars_of(config: mt.BenchConfig) -> dict:
@@ -103,10 +114,18 @@ def _wilcoxon(a: np.ndarray, b: np.ndarray) -> float | None:
         return None
 
 
-def speed_ratio(summary: dict) -> float | None:
-    if "stonesoup_jpda" not in summary or "jpda" not in summary:
+def spread(values: np.ndarray) -> tuple[float, float, float]:
+    """Median, 25th and 75th percentiles."""
+    p25, median, p75 = np.percentile(values, [25.0, 50.0, 75.0])
+    return float(median), float(p25), float(p75)
+
+
+def speed_ratio(seconds: dict[str, list[float]], ours: str) -> dict[str, float] | None:
+    """Stone Soup's JPDA's time over ``ours``' scan by scan (the same scans, alternated): median and IQR."""
+    if "stonesoup_jpda" not in seconds or ours not in seconds:
         return None
-    return summary["stonesoup_jpda"]["ms_per_scan"] / summary["jpda"]["ms_per_scan"]
+    median, p25, p75 = spread(np.array(seconds["stonesoup_jpda"]) / np.array(seconds[ours]))
+    return {"median": median, "p25": p25, "p75": p75}
 
 
 def format_report(report: dict) -> str:
@@ -120,11 +139,11 @@ def format_report(report: dict) -> str:
              f"{cfg['warm_up']} s (no tracks at all: {report['empty_gospa_m']:.1f} m); counts: mean per run",
              "",
              f"{'method':<16}{'GOSPA m':>9}{'OSPA m':>9}{'breaks':>8}{'false':>7}{'swaps':>7}{'missed':>8}"
-             f"{'ms/scan':>10}"]
+             f"{'ms/scan':>10}{'IQR':>18}"]
     for name, row in report["methods"].items():
         lines.append(f"{name:<16}{row['gospa']:>9.1f}{row['ospa']:>9.1f}{row['track_breaks']:>8.1f}"
                      f"{row['false_tracks']:>7.1f}{row['id_swaps']:>7.1f}{row['missed']:>8.1f}"
-                     f"{row['ms_per_scan']:>10.2f}")
+                     f"{row['ms_per_scan']:>10.2f}{_iqr(row['ms_per_scan_p25'], row['ms_per_scan_p75']):>18}")
     for name, test in report["paired_tests"].items():
         p = "n/a" if test["p_value"] is None else f"{test['p_value']:.3g}"
         swaps_p = "n/a" if test.get("swaps_p_value") is None else f"{test['swaps_p_value']:.3g}"
@@ -132,11 +151,18 @@ def format_report(report: dict) -> str:
                      f"{test['seeds_ours_better']}/{test['seeds']} seeds, Wilcoxon p = {p}; id swaps "
                      f"{test.get('swaps_mean_difference', 0.0):+.1f} a run, fewer on "
                      f"{test.get('seeds_ours_fewer_swaps', 0)}/{test['seeds']} seeds, Wilcoxon p = {swaps_p}")
-    if report["speed_ratio_stonesoup_jpda_over_jpda"] is not None:
-        lines.append(f"speed: stonesoup_jpda ms/scan / jpda ms/scan = {report['speed_ratio_stonesoup_jpda_over_jpda']:.1f}x")
+    for ours in ("jpda", "jpda_roads"):
+        ratio = report.get(f"speed_ratio_stonesoup_jpda_over_{ours}")
+        if ratio is not None:
+            lines.append(f"speed, scan by scan: stonesoup_jpda / {ours} = {ratio['median']:.1f}x median "
+                         f"(IQR {_iqr(ratio['p25'], ratio['p75'], '.1f')})")
     if report["note"]:
         lines.append(report["note"])
     return "\n".join(lines)
+
+
+def _iqr(low: float, high: float, spec: str = ".2f") -> str:
+    return f"{low:{spec}}-{high:{spec}}"
 
 
 def write_json(report: dict, path: Path) -> None:

@@ -33,7 +33,7 @@ import msgspec
 import numpy as np
 from numpy.typing import NDArray
 
-from benchmarks.closed_loop import IN_PROCESS, EngineLoop, IdealAirframes, fly
+from benchmarks.closed_loop import IN_PROCESS, EngineLoop, IdealAirframes, fly_step
 from benchmarks.urban_scene import NAVIGATIONS, UrbanScene, start_of
 from gcs.config import Scenario
 from gcs.core.planner_names import URBAN_PLANNERS as PLANNERS
@@ -119,41 +119,59 @@ def run_closed_loop(
     clock: Callable[[], float] | None = time.perf_counter,
     navigation: str | None = None,
 ) -> RunRecord:
-    """One closed-loop run. ``clock`` times each plan job (never the planner's deadline); None: no timing.
+    """One closed-loop run (:class:`ClosedLoopRun`, every step in turn)."""
+    run = ClosedLoopRun(scenario, world, planner, seed, duration_s, motion, generations, stall, clock, navigation)
+    for k in range(run.steps):
+        run.step(k)
+    return run.record()
 
+
+class ClosedLoopRun:
+    """One closed-loop run, stepped by the caller: :meth:`step` for k = 0 .. ``steps`` - 1, then :meth:`record`.
+
+    ``clock`` times each plan job (never the planner's deadline); None: no timing.
     ``generations`` and ``stall`` override the scenario's GA budget (``stall=None``: no early stop).
     ``navigation`` (one of :data:`benchmarks.urban_scene.NAVIGATIONS`; None: ``perfect``) is what the
     vehicles report of their own positions and which navigation the engine runs on it.
     """
-    scenario = with_budget(scenario, generations, stall)
-    # the road tracker's draws are the run's own: seeded by the run's seed (and each step's stamp)
-    road = msgspec.structs.replace(scenario.estimator.road, seed=seed)
-    scenario = msgspec.structs.replace(scenario, estimator=msgspec.structs.replace(scenario.estimator, road=road))
-    nav = navigation or "perfect"
-    if nav not in NAVIGATIONS:
-        raise ValueError(f"unknown navigation {nav!r}; expected one of {', '.join(NAVIGATIONS)}")
-    dt = scenario.time.step_s
-    steps = int(round((duration_s or scenario.time.duration_s) / dt))
-    options = replace(IN_PROCESS, planner=planner, navigation="skf" if nav == "skf" else "reported")
-    loop = EngineLoop(scenario, world, np.random.default_rng([seed, 3]), options, clock=clock)
-    scene = UrbanScene(scenario, world, seed, steps, motion, nav)
-    config = loop.engine.tracker
-    airframes = IdealAirframes(scene.roster, start_of(scenario), config.max_turn_rate, dt,
-                               scenario.simulation.airframe.loiter_radius_m)
-    navigated = np.full((steps, len(scene.roster)), np.nan)
 
-    def navigator_error(step: int, substep: int) -> None:
-        navigator = loop.engine.navigator
+    def __init__(self, scenario: Scenario, world: World, planner: str, seed: int, duration_s: float | None = None,
+                 motion: str | None = None, generations: int | None = None, stall: int | None | str = FROM_SCENARIO,
+                 clock: Callable[[], float] | None = time.perf_counter, navigation: str | None = None) -> None:
+        scenario = with_budget(scenario, generations, stall)
+        # the road tracker's draws are the run's own: seeded by the run's seed (and each step's stamp)
+        road = msgspec.structs.replace(scenario.estimator.road, seed=seed)
+        scenario = msgspec.structs.replace(scenario, estimator=msgspec.structs.replace(scenario.estimator, road=road))
+        self.nav = navigation or "perfect"
+        if self.nav not in NAVIGATIONS:
+            raise ValueError(f"unknown navigation {self.nav!r}; expected one of {', '.join(NAVIGATIONS)}")
+        self.planner, self.seed, self.dt = planner, seed, scenario.time.step_s
+        self.steps = int(round((duration_s or scenario.time.duration_s) / self.dt))
+        options = replace(IN_PROCESS, planner=planner, navigation="skf" if self.nav == "skf" else "reported")
+        self.loop = EngineLoop(scenario, world, np.random.default_rng([seed, 3]), options, clock=clock)
+        self.scene = UrbanScene(scenario, world, seed, self.steps, motion, self.nav)
+        self.airframes = IdealAirframes(self.scene.roster, start_of(scenario), self.loop.engine.tracker.max_turn_rate,
+                                        self.dt, scenario.simulation.airframe.loiter_radius_m)
+        self.navigated = np.full((self.steps, len(self.scene.roster)), np.nan)
+        self.loop.declare(self.scene.roster, 0.0)
+
+    def step(self, k: int) -> None:
+        """Decision step ``k`` flown; the loop finished after the last."""
+        fly_step(self.loop, self.scene, k, self.airframes, self._navigator_error)
+        if k == self.steps - 1:
+            self.loop.finish(self.steps * self.loop.step_s)
+
+    def record(self) -> RunRecord:
+        return _record(self.planner, self.seed, self.nav, self.loop, self.scene, self.steps, self.dt, self.navigated)
+
+    def _navigator_error(self, step: int, substep: int) -> None:
+        navigator = self.loop.engine.navigator
         if substep == 0 and navigator is not None:
-            stamp = round(step * dt * 1e9)
-            for i, vehicle_id in enumerate(scene.roster):
+            stamp = round(step * self.dt * 1e9)
+            for i, vehicle_id in enumerate(self.scene.roster):
                 estimate = navigator.position_at(vehicle_id, stamp)
                 if estimate is not None:
-                    navigated[step, i] = np.hypot(*(estimate[0] - airframes.state.xy[i]))
-
-    loop.declare(scene.roster, 0.0)
-    fly(loop, scene, steps, airframes, navigator_error)
-    return _record(planner, seed, nav, loop, scene, steps, dt, navigated)
+                    self.navigated[step, i] = np.hypot(*(estimate[0] - self.airframes.state.xy[i]))
 
 
 def _record(planner: str, seed: int, navigation: str, loop: EngineLoop, scene: UrbanScene, steps: int, dt: float,

@@ -18,8 +18,9 @@ the share of steps whose position NEES lies inside its 95% band. The point score
 decision step.
 
 A second table times the default planner and the paper's GA for 3, 6, 10 and 20
-UAVs over a short run, in this process after the paired runs, with the ratio of
-their medians.
+UAVs over a short run, in this process after the paired runs, the two alternated step by
+step, each with its median and interquartile range, and the GA's time over the default's
+step by step (:mod:`benchmarks.urban_timing`).
 """
 
 from __future__ import annotations
@@ -35,8 +36,9 @@ from scipy.stats import wilcoxon
 from benchmarks.lost_track import error_figures, longest_unseen, nees_inside
 from benchmarks.plots import cell, pyplot, write_markdown
 from benchmarks.plots import save as save_figure
-from benchmarks.urban import PLANNERS, RunRecord, run_closed_loop, with_vehicles
+from benchmarks.urban import PLANNERS, RunRecord
 from benchmarks.urban_runs import RunJob, run_jobs, with_estimator
+from benchmarks.urban_timing import SCALING_PLANNERS, iqr_text, scaling_lines, scaling_table
 from gcs.config import Scenario, estimator_kind
 from gcs.core.world import World
 
@@ -49,8 +51,6 @@ SCORED = ("the position of the TrackEstimate the engine publishes for each decis
 
 K0_TWIN = {"sight": "sight_k0", "ga_k5": "ga_k0"}
 """Each k+n planner and the same planner on the current estimate."""
-SCALING_PLANNERS = ("sight", "ga_k5")
-"""Timed for 3, 6, 10 and 20 UAVs: the default planner and the paper's GA."""
 
 
 def paired_p(a: Sequence[float], b: Sequence[float]) -> float:
@@ -146,21 +146,7 @@ def run_benchmark(
     all_records = run_jobs(jobs, workers=workers, dask=dask, done=done)
     records: dict[str, list[RunRecord]] = {name: [r for j, r in zip(jobs, all_records) if j.planner == name]
                                            for name in planners}
-    table = []
-    for count in scaling:  # the full budgets, no early stop
-        bigger = with_vehicles(scenario, count)
-        row: dict = {"uavs": count}
-        for name in SCALING_PLANNERS:
-            record = run_closed_loop(bigger, world, name, seed, duration_s=scaling_duration_s, motion=motion,
-                                     stall=None)
-            timing = summarise([record])
-            row[name] = {"decision_ms_median": timing["decision_ms_median"],
-                         "decision_ms_p99": timing["decision_ms_p99"], "seen_any": record.seen_any,
-                         "steps": timing["steps"]}
-        row["ga_over_sight"] = row["ga_k5"]["decision_ms_median"] / row["sight"]["decision_ms_median"]
-        table.append(row)
-        say(f"timing with {count} UAVs: sight median {row['sight']['decision_ms_median']:.1f} ms, "
-            f"GA {row['ga_k5']['decision_ms_median']:.1f} ms")
+    table = scaling_table(scenario, world, scaling, seed, scaling_duration_s, motion, say)
     summaries = {name: summarise(recs) for name, recs in records.items()}
     _compare(summaries)
     report = {
@@ -208,13 +194,7 @@ def format_report(report: dict) -> str:
         lines.append(f"{name:<10}{t['p95_m']:>8.1f}{t['max_m']:>8.1f}{t['runs_over_50']:>10}{t['runs_over_100']:>6}"
                      f"{t['steps_over_50']:>11}{t['steps_over_100']:>6}{t['longest_unseen_max']:>12}"
                      f"{t['longest_unseen_median']:>8.1f}{t['nees_in_band']:>13.3f}")
-    if report["scaling"]:
-        lines += ["", "decision time by team size (ms, every planning step; no early stop):",
-                  f"{'UAVs':>5}{'sight median':>14}{'p99':>8}{'GA median':>11}{'p99':>8}{'GA / sight':>12}"]
-    for row in report["scaling"]:
-        lines.append(f"{row['uavs']:>5}{row['sight']['decision_ms_median']:>14.1f}{row['sight']['decision_ms_p99']:>8.1f}"
-                     f"{row['ga_k5']['decision_ms_median']:>11.1f}{row['ga_k5']['decision_ms_p99']:>8.1f}"
-                     f"{row['ga_over_sight']:>12.1f}")
+    lines += scaling_lines(report["scaling"])
     return "\n".join(lines)
 
 
@@ -232,9 +212,9 @@ def write_table(report: dict, directory: Path, written: list[Path] | None = None
                  " / ".join(cell(x) for x in p["seen_per_uav_mean"]), p["rmse_m"], p["lost_runs"], p["violations"],
                  p["decision_ms_median"], p["decision_ms_p99"], p.get("p_vs_orbit"), p.get("p_vs_k0"))
                 for name, p in report["planners"].items()]
-    scaling = [(row["uavs"], row["sight"]["decision_ms_median"], row["sight"]["decision_ms_p99"],
-                row["ga_k5"]["decision_ms_median"], row["ga_k5"]["decision_ms_p99"], row["ga_over_sight"])
-               for row in report["scaling"]]
+    scaling = [(row["uavs"], *(value for name in SCALING_PLANNERS for value in (
+                    row[name]["decision_ms_median"], iqr_text(row[name], "decision_ms"), row[name]["decision_ms_p99"])),
+                row["ga_over_sight"], iqr_text(row, "ga_over_sight")) for row in report["scaling"]]
     lost = [(name, p["lost_track"]["p95_m"], p["lost_track"]["max_m"], p["lost_track"]["runs_over_50"],
              p["lost_track"]["runs_over_100"], p["lost_track"]["steps_over_50"], p["lost_track"]["steps_over_100"],
              p["lost_track"]["longest_unseen_max"], p["lost_track"]["longest_unseen_median"],
@@ -247,8 +227,9 @@ def write_table(report: dict, directory: Path, written: list[Path] | None = None
                                 "steps over 50 m", "steps over 100 m", "longest unseen (max)",
                                 "longest unseen (median)", "NEES in 95% band"], lost)]
     if scaling:
-        sections.append(("Decision time by team size", ["UAVs", "sight ms (median)", "sight ms (p99)",
-                                                        "GA ms (median)", "GA ms (p99)", "GA / sight"], scaling))
+        sections.append(("Decision time by team size (the planners alternated step by step)",
+                         ["UAVs", "sight ms (median)", "sight ms (IQR)", "sight ms (p99)", "GA ms (median)",
+                          "GA ms (IQR)", "GA ms (p99)", "GA / sight (median)", "GA / sight (IQR)"], scaling))
     return write_markdown(directory, "urban.md", f"gcs-bench urban: {report['scenario']}", sections,
                           [f"{report['runs']} paired runs from seed {report['seed']}, target motion {report['motion']}",
                            f"scored: {report.get('scored', SCORED)}"], written)

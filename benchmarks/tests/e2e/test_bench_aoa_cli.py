@@ -26,6 +26,11 @@ def test_bench_aoa_writes_json_and_plots(tmp_path: Path) -> None:
         assert metrics["final_mse"] > 0 and metrics["violations"] == 0
         assert len(metrics["mse_curve"]) == 8
     assert report["planners"]["gcrlb_lm"]["step_ms_median"] > 0
+    for metrics in report["planners"].values():
+        assert metrics["step_ms_p25"] <= metrics["step_ms_median"] <= metrics["step_ms_p75"] <= metrics["step_ms_p99"]
+    ratio = report["step_time_gcrlb_lm_over_crlb_lm"]
+    assert 0 < ratio["p25"] <= ratio["median"] <= ratio["p75"]
+    assert f"crlb_lm, step by step (the planners alternated): {ratio['median']:.2f}" in done.stdout
     assert set(report["estimators"]) == {"ml_vukf", "ml_ekf", "ls_ekf", "gcrlb"}
     assert all(e["final_mse"] > 0 for e in report["estimators"].values())
     assert set(report["sensor_count"]) == {"2", "3", "4", "5", "6"}

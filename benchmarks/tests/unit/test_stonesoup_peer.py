@@ -16,7 +16,7 @@ import sys
 import numpy as np
 import pytest
 
-from benchmarks.stonesoup_peer import PeerConfig, ground_measurement, gnn_tracker, jpda_tracker, run_peer
+from benchmarks.stonesoup_peer import PeerConfig, gnn_tracker, jpda_tracker, measurement, run_peer
 from gcs.core.metrics import gospa
 from gcs.core.models.sensor import SensorModel
 from gcs.core.tracker import Detection
@@ -43,7 +43,7 @@ def _scene(seed: int):
     return truths, scans
 
 
-CONFIG = PeerConfig(vehicles=2, pd=0.9, clutter_rate=CLUTTER, max_range_m=RANGE_M, sensor_height_m=ALT_M)
+CONFIG = PeerConfig(pd=0.9, clutter_density=2e-5, target_height_m=0.0)
 
 
 @pytest.mark.parametrize("make", [gnn_tracker, jpda_tracker], ids=["gnn", "jpda"])
@@ -60,26 +60,63 @@ def test_peer_tracks_the_scene(make):
     assert len({tid for tracks in run.tracks[-10:] for tid, _, _ in tracks}) == 3
 
 
-def test_ground_measurement_recovers_the_horizontal_range():
+def test_measurement_is_elevation_bearing_range_with_the_sensors_variances():
     vehicle = np.array([10.0, -20.0, 300.0])
-    target = np.array([410.0, 280.0])
-    dx, dy = target - vehicle[:2]
-    h = np.hypot(dx, dy)
-    values = np.array([np.hypot(h, 300.0), np.arctan2(dy, dx), np.arctan2(-300.0, h)])
-    azimuth, horizontal, az_var, h_var = ground_measurement(Detection(0, vehicle, values), SENSOR)
-    assert azimuth == pytest.approx(np.arctan2(dy, dx)) and horizontal == pytest.approx(h)
-    assert az_var == pytest.approx(0.01**2)
-    range_only_var = (5.0 * np.hypot(h, 300.0) / h) ** 2
-    assert h_var < range_only_var  # the elevation adds information
-    assert h_var > range_only_var * 0.5
-    with pytest.raises(ValueError):
-        ground_measurement(Detection(0, vehicle, values[1:2]), SensorModel.bearing_only(0.01))
+    values = np.array([700.0, 0.4, -0.45])  # range, azimuth, elevation
+    vector, noise = measurement(Detection(0, vehicle, values), SENSOR)
+    np.testing.assert_allclose(np.asarray(vector, dtype=float).ravel(), [-0.45, 0.4, 700.0])
+    np.testing.assert_allclose(np.diag(noise), [0.02**2, 0.01**2, 5.0**2])
     # zuo2021 eq. (2): beyond the reference range every variance grows as (rho / rho0)^2
     far = SensorModel.range_bearing(5.0, 0.01, 0.02, distance_dependent=True, reference_range_m=250.0)
-    scale = (np.hypot(h, 300.0) / 250.0) ** 2
-    _, h_far, az_far, h_var_far = ground_measurement(Detection(0, vehicle, values), far)
-    assert h_far == pytest.approx(h) and az_far == pytest.approx(0.01**2 * scale)
-    assert h_var_far == pytest.approx(h_var * scale)
+    _, far_noise = measurement(Detection(0, vehicle, values), far)
+    np.testing.assert_allclose(np.diag(far_noise), np.diag(noise) * (700.0 / 250.0) ** 2)
+    with pytest.raises(ValueError, match="range, azimuth and elevation"):
+        measurement(Detection(0, vehicle, values[1:2]), SensorModel.bearing_only(0.01))
+
+
+def test_same_scans_same_tracks_every_run():
+    """The detections and tracks are ordered and numbered: two runs give the same ids and the same numbers."""
+    _, scans = _scene(seed=7)
+    first, second = (run_peer(jpda_tracker(CONFIG), scans) for _ in range(2))
+    assert first.tracks == second.tracks
+
+
+def _one_target(seen: list[bool], covered: bool):
+    """Scans of one still target under two vehicles, detected (by both) on the scans ``seen`` says, no clutter; the
+    coverage says every scan whether the UAVs looked."""
+    target = np.array([[100.0, 50.0]])
+    rng = np.random.default_rng(3)
+    scans = []
+    for k, detected in enumerate(seen):
+        angle = 0.05 * k + np.array([0.0, np.pi])
+        vehicles = np.column_stack([400.0 * np.cos(angle), 400.0 * np.sin(angle), np.full(2, ALT_M)])
+        sc = scan(target, vehicles, SENSOR, pd=1.0 if detected else 0.0, clutter_rate=0.0, max_range_m=RANGE_M, rng=rng)
+        scans.append((int(k * 1e9), dict(enumerate(sc.detections)), SENSOR,
+                      lambda xy, c=covered: np.full(len(xy), c)))
+    return scans
+
+
+@pytest.mark.parametrize("make", [gnn_tracker, jpda_tracker], ids=["gnn", "jpda"])
+def test_a_track_out_of_every_view_coasts_and_a_covered_one_is_deleted(make):
+    seen = [True] * 6 + [False] * 8  # 8 scans without a detection, more than max_missed_scans = 5
+    hidden = run_peer(make(CONFIG), _one_target(seen, covered=False))
+    looked = run_peer(make(CONFIG), _one_target(seen, covered=True))
+    assert [len(t) for t in hidden.tracks[5:]] == [1] * 9  # behind the buildings: kept, one track throughout
+    assert len({tid for tracks in hidden.tracks[5:] for tid, _, _ in tracks}) == 1
+    counts = [len(t) for t in looked.tracks]
+    assert counts[5:10] == [1] * 5 and counts[10:] == [0] * 4  # the 5th covered miss (scan 10) deletes it
+
+
+@pytest.mark.parametrize("make", [gnn_tracker, jpda_tracker], ids=["gnn", "jpda"])
+def test_confirmed_on_the_third_scan_with_a_hit_as_ours(make):
+    """3 of 4 scans, whatever the number of vehicles: two vehicles' four updates on scans 0-1 do not confirm."""
+    steady = run_peer(make(CONFIG), _one_target([True] * 4, covered=True))
+    assert [len(t) for t in steady.tracks] == [0, 0, 1, 1]
+    gap = run_peer(make(CONFIG), _one_target([True, False, True, True, True], covered=True))
+    assert [len(t) for t in gap.tracks] == [0, 0, 0, 1, 1]
+    lost = run_peer(make(CONFIG), _one_target([True, False, False, True, True, True], covered=True))
+    assert [len(t) for t in lost.tracks][:5] == [0] * 5  # hopeless after two misses: a new track starts on scan 3
+    assert len(lost.tracks[5]) == 1 and lost.tracks[5][0][0] == "2"
 
 
 def test_missing_stone_soup_names_the_extra(monkeypatch):
