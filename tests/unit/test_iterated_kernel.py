@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from gcs.core.filters.estimate import CA2D, GaussianEstimate, NotPositiveDefinite
-from gcs.core.filters.iterated import MAX_RELINEARISATIONS, iterated_update, kernel_available
+from gcs.core.filters.iterated import MAX_RELINEARISATIONS, iterated_update, iterated_update_many, kernel_available
 from gcs.core.filters.uif import UnscentedInformationFilter
 from gcs.core.models.motion import constant_acceleration, constant_velocity
 from gcs.core.models.sensor import SensorModel
@@ -120,3 +120,21 @@ def test_the_kernel_refuses_what_the_numpy_form_refuses() -> None:
         with pytest.raises(NotPositiveDefinite):
             iterated_update(uif, flat, [(sensor, z, xyz, None)], compiled)
     assert iterated_update(uif, prior, []) is prior
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_many_targets_in_one_call_are_each_updated_as_alone(compiled: bool) -> None:
+    """Eight targets, one of them with a prior 300 m off (relinearised), the others near: one call."""
+    uif = UnscentedInformationFilter(constant_velocity(1.96))
+    cases = [_case(20 + t, RANGE_BEARING, 3, 300.0 if t == 2 else 10.0, False) for t in range(8)]
+    means = np.stack([prior.mean for prior, _ in cases])
+    covs = np.stack([prior.cov for prior, _ in cases])
+    z = np.stack([stacked[0][1] for _, stacked in cases])
+    xyz = np.stack([stacked[0][2] for _, stacked in cases])
+    got_means, got_covs = iterated_update_many(uif, means, covs, RANGE_BEARING, z, xyz, compiled)
+    for t, (prior, stacked) in enumerate(cases):
+        alone = iterated_update(uif, prior, stacked, compiled=False)
+        np.testing.assert_allclose(got_means[t], alone.mean, rtol=RTOL, atol=ATOL)
+        np.testing.assert_allclose(got_covs[t], alone.cov, rtol=RTOL, atol=ATOL)
+    with pytest.raises(ValueError, match=r"z \(T, k, 3\)"):
+        iterated_update_many(uif, means, covs, RANGE_BEARING, z[:, :, :2], xyz, compiled)

@@ -33,11 +33,12 @@ from numpy.typing import NDArray
 from gcs.core.filters.estimate import GaussianEstimate, NotPositiveDefinite
 from gcs.core.filters.information import check_estimate
 from gcs.core.filters.uif import UnscentedInformationFilter, checked_measurements
-from gcs.core.filters.uif_kernel import NO_COMPONENT, compiled_update
+from gcs.core.filters.uif_kernel import NO_COMPONENT, Kernel, compiled_update
 from gcs.core.models.components import KNOWN_COMPONENTS
 from gcs.core.models.sensor import DetectionGroup, SensorModel
 
-__all__ = ["RELINEARISE_SIGMA", "MAX_RELINEARISATIONS", "iterated_update", "kernel_available"]
+__all__ = ["RELINEARISE_SIGMA", "MAX_RELINEARISATIONS", "iterated_update", "iterated_update_many",
+           "kernel_available"]
 
 RELINEARISE_SIGMA = 3.0
 """An update that moves the position more than this many posterior sigma is linearised again about its result."""
@@ -65,20 +66,64 @@ def iterated_update(uif: UnscentedInformationFilter, prior: GaussianEstimate,
     rows = _rows(prior, stacked)
     if rows is None:
         return _numpy_iterated(uif, prior, stacked)
-    n = prior.dim
+    starts = np.array([0, rows[0].shape[0]], dtype=np.int64)
+    mean, cov = _run_kernel(kernel, uif, prior.mean[None], prior.cov[None], starts, rows)
+    return GaussianEstimate.computed(mean[0], cov[0], prior.stamp_ns, prior.layout)
+
+
+def iterated_update_many(uif: UnscentedInformationFilter, means: NDArray[np.float64], covs: NDArray[np.float64],
+                         sensor: SensorModel, z: NDArray[np.float64], vehicle_xyz: NDArray[np.float64],
+                         compiled: bool = True) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`iterated_update` of T targets at once, each with k detections of one sensor from exactly known
+    positions: priors ``means`` (T, n), ``covs`` (T, n, n), ``z`` (T, k, m), ``vehicle_xyz`` (T, k, 3).
+
+    Returns the posterior means (T, n) and covariances (T, n, n). One kernel call updates every target
+    (the numpy form, without numba or with ``compiled=False``, loops over them). ValueError for shapes
+    that do not fit.
+    """
+    means, covs = np.asarray(means, dtype=np.float64), np.asarray(covs, dtype=np.float64)
+    z, vehicle_xyz = np.asarray(z, dtype=np.float64), np.asarray(vehicle_xyz, dtype=np.float64)
+    t_count, n = means.shape if means.ndim == 2 else (-1, -1)
+    if covs.shape != (t_count, n, n) or z.ndim != 3 or z.shape[0] != t_count or z.shape[2] != sensor.dim \
+            or vehicle_xyz.shape != z.shape[:2] + (3,):
+        raise ValueError(f"need means (T, n), covs (T, n, n), z (T, k, {sensor.dim}) and vehicle_xyz (T, k, 3); "
+                         f"got {means.shape}, {covs.shape}, {z.shape} and {vehicle_xyz.shape}")
+    kernel = compiled_update() if compiled else None
+    if kernel is None:
+        out = [_numpy_iterated(uif, GaussianEstimate(m, c, 0), [(sensor, zt, xt, None)])
+               for m, c, zt, xt in zip(means, covs, z, vehicle_xyz)]
+        return np.stack([e.mean for e in out]), np.stack([e.cov for e in out])
+    count = z.shape[0] * z.shape[1]
+    code, variance, reference, height = _sensor_row(sensor)
+    z_rows = np.zeros((count, 3))
+    z_rows[:, :sensor.dim] = z.reshape(count, sensor.dim)
+    rows = (z_rows, np.ascontiguousarray(vehicle_xyz.reshape(count, 3)), np.tile(code, (count, 1)),
+            np.tile(variance, (count, 1)), np.full(count, reference), np.full(count, height), np.zeros(count))
+    return _run_kernel(kernel, uif, means, covs, np.arange(t_count + 1, dtype=np.int64) * z.shape[1], rows)
+
+
+def _run_kernel(kernel: Kernel, uif: UnscentedInformationFilter, means: NDArray[np.float64],
+                covs: NDArray[np.float64], starts: NDArray[np.int64], rows: tuple[NDArray[Any], ...]
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The iterated update of every target by the kernel: linearised about the priors, then again about the
+    posterior for the targets it moved far (module docstring)."""
+    t_count, n = means.shape
     wm, _, lam = uif.sigma.weights(n)
     c, w = math.sqrt(n + lam), float(wm[1])
-    mean, cov = np.ascontiguousarray(prior.mean), np.ascontiguousarray(prior.cov)
-    about_mean, about_cov = mean, cov
+    means, covs = np.ascontiguousarray(means), np.ascontiguousarray(covs)
+    about_means, about_covs = means, covs
+    active = np.ones(t_count, dtype=bool)
+    out_means, out_covs, moved = np.empty((t_count, n)), np.empty((t_count, n, n)), np.empty(t_count)
     for _ in range(MAX_RELINEARISATIONS + 1):
-        posterior_mean, posterior_cov = np.empty(n), np.empty((n, n))
-        moved2 = kernel(mean, cov, about_mean, about_cov, *rows, uif.second_order, c, w, posterior_mean, posterior_cov)
-        if moved2 < 0.0:
+        kernel(means, covs, about_means, about_covs, active, starts, *rows, uif.second_order, c, w, out_means,
+               out_covs, moved)
+        if np.any(moved[active] < 0.0):
             raise NotPositiveDefinite("position covariance is not positive definite")
-        if moved2 <= RELINEARISE_SIGMA**2:
+        active = active & (moved > RELINEARISE_SIGMA**2)
+        if not active.any():
             break
-        about_mean, about_cov = posterior_mean, posterior_cov
-    return GaussianEstimate.computed(posterior_mean, posterior_cov, prior.stamp_ns, prior.layout)
+        about_means, about_covs = out_means.copy(), out_covs.copy()
+    return out_means, out_covs
 
 
 def _numpy_iterated(uif: UnscentedInformationFilter, prior: GaussianEstimate,

@@ -25,8 +25,9 @@ each detection row, of sensor components ``k`` (range, azimuth, elevation):
 * eq. (15) by the inversion lemma, ``P = P^- - P^- E^T A (I_2 + P^-_pp A)^-1 E P^-``,
   ``x = x^- + P E^T (i - A x^-_p)``.
 
-The kernel returns the squared Mahalanobis distance from the point it linearised about to
-the posterior mean, which decides whether the caller linearises again.
+The kernel updates many targets in one call, each with its own rows, and gives each one's
+squared Mahalanobis distance from the point it linearised about to the posterior mean,
+which decides whether the caller linearises that target again.
 
 Compiling takes a few seconds, once per process, on the first call.
 """
@@ -88,13 +89,12 @@ def _second_order(code: int, dx: float, dy: float, dz: float, pxx: float, pxy: f
     return 0.5 * (a_uu * a_uu + b_vv * b_vv) + a * b * p_uv2
 
 
-def _information(about_mean: NDArray[np.float64], about_cov: NDArray[np.float64], z: NDArray[np.float64],
-                 xyz: NDArray[np.float64], codes: NDArray[np.int64], var: NDArray[np.float64],
+def _information(about_mean: NDArray[np.float64], about_cov: NDArray[np.float64], first: int, stop: int,
+                 z: NDArray[np.float64], xyz: NDArray[np.float64], codes: NDArray[np.int64], var: NDArray[np.float64],
                  reference_m: NDArray[np.float64], height_m: NDArray[np.float64], vehicle_var: NDArray[np.float64],
-                 second_order: bool,
-                 c: float, w: float, info: NDArray[np.float64]) -> bool:
-    """Summed ``(i, I)`` of every row about ``(about_mean, about_cov)`` into ``info`` = [i_x, i_y, I_xx, I_xy, I_yy];
-    False when the position covariance is not positive definite."""
+                 second_order: bool, c: float, w: float, info: NDArray[np.float64]) -> bool:
+    """Summed ``(i, I)`` of rows ``first:stop`` about ``(about_mean, about_cov)`` into ``info`` = [i_x, i_y, I_xx,
+    I_xy, I_yy]; False when the position covariance is not positive definite."""
     pxx, pxy, pyy = about_cov[0, 0], about_cov[0, 1], about_cov[1, 1]
     if not pxx > 0.0:
         return False
@@ -112,7 +112,7 @@ def _information(about_mean: NDArray[np.float64], about_cov: NDArray[np.float64]
     r, nu, spread = np.empty(3), np.empty(3), np.empty(4)
     for i in range(5):
         info[i] = 0.0
-    for row in range(z.shape[0]):
+    for row in range(first, stop):
         vx, vy = xyz[row, 0], xyz[row, 1]
         dz = height_m[row] - xyz[row, 2]
         dx, dy = ax - vx, ay - vy
@@ -191,33 +191,38 @@ def _fuse(mean: NDArray[np.float64], cov: NDArray[np.float64], info: NDArray[np.
         out_mean[r] = mean[r] + out_cov[r, 0] * bx + out_cov[r, 1] * by
 
 
-def _linearised_update(mean: NDArray[np.float64], cov: NDArray[np.float64], about_mean: NDArray[np.float64],
-                       about_cov: NDArray[np.float64], z: NDArray[np.float64], xyz: NDArray[np.float64],
-                       codes: NDArray[np.int64], var: NDArray[np.float64], reference_m: NDArray[np.float64],
-                       height_m: NDArray[np.float64], vehicle_var: NDArray[np.float64], second_order: bool, c: float,
-                       w: float, out_mean: NDArray[np.float64], out_cov: NDArray[np.float64]) -> float:
-    """One update of the prior ``(mean, cov)`` linearised about ``(about_mean, about_cov)``, into ``out_mean``,
-    ``out_cov``; returns the squared Mahalanobis distance (position, posterior covariance) from the point it was
-    linearised about to the posterior mean, or -1 when a covariance lost definiteness."""
+def _linearised_updates(means: NDArray[np.float64], covs: NDArray[np.float64], about_means: NDArray[np.float64],
+                        about_covs: NDArray[np.float64], active: NDArray[np.bool_], starts: NDArray[np.int64],
+                        z: NDArray[np.float64], xyz: NDArray[np.float64], codes: NDArray[np.int64],
+                        var: NDArray[np.float64], reference_m: NDArray[np.float64], height_m: NDArray[np.float64],
+                        vehicle_var: NDArray[np.float64], second_order: bool, c: float, w: float,
+                        out_means: NDArray[np.float64], out_covs: NDArray[np.float64],
+                        moved: NDArray[np.float64]) -> None:
+    """One update of each active target ``t`` (priors ``means`` (T, n), ``covs`` (T, n, n)) with its rows
+    ``starts[t]:starts[t + 1]``, linearised about ``(about_means[t], about_covs[t])``, into ``out_means[t]``,
+    ``out_covs[t]``; ``moved[t]`` is the squared Mahalanobis distance (position, posterior covariance) from the
+    point it was linearised about to the posterior mean, or -1 when a covariance lost definiteness."""
     info = np.empty(5)
-    if not _information(about_mean, about_cov, z, xyz, codes, var, reference_m, height_m, vehicle_var,
-                        second_order, c, w, info):
-        return -1.0
-    _fuse(mean, cov, info, out_mean, out_cov)
-    mx, my = out_mean[0] - about_mean[0], out_mean[1] - about_mean[1]
-    cxx, cxy, cyy = out_cov[0, 0], out_cov[0, 1], out_cov[1, 1]
-    det = cxx * cyy - cxy * cxy
-    if not det > 0.0:
-        return -1.0
-    return float((cyy * mx * mx - 2.0 * cxy * mx * my + cxx * my * my) / det)
+    for t in range(means.shape[0]):
+        if not active[t]:
+            continue
+        if not _information(about_means[t], about_covs[t], starts[t], starts[t + 1], z, xyz, codes, var,
+                            reference_m, height_m, vehicle_var, second_order, c, w, info):
+            moved[t] = -1.0
+            continue
+        _fuse(means[t], covs[t], info, out_means[t], out_covs[t])
+        mx, my = out_means[t, 0] - about_means[t, 0], out_means[t, 1] - about_means[t, 1]
+        cxx, cxy, cyy = out_covs[t, 0, 0], out_covs[t, 0, 1], out_covs[t, 1, 1]
+        det = cxx * cyy - cxy * cxy
+        moved[t] = (cyy * mx * mx - 2.0 * cxy * mx * my + cxx * my * my) / det if det > 0.0 else -1.0
 
 
-Kernel = Callable[..., float]
+Kernel = Callable[..., None]
 
 
 @lru_cache(maxsize=1)
 def compiled_update() -> Kernel | None:
-    """The compiled :func:`_linearised_update` (compiled on its first call, in memory only), or None without
+    """The compiled :func:`_linearised_updates` (compiled on its first call, in memory only), or None without
     numba."""
     try:
         import numba
@@ -227,5 +232,5 @@ def compiled_update() -> Kernel | None:
     global _wrap, _measure, _second_order, _information, _fuse  # the compiled callees, found when compiling
     _wrap, _measure, _second_order = compiler(_wrap), compiler(_measure), compiler(_second_order)
     _information, _fuse = compiler(_information), compiler(_fuse)
-    kernel: Kernel = compiler(_linearised_update)
+    kernel: Kernel = compiler(_linearised_updates)
     return kernel
