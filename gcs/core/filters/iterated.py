@@ -94,11 +94,10 @@ def iterated_update_many(uif: UnscentedInformationFilter, means: NDArray[np.floa
                for m, c, zt, xt in zip(means, covs, z, vehicle_xyz)]
         return np.stack([e.mean for e in out]), np.stack([e.cov for e in out])
     count = z.shape[0] * z.shape[1]
-    code, variance, reference, height = _sensor_row(sensor)
     z_rows = np.zeros((count, 3))
     z_rows[:, :sensor.dim] = z.reshape(count, sensor.dim)
-    rows = (z_rows, np.ascontiguousarray(vehicle_xyz.reshape(count, 3)), np.tile(code, (count, 1)),
-            np.tile(variance, (count, 1)), np.full(count, reference), np.full(count, height), np.zeros(count))
+    rows = (z_rows, np.ascontiguousarray(vehicle_xyz.reshape(count, 3)), *_sensor_rows(sensor, count),
+            np.zeros(count))
     return _run_kernel(kernel, uif, means, covs, np.arange(t_count + 1, dtype=np.int64) * z.shape[1], rows)
 
 
@@ -155,10 +154,28 @@ def _sensor_row(sensor: SensorModel) -> tuple[NDArray[np.int64], NDArray[np.floa
     return codes, variances, reference, float(sensor.target_height_m)
 
 
+@lru_cache(maxsize=256)
+def _sensor_rows(sensor: SensorModel, count: int) -> tuple[NDArray[Any], ...]:
+    """:func:`_sensor_row` repeated for ``count`` rows (the kernel only reads them)."""
+    code, variance, reference, height = _sensor_row(sensor)
+    return np.tile(code, (count, 1)), np.tile(variance, (count, 1)), np.full(count, reference), np.full(count, height)
+
+
 def _rows(prior: GaussianEstimate, stacked: Sequence[DetectionGroup]) -> tuple[NDArray[Any], ...] | None:
     """Every detection of every group as the kernel's rows: z, xyz, codes, variances, reference ranges, heights,
     per-axis vehicle variances (checked as ``contribution`` checks them); None when a group gives its vehicles'
     positions with full covariances."""
+    if len(stacked) == 1:  # the usual step: one sensor model, exact or per-axis vehicle positions
+        sensor, z, xyz, covs = stacked[0]
+        z, xyz, covs = checked_measurements(prior, sensor, z, xyz, covs)
+        if z.ndim == 2 and z.shape[0] == xyz.shape[0] and xyz.ndim == 2 and (covs is None or covs.ndim == 1):
+            count = z.shape[0]
+            code, variance, reference, height = _sensor_rows(sensor, count)
+            z_rows = z if sensor.dim == 3 and z.flags.c_contiguous else np.zeros((count, 3))
+            if z_rows is not z:
+                z_rows[:, :sensor.dim] = z
+            return (z_rows, np.ascontiguousarray(xyz), code, variance, reference, height,
+                    np.zeros(count) if covs is None else np.ascontiguousarray(covs))
     parts = []
     for sensor, z, xyz, covs in stacked:
         z, xyz, covs = checked_measurements(prior, sensor, z, xyz, covs)
@@ -176,10 +193,10 @@ def _rows(prior: GaussianEstimate, stacked: Sequence[DetectionGroup]) -> tuple[N
     start = 0
     for sensor, z, xyz, per_axis in parts:
         stop = start + z.shape[0]
-        code, variance, reference, height = _sensor_row(sensor)
+        code, variance, reference_m, height_m = _sensor_row(sensor)
         z_rows[start:stop, :sensor.dim] = z
         xyz_rows[start:stop] = xyz
         codes[start:stop], variances[start:stop] = code, variance
-        references[start:stop], heights[start:stop], per_axis_rows[start:stop] = reference, height, per_axis
+        references[start:stop], heights[start:stop], per_axis_rows[start:stop] = reference_m, height_m, per_axis
         start = stop
     return z_rows, xyz_rows, codes, variances, references, heights, per_axis_rows
