@@ -37,7 +37,8 @@ def cmd_estimation(args: argparse.Namespace) -> int:
     from benchmarks import estimation
 
     report = estimation.run_benchmark(
-        runs=args.runs, seed=args.seed, steps=args.steps, table_runs=args.table_runs, progress=progress
+        runs=args.runs, seed=args.seed, steps=args.steps, table_runs=args.table_runs, scenes=args.scenes,
+        progress=progress
     )
     print(estimation.format_report(report))
     keep_json(estimation.write_json, report, args.json)

@@ -11,12 +11,12 @@ sensor model, so that one bug cannot hide in both.
 Both filters start from the same prior, drawn around the truth from
 ``N(x_0, P_0)`` so that the PCRLB applies, and see the same measurements:
 
-* ``duif``: :class:`gcs.core.filters.uif.UnscentedInformationFilter` as the
-  daemon runs it (its default, ``second_order=True``: ``R`` carries the
-  linearisation's second-order variance), every vehicle's contribution on its
+* ``duif``: the update the daemon runs, :func:`gcs.core.filters.iterated.iterated_update`
+  after the prediction (the compiled kernel when numba is installed; second-order ``R``;
+  linearised again while the posterior moves far), every vehicle's contribution on its
   own, fused by summation (eq. 14-15);
-* ``duif_eq13``: the same filter with eq. (12)-(13) as printed
-  (``second_order=False``), the paper's form;
+* ``duif_numpy``: the same update in its numpy form (what runs without numba);
+* ``duif_eq13``: eq. (12)-(13) as printed (``second_order=False``), one linearisation;
 * ``filterpy_ukf``: ``filterpy.kalman.UnscentedKalmanFilter`` with all
   vehicles' measurements stacked into one 3V vector, the same sigma points
   (alpha 1, beta 2, kappa 3 - n), azimuth residuals wrapped and azimuth
@@ -27,14 +27,17 @@ Both filters start from the same prior, drawn around the truth from
 Reported per method: position RMSE over all runs and steps, its ratio to the
 square root of the mean PCRLB position trace, the average NEES of the full
 state (its 95% band for the number of runs is printed beside it), and the
-median wall-clock microseconds of one predict + update step. The two
-methods run alternately, run by run, so machine noise hits both alike.
+wall-clock microseconds of one predict + update step, median and interquartile
+range. The methods run alternately, step by step (:func:`benchmarks.estimation_methods.run_methods`),
+so machine noise hits all alike; the speed-up over FilterPy is given as the median and
+interquartile range of the step-by-step ratios (FilterPy's step over the method's, same run
+and step). A second part does the same for 20 targets seen by the same 3 UAVs
+(:mod:`benchmarks.estimation_many`).
 """
 
 from __future__ import annotations
 
 import json
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,22 +46,31 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import chi2
 
+from benchmarks.estimation_methods import (
+    ACCEL_PSD,
+    SENSOR_STD,
+    FilterRun,
+    Stepper,
+    duif_eq13_stepper,
+    duif_numpy_stepper,
+    duif_stepper,
+    filterpy_stepper,
+    observe,
+    run_methods,
+    sensor_model,
+)
 from benchmarks.plots import pyplot, save, write_markdown
-from gcs.core.filters.uif import GaussianEstimate, UnscentedInformationFilter
+from gcs.core.filters.iterated import kernel_available
 from gcs.core.models.motion import constant_velocity
-from gcs.core.models.sensor import SensorModel
 from gcs.core.pcrlb import pcrlb
-from sim_vehicles.truth.sensor import exact_measurements
 
-__all__ = ["EstimationDataset", "generate_dataset", "run_duif", "run_duif_eq13", "run_filterpy_ukf", "evaluate",
-           "run_benchmark", "write_plots", "METHOD_NOTES"]
+__all__ = ["EstimationDataset", "generate_dataset", "evaluate", "run_benchmark", "write_plots", "METHOD_NOTES",
+           "METHODS", "position_bound", "nees_band", "run_methods"]
 
-ACCEL_PSD = 1.96  # m^2/s^3: wang2012's 1.4 m/s velocity noise per 1 s step
-SENSOR_STD = (10.0, 0.05, 0.05)  # range m, azimuth rad, elevation rad (wang2012 section 5)
 ORBIT_RADIUS_M = 300.0
 SPEED_MPS = 25.0
 INITIAL_STD = (50.0, 50.0, 10.0, 10.0)
-NS_PER_S = 1_000_000_000
+MANY_TARGETS = 20
 
 
 @dataclass(frozen=True)
@@ -77,12 +89,6 @@ class EstimationDataset:
         """(runs, steps, vehicles)."""
         runs, steps, vehicles, _ = self.vehicle_xyz.shape
         return runs, steps, vehicles
-
-
-def _observe(target_xy: NDArray[np.float64], vehicle_xyz: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Range, azimuth and elevation of a ground target seen from each vehicle (the simulator's formulas)."""
-    target_xyz = np.concatenate([target_xy, np.zeros(target_xy.shape[:-1] + (1,))], axis=-1)
-    return exact_measurements(target_xyz, vehicle_xyz)
 
 
 def generate_dataset(runs: int, steps: int, vehicles: int, seed: int, step_s: float = 1.0) -> EstimationDataset:
@@ -104,139 +110,41 @@ def generate_dataset(runs: int, steps: int, vehicles: int, seed: int, step_s: fl
     vehicle_xyz[..., 1] = truth[:, :, None, 1] + ORBIT_RADIUS_M * np.sin(angles)
     vehicle_xyz[..., 2] = 200.0 + 10.0 * np.arange(vehicles)
     noise = rng.standard_normal((runs, steps, vehicles, 3)) * np.asarray(SENSOR_STD)
-    measurements = _observe(truth[:, :, None, :2], vehicle_xyz) + noise
+    measurements = observe(truth[:, :, None, :2], vehicle_xyz) + noise
     measurements[..., 1] = np.angle(np.exp(1j * measurements[..., 1]))
     initial_mean = start + rng.standard_normal((runs, 4)) @ np.linalg.cholesky(initial_cov).T
     return EstimationDataset(step_s, truth, vehicle_xyz, measurements, initial_mean, initial_cov)
 
 
-@dataclass(frozen=True)
-class FilterRun:
-    """Estimates (R, K, n), covariances (R, K, n, n) and per-step wall-clock seconds."""
-
-    means: NDArray[np.float64]
-    covs: NDArray[np.float64]
-    step_seconds: NDArray[np.float64]
-
-
-def _sensor() -> SensorModel:
-    return SensorModel.range_bearing(*SENSOR_STD)
-
-
-def run_duif(data: EstimationDataset, run: int, sensor: SensorModel | None = None,
-             second_order: bool = True) -> tuple[NDArray, NDArray, list[float]]:
-    """One run of the DUIF: every vehicle's contribution on its own, summed (eq. 14-15).
-
-    ``sensor`` is the model the filter assumes (default: the one that generated the data).
-    ``second_order`` is the filter's (True, its default and the daemon's; False: eq. (12)-(13) as
-    printed). The paper's vehicles stay far from the target, where the two differ little.
-    """
-    uif = UnscentedInformationFilter(constant_velocity(ACCEL_PSD), second_order=second_order)
-    sensor = sensor or _sensor()
-    _, steps, _ = data.shape
-    estimate = GaussianEstimate(data.initial_mean[run], data.initial_cov, 0)
-    means, covs, seconds = np.empty((steps, 4)), np.empty((steps, 4, 4)), []
-    for k in range(steps):
-        vehicles, z = data.vehicle_xyz[run, k], data.measurements[run, k]
-        stamp = int(round(k * data.step_s * NS_PER_S))
-        start = time.perf_counter()
-        prior = uif.predict(estimate, stamp)
-        estimate = uif.update(uif.contribution(prior, sensor, z, vehicles))
-        seconds.append(time.perf_counter() - start)
-        means[k], covs[k] = estimate.mean, estimate.cov
-    return means, covs, seconds
-
-
-def run_duif_eq13(data: EstimationDataset, run: int) -> tuple[NDArray, NDArray, list[float]]:
-    """One run of the DUIF with eq. (12)-(13) as printed (``second_order=False``)."""
-    return run_duif(data, run, second_order=False)
-
-
-def run_filterpy_ukf(data: EstimationDataset, run: int) -> tuple[NDArray, NDArray, list[float]]:
-    """One run of FilterPy's UKF with every vehicle's measurement stacked."""
-    from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
-
-    motion = constant_velocity(ACCEL_PSD)
-    f, q = motion.matrices(data.step_s)
-    _, steps, vehicles = data.shape
-    azimuths = slice(1, None, 3)
-
-    def fx(x: NDArray, dt: float) -> NDArray:
-        return f @ x
-
-    def hx(x: NDArray, vehicle_xyz: NDArray) -> NDArray:
-        return _observe(x[:2], vehicle_xyz).ravel()
-
-    def residual_z(a: NDArray, b: NDArray) -> NDArray:
-        y = a - b
-        y[azimuths] = (y[azimuths] + np.pi) % (2.0 * np.pi) - np.pi
-        return y
-
-    def z_mean(sigmas: NDArray, weights: NDArray) -> NDArray:
-        z = weights @ sigmas
-        z[azimuths] = np.arctan2(weights @ np.sin(sigmas[:, azimuths]), weights @ np.cos(sigmas[:, azimuths]))
-        return z
-
-    points = MerweScaledSigmaPoints(4, alpha=1.0, beta=2.0, kappa=-1.0)
-    ukf = UnscentedKalmanFilter(4, 3 * vehicles, data.step_s, hx, fx, points, residual_z=residual_z, z_mean_fn=z_mean)
-    ukf.x = data.initial_mean[run].copy()
-    ukf.P = data.initial_cov.copy()
-    ukf.Q = q.copy()
-    ukf.R = np.diag(np.tile(np.square(SENSOR_STD), vehicles))
-    means, covs, seconds = np.empty((steps, 4)), np.empty((steps, 4, 4)), []
-    for k in range(steps):
-        start = time.perf_counter()
-        if k > 0:
-            ukf.predict()
-        # FilterPy's update reuses the propagated sigma points, which lack Q (and are zeros
-        # before the first predict); redraw them from (x, P) as the textbook UKF and our UIF do.
-        ukf.sigmas_f = points.sigma_points(ukf.x, ukf.P)
-        ukf.update(data.measurements[run, k].ravel(), vehicle_xyz=data.vehicle_xyz[run, k])
-        seconds.append(time.perf_counter() - start)
-        means[k], covs[k] = ukf.x, ukf.P
-    return means, covs, seconds
-
-
-METHOD_NOTES = {"duif": "the filter as the daemon runs it (second_order=True, the default)",
-                "duif_eq13": "eq. (12)-(13) as printed (second_order=False)",
-                "filterpy_ukf": "FilterPy's UnscentedKalmanFilter, every vehicle stacked"}
-"""What each method is, printed under the table."""
-METHODS: dict[str, Callable[[EstimationDataset, int], tuple[NDArray, NDArray, list[float]]]] = {
-    "duif": run_duif,
-    "duif_eq13": run_duif_eq13,
-    "filterpy_ukf": run_filterpy_ukf,
+METHOD_NOTES = {"duif": "the daemon's update: iterated_update after the prediction (second-order R, "
+                        "the compiled kernel when numba is installed)",
+                "duif_numpy": "the same update in its numpy form (without numba)",
+                "duif_eq13": "eq. (12)-(13) as printed (second_order=False), one linearisation, numpy",
+                "filterpy_ukf": "FilterPy's UnscentedKalmanFilter, every vehicle stacked",
+                "multitarget": "the daemon's many-target filter (EKF, the gate's pairs, association known), "
+                               "all targets in one call",
+                "duif_many": "the DUIF's iterated update of all targets in one call (iterated_update_many)"}
+"""What each method is, printed under the tables."""
+METHODS: dict[str, Stepper] = {
+    "duif": duif_stepper,
+    "duif_numpy": duif_numpy_stepper,
+    "duif_eq13": duif_eq13_stepper,
+    "filterpy_ukf": filterpy_stepper,
 }
-
-
-def run_methods(data: EstimationDataset, methods: dict = METHODS,
-                progress: Callable[[str], None] | None = None) -> dict[str, FilterRun]:
-    """Run every method on every run, alternating methods run by run (``progress`` hears every tenth run)."""
-    runs, steps, _ = data.shape
-    collected = {name: ([], [], []) for name in methods}
-    every = max(1, runs // 10)
-    for run in range(runs):
-        if progress is not None and run and run % every == 0:
-            progress(f"run {run}/{runs}")
-        for name, method in methods.items():
-            means, covs, seconds = method(data, run)
-            collected[name][0].append(means)
-            collected[name][1].append(covs)
-            collected[name][2].extend(seconds)
-    return {name: FilterRun(np.stack(m), np.stack(c), np.asarray(s)) for name, (m, c, s) in collected.items()}
 
 
 def position_bound(data: EstimationDataset) -> NDArray[np.float64]:
     """PCRLB position trace at each step, averaged over the runs' true trajectories, shape (K,)."""
     _, steps, vehicles = data.shape
     bounds = pcrlb(
-        constant_velocity(ACCEL_PSD), data.step_s, data.initial_cov, [_sensor()] * vehicles,
+        constant_velocity(ACCEL_PSD), data.step_s, data.initial_cov, [sensor_model()] * vehicles,
         data.vehicle_xyz, np.ones((steps, vehicles), dtype=bool), data.truth,
     )
     return np.trace(bounds[:, :2, :2], axis1=1, axis2=2)
 
 
 def evaluate(data: EstimationDataset, result: FilterRun, bound_trace: NDArray[np.float64]) -> dict[str, float]:
-    """RMSE, RMSE / sqrt(PCRLB), average NEES and median microseconds per step."""
+    """RMSE, RMSE / sqrt(PCRLB), average NEES and microseconds per step (median, quartiles)."""
     errors = result.means - data.truth
     squared = np.sum(errors[..., :2] ** 2, axis=-1)
     nees = np.einsum("rki,rki->rk", errors, np.linalg.solve(result.covs, errors[..., None])[..., 0])
@@ -245,8 +153,20 @@ def evaluate(data: EstimationDataset, result: FilterRun, bound_trace: NDArray[np
         "rmse_m": rmse,
         "rmse_over_pcrlb": rmse / float(np.sqrt(bound_trace.mean())),
         "nees": float(nees.mean()),
-        "us_per_step_median": float(np.median(result.step_seconds) * 1e6),
+        **quartiles("us_per_step", 1e6 * result.step_seconds),
     }
+
+
+def quartiles(key: str, values: NDArray[np.float64]) -> dict[str, float]:
+    """``{key}_median``, ``{key}_q25`` and ``{key}_q75`` of ``values``."""
+    q25, median, q75 = np.percentile(values, [25, 50, 75])
+    return {f"{key}_median": float(median), f"{key}_q25": float(q25), f"{key}_q75": float(q75)}
+
+
+def speedups(results: dict[str, FilterRun], reference: str = "filterpy_ukf") -> dict[str, dict[str, float]]:
+    """Per method, the step-by-step ratio of ``reference``'s time to its own (same run and step), quartiles."""
+    base = results[reference].step_seconds
+    return {name: quartiles("ratio", base / r.step_seconds) for name, r in results.items() if name != reference}
 
 
 def rmse_by_step(data: EstimationDataset, result: FilterRun) -> list[float]:
@@ -262,13 +182,17 @@ def nees_band(runs: int, dim: int = 4) -> tuple[float, float]:
 
 
 def run_benchmark(runs: int, seed: int, steps: int = 100, vehicle_counts: tuple[int, ...] = (1, 3, 10, 30),
-                  table_runs: int = 5, progress: Callable[[str], None] | None = None) -> dict:
-    """The whole benchmark: the 3-vehicle comparison over ``runs`` runs, and a table over vehicle counts."""
+                  table_runs: int = 5, scenes: int = 5, progress: Callable[[str], None] | None = None) -> dict:
+    """The whole benchmark: the 3-vehicle comparison over ``runs`` runs, a table over vehicle counts, and
+    ``scenes`` scenes of :data:`MANY_TARGETS` targets."""
+    from benchmarks.estimation_many import generate_scene, run_scene_methods
+
     say = progress or (lambda _msg: None)
-    say(f"3 vehicles: {runs} runs x {steps} steps")
+    say(f"3 vehicles: {runs} runs x {steps} steps (compiled kernel: {kernel_available()})")
+    warm_up(generate_dataset(1, 3, 3, seed))
     data = generate_dataset(runs, steps, 3, seed)
     bound = position_bound(data)
-    results = run_methods(data, progress=say)
+    results = run_methods(data, METHODS, progress=say)
     methods = {name: evaluate(data, result, bound) for name, result in results.items()}
     curves = {"pcrlb_m": [float(x) for x in np.sqrt(bound)],
               **{name: rmse_by_step(data, result) for name, result in results.items()}}
@@ -277,32 +201,54 @@ def run_benchmark(runs: int, seed: int, steps: int = 100, vehicle_counts: tuple[
         say(f"table: {count} vehicles, {table_runs} runs")
         small = generate_dataset(table_runs, steps, count, seed + count)
         small_bound = position_bound(small)
-        row = {name: evaluate(small, result, small_bound) for name, result in run_methods(small).items()}
+        row = {name: evaluate(small, result, small_bound) for name, result in run_methods(small, METHODS).items()}
         table.append({"vehicles": count, **row})
-    speedup = methods["filterpy_ukf"]["us_per_step_median"] / methods["duif"]["us_per_step_median"]
+    scene = generate_scene(scenes, steps, MANY_TARGETS, 3, seed + 1000)
+    many = run_scene_methods(scene, MANY_TARGETS, progress=say)
+    many = {("duif_many" if name == "duif" else name): result for name, result in many.items()}
+    scene_bound = position_bound(scene)
     return {
-        "runs": runs, "steps": steps, "seed": seed, "vehicles": 3,
+        "runs": runs, "steps": steps, "seed": seed, "vehicles": 3, "compiled_kernel": kernel_available(),
         "nees_band_95": nees_band(runs),
         "methods": methods,
-        "speedup_duif_vs_filterpy": speedup,
+        "speedup_vs_filterpy": speedups(results),
         "table": table,
         "rmse_by_step_m": curves,
+        "many": {"targets": MANY_TARGETS, "scenes": scenes, "seed": seed + 1000, "nees_band_95": nees_band(
+            scenes * MANY_TARGETS), "methods": {name: evaluate(scene, r, scene_bound) for name, r in many.items()},
+                 "speedup_vs_filterpy": speedups(many)},
     }
+
+
+def warm_up(data: EstimationDataset) -> None:
+    """Run every method once, untimed: the kernel compiles and the imports load before any figure is taken."""
+    run_methods(data, METHODS)
+
+
+def _method_lines(methods: dict, speedup: dict) -> list[str]:
+    lines = [f"{'method':<14}{'RMSE m':>9}{'RMSE/sqrt(PCRLB)':>18}{'NEES':>8}{'us/step median [IQR]':>26}"
+             f"{'FilterPy / it, median [IQR]':>30}"]
+    for name, m in methods.items():
+        ratio = speedup.get(name)
+        ratio_text = "-" if ratio is None else \
+            f"{ratio['ratio_median']:.1f}x [{ratio['ratio_q25']:.1f}-{ratio['ratio_q75']:.1f}]"
+        lines.append(f"{name:<14}{m['rmse_m']:>9.3f}{m['rmse_over_pcrlb']:>18.4f}{m['nees']:>8.3f}"
+                     f"{m['us_per_step_median']:>12.1f} [{m['us_per_step_q25']:.1f}-{m['us_per_step_q75']:.1f}]"
+                     f"{ratio_text:>30}")
+    lines.extend(f"  {name}: {METHOD_NOTES[name]}" for name in methods if name in METHOD_NOTES)
+    return lines
 
 
 def format_report(report: dict) -> str:
     """Human-readable tables of a :func:`run_benchmark` report."""
-    lines = [
-        f"estimation benchmark: {report['vehicles']} vehicles, {report['runs']} runs x {report['steps']} steps, "
-        f"seed {report['seed']}",
-        f"{'method':<14}{'RMSE m':>9}{'RMSE/sqrt(PCRLB)':>18}{'NEES':>8}{'us/step (median)':>18}",
-    ]
-    for name, m in report["methods"].items():
-        lines.append(f"{name:<14}{m['rmse_m']:>9.3f}{m['rmse_over_pcrlb']:>18.4f}{m['nees']:>8.3f}{m['us_per_step_median']:>18.1f}")
-    lines.extend(f"  {name}: {METHOD_NOTES[name]}" for name in report["methods"] if name in METHOD_NOTES)
+    kernel = "compiled kernel (numba)" if report["compiled_kernel"] else "numpy form (numba not installed)"
+    lines = [f"estimation benchmark: {report['vehicles']} vehicles, {report['runs']} runs x {report['steps']} steps, "
+             f"seed {report['seed']}; the daemon's update runs the {kernel}; methods alternated step by step"]
+    lines += _method_lines(report["methods"], report["speedup_vs_filterpy"])
     low, high = report["nees_band_95"]
     lines.append(f"NEES 95% band for {report['runs']} runs (n = 4): [{low:.3f}, {high:.3f}]")
-    lines.append(f"DUIF speed-up over FilterPy UKF (median us/step ratio): {report['speedup_duif_vs_filterpy']:.1f}x")
+    duif = report["speedup_vs_filterpy"]["duif"]
+    lines.append(f"DUIF speed-up over FilterPy UKF (step-by-step ratio, median): {duif['ratio_median']:.1f}x")
     lines.append("")
     lines.append(f"{'vehicles':>8}{'DUIF us':>10}{'UKF us':>10}{'ratio':>8}{'DUIF RMSE':>11}{'UKF RMSE':>10}{'DUIF/PCRLB':>12}")
     for row in report["table"]:
@@ -312,12 +258,34 @@ def format_report(report: dict) -> str:
             f"{u['us_per_step_median'] / d['us_per_step_median']:>7.1f}x{d['rmse_m']:>11.3f}{u['rmse_m']:>10.3f}"
             f"{d['rmse_over_pcrlb']:>12.4f}"
         )
+    many = report["many"]
+    lines += ["", f"{many['targets']} targets seen by the same 3 UAVs: {many['scenes']} scenes x {report['steps']} "
+              f"steps, seed {many['seed']}; us per step for all {many['targets']} targets"]
+    lines += _method_lines(many["methods"], many["speedup_vs_filterpy"])
+    low, high = many["nees_band_95"]
+    lines.append(f"NEES 95% band for {many['scenes'] * many['targets']} target-runs: [{low:.3f}, {high:.3f}]")
     return "\n".join(lines)
 
 
 def write_json(report: dict, path: Path) -> None:
-    """Write the report as JSON (keys ``methods.<name>.{rmse_m, rmse_over_pcrlb, nees, us_per_step_median}``)."""
+    """Write the report as JSON (keys ``methods.<name>.{rmse_m, rmse_over_pcrlb, nees, us_per_step_median,
+    us_per_step_q25, us_per_step_q75}``, ``speedup_vs_filterpy.<name>.ratio_{median, q25, q75}``, and the same
+    under ``many``)."""
     path.write_text(json.dumps(report, indent=2) + "\n")
+
+
+def _markdown_rows(methods: dict, speedup: dict) -> list[tuple]:
+    rows = []
+    for name, m in methods.items():
+        ratio = speedup.get(name, {"ratio_median": float("nan"), "ratio_q25": float("nan"),
+                                   "ratio_q75": float("nan")})
+        rows.append((name, m["rmse_m"], m["rmse_over_pcrlb"], m["nees"], m["us_per_step_median"], m["us_per_step_q25"],
+                     m["us_per_step_q75"], ratio["ratio_median"], ratio["ratio_q25"], ratio["ratio_q75"]))
+    return rows
+
+
+METHOD_COLUMNS = ["method", "RMSE m", "RMSE / sqrt(PCRLB)", "NEES", "us/step median", "us/step q25", "us/step q75",
+                  "FilterPy / it median", "q25", "q75"]
 
 
 def write_plots(report: dict, directory: Path) -> list[Path]:
@@ -349,16 +317,17 @@ def write_plots(report: dict, directory: Path) -> list[Path]:
     save(fig, directory, "estimation_speed.png", written)
 
     low, high = report["nees_band_95"]
-    methods = [(name, m["rmse_m"], m["rmse_over_pcrlb"], m["nees"], m["us_per_step_median"])
-               for name, m in report["methods"].items()]
     table = [(row["vehicles"], row["duif"]["us_per_step_median"], row["filterpy_ukf"]["us_per_step_median"],
               row["filterpy_ukf"]["us_per_step_median"] / row["duif"]["us_per_step_median"], row["duif"]["rmse_m"],
               row["filterpy_ukf"]["rmse_m"], row["duif"]["rmse_over_pcrlb"]) for row in report["table"]]
+    many = report["many"]
     write_markdown(directory, "estimation.md", "gcs-bench estimation: DUIF against FilterPy's UKF", [
-        (f"{report['vehicles']} vehicles", ["method", "RMSE m", "RMSE / sqrt(PCRLB)", "NEES", "us/step (median)"],
-         methods),
+        (f"{report['vehicles']} vehicles", METHOD_COLUMNS,
+         _markdown_rows(report["methods"], report["speedup_vs_filterpy"])),
         ("By vehicle count", ["vehicles", "DUIF us/step", "UKF us/step", "UKF / DUIF", "DUIF RMSE m", "UKF RMSE m",
                               "DUIF RMSE / sqrt(PCRLB)"], table),
+        (f"{many['targets']} targets", METHOD_COLUMNS, _markdown_rows(many["methods"], many["speedup_vs_filterpy"])),
     ], [f"{report['runs']} runs x {report['steps']} steps, seed {report['seed']}; NEES 95% band "
-        f"[{low:.3f}, {high:.3f}]; DUIF speed-up {report['speedup_duif_vs_filterpy']:.2f}x"], written)
+        f"[{low:.3f}, {high:.3f}]; DUIF speed-up {report['speedup_vs_filterpy']['duif']['ratio_median']:.2f}x "
+        "(step-by-step ratio, median)"], written)
     return written

@@ -35,6 +35,7 @@ from numpy.typing import NDArray
 from gcs.core.detections import Detection, Sensing, initial_estimate, stack_detections
 from gcs.core.filters.aoa_init import ml_initialise
 from gcs.core.filters.imm_target import ImmEstimate, ImmTargetFilter
+from gcs.core.filters.iterated import iterated_update
 from gcs.core.filters.prediction import HorizonPrediction, predict_horizon
 from gcs.core.filters.uif import NS_PER_S, GaussianEstimate, UnscentedInformationFilter
 from gcs.core.filters.vgukf import VariableGainUKF
@@ -177,41 +178,6 @@ def _fuse_road(config: TrackerConfig, road: RoadTracking, estimate: GaussianEsti
             return None
         start = bearings_fix
     return road.start(start, stacked, looks)
-
-
-RELINEARISE_SIGMA = 3.0
-"""An update that moves the position more than this many posterior sigma is linearised again about its result."""
-MAX_RELINEARISATIONS = 3
-
-
-def iterated_update(uif: UnscentedInformationFilter, prior: GaussianEstimate,
-                    stacked: Sequence[DetectionGroup]) -> GaussianEstimate:
-    """The DUIF update (eq. 12-15), linearised again about its own result when the detections moved it far.
-
-    Eq. (12) linearises the measurement about the prior. When the prior is wide
-    and wrong (the target was hidden for a while and turned), a detection that
-    fixes the position to a few metres lands far from that point, and one update
-    leaves the estimate short of it. So when the posterior mean lies more than
-    :data:`RELINEARISE_SIGMA` posterior standard deviations (position, Mahalanobis)
-    from the point the measurement was linearised about, the contributions are
-    computed again about the posterior (its mean and covariance, for the sigma
-    points and the second-order ``R``) and fused into the same prior: the
-    iterated filter's Gauss-Newton step (Bell and Cathey 1993), at most
-    :data:`MAX_RELINEARISATIONS` times. An update that stays near the prior, the
-    usual case, is eq. (12)-(15) unchanged.
-    """
-    about = prior
-    posterior = prior
-    for _ in range(MAX_RELINEARISATIONS + 1):
-        contributions = [uif.contribution(about, sensor, z, xyz, covs) for sensor, z, xyz, covs in stacked]
-        if about is not prior:
-            contributions = [c.linearised_about(about, prior) for c in contributions]
-        posterior = uif.update(prior, contributions)
-        moved = posterior.mean[:2] - about.mean[:2]
-        if moved @ np.linalg.solve(posterior.cov[:2, :2], moved) <= RELINEARISE_SIGMA**2:
-            break
-        about = posterior
-    return posterior
 
 
 def _fuse_bearings(config: TrackerConfig, bearing_filter: VariableGainUKF, estimate: GaussianEstimate | None,

@@ -29,7 +29,8 @@ ENGINE_STDLIB = {"logging"}
 """What the engine may import of the standard library beyond the core's: it logs what it decides."""
 SHELL_LIBRARIES = ("zenoh", "pymavlink", "mcap", "foxglove", "matplotlib", "dask")
 
-ALLOWED_THIRD_PARTY = {"numpy", "scipy", "filterpy", "protocols"}
+ALLOWED_THIRD_PARTY = {"numpy", "scipy", "filterpy", "protocols", "numba"}
+"""numba compiles the core's kernels in memory; caching them to disk would be I/O (checked below)."""
 FORBIDDEN_STDLIB = {
     "time", "socket", "random", "os", "sys", "io", "pathlib", "shutil", "subprocess", "threading",
     "multiprocessing", "asyncio", "datetime", "select", "selectors", "signal", "logging", "urllib",
@@ -122,6 +123,27 @@ def test_every_core_module_is_pure() -> None:
     for path in sorted(CORE.rglob("*.py")):
         problems += violations(path.read_text(), str(path.relative_to(ROOT)))
     assert problems == []
+
+
+def disk_caching_jits(source: str, filename: str = "<source>") -> list[str]:
+    """Every numba ``jit``/``njit`` call in ``source`` that does not say ``cache=False`` (numba's cache is files)."""
+    found = []
+    for node in ast.walk(ast.parse(source, filename)):
+        if isinstance(node, ast.Call) and (_dotted(node.func) or "").split(".")[-1] in ("jit", "njit"):
+            cache = [k.value for k in node.keywords if k.arg == "cache"]
+            if not (cache and isinstance(cache[0], ast.Constant) and cache[0].value is False):
+                found.append(f"{filename}:{node.lineno}: {_dotted(node.func)} without cache=False")
+    return found
+
+
+def test_the_core_compiles_nothing_to_disk() -> None:
+    problems = []
+    for path in sorted(CORE.rglob("*.py")):
+        problems += disk_caching_jits(path.read_text(), str(path.relative_to(ROOT)))
+    assert problems == []
+    assert disk_caching_jits("import numba\nf = numba.njit(cache=True)(len)") != []
+    assert disk_caching_jits("from numba import njit\nf = njit(len)") != []
+    assert disk_caching_jits("import numba\nf = numba.njit(cache=False)(len)") == []
 
 
 def test_every_engine_module_is_pure() -> None:

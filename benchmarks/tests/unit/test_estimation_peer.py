@@ -4,15 +4,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.estimation import generate_dataset, run_duif, run_filterpy_ukf
+from benchmarks.estimation import generate_dataset, run_methods
+from benchmarks.estimation_methods import duif_eq13_stepper, filterpy_stepper
 
 
 def test_duif_agrees_with_a_covariance_form_ukf_on_the_same_data() -> None:
     """Oracle: FilterPy's stacked UKF (covariance form) on the same generated data."""
     data = generate_dataset(runs=3, steps=80, vehicles=3, seed=11)
+    results = run_methods(data, {"duif": duif_eq13_stepper, "ukf": filterpy_stepper})  # eq. (12)-(13): the UKF's terms
     for run in range(3):
-        duif_means, duif_covs, _ = run_duif(data, run, second_order=False)  # eq. (12)-(13), the UKF's terms
-        ukf_means, ukf_covs, _ = run_filterpy_ukf(data, run)
+        duif_means, duif_covs = results["duif"].means[run], results["duif"].covs[run]
+        ukf_means, ukf_covs = results["ukf"].means[run], results["ukf"].covs[run]
         sigma = np.sqrt(np.einsum("kii->ki", ukf_covs))
         # After the first steps (prior much wider than the measurements) they agree to a
         # small fraction of a standard deviation; they differ only by the UKF's extra

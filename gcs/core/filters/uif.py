@@ -72,7 +72,7 @@ from gcs.core.models.motion import LinearMotionModel
 from gcs.core.models.sensor import SensorModel
 
 __all__ = ["GaussianEstimate", "InformationContribution", "UnscentedInformationFilter", "pseudo_measurement",
-           "NotPositiveDefinite", "NS_PER_S"]
+           "checked_measurements", "NotPositiveDefinite", "NS_PER_S"]
 
 _EYE2 = np.eye(2)
 _SIGMA_DIRECTIONS = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
@@ -193,7 +193,7 @@ class UnscentedInformationFilter:
         again. TypeError for a prior that is not a :class:`GaussianEstimate`, ValueError naming the
         argument for shapes that do not fit (``z`` (..., sensor.dim), ``vehicle_xyz`` (..., 3)).
         """
-        z, vehicle_xyz, vehicle_cov = _checked_measurements(prior, sensor, z, vehicle_xyz, vehicle_cov)
+        z, vehicle_xyz, vehicle_cov = checked_measurements(prior, sensor, z, vehicle_xyz, vehicle_cov)
         z_pred, h_pos = pseudo_measurement(prior, sensor, vehicle_xyz, self.sigma)
         r, coupled = self._noise(prior, sensor, z_pred, vehicle_xyz, vehicle_cov)
         if coupled is None:
@@ -289,7 +289,7 @@ class UnscentedInformationFilter:
         return GaussianEstimate.computed(mean, cov, prior.stamp_ns, prior.layout)
 
 
-def _checked_measurements(prior: GaussianEstimate, sensor: SensorModel, z: ArrayLike, vehicle_xyz: ArrayLike,
+def checked_measurements(prior: GaussianEstimate, sensor: SensorModel, z: ArrayLike, vehicle_xyz: ArrayLike,
                           vehicle_cov: ArrayLike | None
                           ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None]:
     """The arguments of :meth:`UnscentedInformationFilter.contribution` as float64 arrays, shapes checked."""

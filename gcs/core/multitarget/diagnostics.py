@@ -26,6 +26,9 @@ class ScanDiagnostics:
     jpda_clusters: int = 0
     jpda_clusters_over_cap: int = 0
     fusion_fallbacks: int = 0
+    pairs_evaluated: int = 0
+    """(track, detection) pairs whose innovation was computed, over every vehicle: those that can pass the
+    gate (:mod:`~gcs.core.multitarget.candidates`), not every track against every detection."""
     detected_by: Mapping[int, tuple[int, ...]] = field(default_factory=dict)
     """Per vehicle index with detections, the ids of the tracks its association detected
     (:mod:`~gcs.core.multitarget.tracker`'s docstring)."""
@@ -53,4 +56,4 @@ def scan_diagnostics(batches: Sequence[DetectionBatch], counts: Mapping[str, int
         unassociated=total - counts["associated"], initiated_ids=tuple(born.ids.tolist()),
         confirmed_ids=tuple(advanced.confirmed_ids.tolist()) + tuple(born.confirmed().ids.tolist()),
         deleted=advanced.deleted, jpda_clusters=counts["clusters"], jpda_clusters_over_cap=counts["over"],
-        fusion_fallbacks=fallbacks, detected_by=dict(detected_by))
+        fusion_fallbacks=fallbacks, pairs_evaluated=counts.get("pairs", 0), detected_by=dict(detected_by))

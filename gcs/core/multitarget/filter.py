@@ -75,6 +75,9 @@ class Innovations:
         Squared Mahalanobis distances ``nu^T S^-1 nu``.
     log_det_2pi_s : ndarray, shape (T, n)
         ``ln det(2 pi S)``: the Gaussian likelihood is ``exp(-(d2 + log_det_2pi_s) / 2)``.
+    pairs : int
+        The (track, detection) pairs evaluated: ``T n``, or those :func:`innovations` was given. A pair
+        not evaluated has ``d2`` infinite (outside every gate) and zeros elsewhere.
     """
 
     nu: NDArray[np.float64]
@@ -84,6 +87,7 @@ class Innovations:
     s_inv: NDArray[np.float64]
     d2: NDArray[np.float64]
     log_det_2pi_s: NDArray[np.float64]
+    pairs: int
 
     @property
     def log_likelihood(self) -> NDArray[np.float64]:
@@ -112,7 +116,8 @@ def predict(mean: NDArray[np.float64], cov: NDArray[np.float64], dt_s: float,
 
 def innovations(mean: NDArray[np.float64], cov: NDArray[np.float64], sensor: SensorModel,
                 z: NDArray[np.float64], vehicle_xyz: NDArray[np.float64],
-                vehicle_cov: NDArray[np.float64]) -> Innovations:
+                vehicle_cov: NDArray[np.float64],
+                pairs: tuple[NDArray[np.int64], NDArray[np.int64]] | None = None) -> Innovations:
     """Innovations of T predicted tracks against n detections of one vehicle, vectorised (T, n).
 
     Parameters
@@ -125,25 +130,54 @@ def innovations(mean: NDArray[np.float64], cov: NDArray[np.float64], sensor: Sen
         Where each detection was taken from (ENU m).
     vehicle_cov : ndarray, shape (n, 3, 3)
         Covariance of that position (zeros when exact).
+    pairs : (rows, cols), optional
+        Evaluate only these (track, detection) pairs
+        (:func:`~gcs.core.multitarget.candidates.candidate_pairs`: those that can pass the gate);
+        every pair when None.
     """
-    p = mean[:, None, :2]  # (T, 1, 2)
-    xyz = vehicle_xyz[None, :, :]  # (1, n, 3)
-    z_pred = sensor.measure(p, xyz)  # (T, n, m)
-    h = sensor.jacobian(p, xyz)  # (T, n, m, 2)
-    m = sensor.dim
+    t_count, n_count, m = mean.shape[0], z.shape[0], sensor.dim
+    if pairs is None:
+        rows = np.repeat(np.arange(t_count), n_count)
+        cols = np.tile(np.arange(n_count), t_count)
+    else:
+        rows, cols = pairs
+    nu, h, r, s, s_inv, d2, log_det = _pair_innovations(mean[rows], cov[rows], sensor, z[cols], vehicle_xyz[cols],
+                                                        vehicle_cov[cols])
+    if pairs is None:
+        return Innovations(nu.reshape(t_count, n_count, m), h.reshape(t_count, n_count, m, 2),
+                           r.reshape(t_count, n_count, m, m), s.reshape(t_count, n_count, m, m),
+                           s_inv.reshape(t_count, n_count, m, m), d2.reshape(t_count, n_count),
+                           log_det.reshape(t_count, n_count), rows.shape[0])
+    dense = Innovations(np.zeros((t_count, n_count, m)), np.zeros((t_count, n_count, m, 2)),
+                        np.zeros((t_count, n_count, m, m)), np.zeros((t_count, n_count, m, m)),
+                        np.zeros((t_count, n_count, m, m)), np.full((t_count, n_count), np.inf),
+                        np.zeros((t_count, n_count)), rows.shape[0])
+    for whole, part in ((dense.nu, nu), (dense.h, h), (dense.r, r), (dense.s, s), (dense.s_inv, s_inv),
+                        (dense.d2, d2), (dense.log_det_2pi_s, log_det)):
+        whole[rows, cols] = part
+    return dense
+
+
+def _pair_innovations(mean: NDArray[np.float64], cov: NDArray[np.float64], sensor: SensorModel,
+                      z: NDArray[np.float64], xyz: NDArray[np.float64], vehicle_cov: NDArray[np.float64]
+                      ) -> tuple[NDArray[np.float64], ...]:
+    """``nu, h, r, s, s_inv, d2, ln det(2 pi S)`` of k pairs: track k against detection k (shapes (k, ...))."""
+    p = mean[:, :2]
+    z_pred = sensor.measure(p, xyz)  # (k, m)
+    h = sensor.jacobian(p, xyz)  # (k, m, 2)
     r_diag = np.broadcast_to(sensor.noise_variance(z_pred, p, xyz), z_pred.shape)
-    j_s = sensor.vehicle_jacobian(p, xyz)  # (T, n, m, 3)
-    r = r_diag[..., None] * np.eye(m) + j_s @ vehicle_cov[None] @ j_s.swapaxes(-1, -2)
-    s = h @ cov[:, None, :2, :2] @ h.swapaxes(-1, -2) + r
+    j_s = sensor.vehicle_jacobian(p, xyz)  # (k, m, 3)
+    r = r_diag[..., None] * np.eye(sensor.dim) + j_s @ vehicle_cov @ j_s.swapaxes(-1, -2)
+    s = h @ cov[:, :2, :2] @ h.swapaxes(-1, -2) + r
     s = 0.5 * (s + s.swapaxes(-1, -2))
-    nu = sensor.residual(np.broadcast_to(z[None], z_pred.shape), z_pred)
+    nu = sensor.residual(z, z_pred)
     if s.size:
         s_inv = np.linalg.inv(s)
         _, log_det = np.linalg.slogdet(2.0 * np.pi * s)
     else:
-        s_inv, log_det = s.copy(), np.zeros(s.shape[:2])
-    d2 = np.einsum("tni,tnij,tnj->tn", nu, s_inv, nu)
-    return Innovations(nu, h, r, s, s_inv, d2, log_det)
+        s_inv, log_det = s.copy(), np.zeros(s.shape[:1])
+    d2 = np.einsum("ki,kij,kj->k", nu, s_inv, nu)
+    return nu, h, r, s, s_inv, d2, log_det
 
 
 def assigned_contributions(inn: Innovations, assigned: NDArray[np.int64]
@@ -212,11 +246,16 @@ def mixture_contributions(inn: Innovations, beta: NDArray[np.float64], position_
     position_cov : ndarray, shape (T, 2, 2)
         ``P^-_pp``, the predicted position covariance.
     """
-    ht_sinv = inn.h.swapaxes(-1, -2) @ inn.s_inv  # (T, n, 2, m)
-    g = (ht_sinv @ inn.nu[..., None])[..., 0]  # (T, n, 2)
-    gbar = np.einsum("tn,tni->ti", beta, g)
-    c = np.einsum("tn,tnij->tij", beta, ht_sinv @ inn.h)
-    c = c - np.einsum("tn,tni,tnj->tij", beta, g, g) + gbar[:, :, None] * gbar[:, None, :]
+    rows, cols = np.nonzero(beta)  # the pairs that weigh: inside the gate, so evaluated
+    weight = beta[rows, cols]
+    h = inn.h[rows, cols]  # (k, m, 2)
+    ht_sinv = h.swapaxes(-1, -2) @ inn.s_inv[rows, cols]  # (k, 2, m)
+    g = (ht_sinv @ inn.nu[rows, cols][..., None])[..., 0]  # (k, 2)
+    gbar = np.zeros((beta.shape[0], 2))
+    np.add.at(gbar, rows, weight[:, None] * g)
+    c = np.zeros((beta.shape[0], 2, 2))
+    np.add.at(c, rows, weight[:, None, None] * (ht_sinv @ h - g[:, :, None] * g[:, None, :]))
+    c = c + gbar[:, :, None] * gbar[:, None, :]
     left = _EYE2 - position_cov @ c  # I - P_pp C
     a = np.linalg.solve(left.swapaxes(-1, -2), c.swapaxes(-1, -2)).swapaxes(-1, -2)  # C (I - P_pp C)^-1
     a = 0.5 * (a + a.swapaxes(-1, -2))

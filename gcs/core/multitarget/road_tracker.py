@@ -164,7 +164,7 @@ class RoadMultiTargetTracker(MultiTargetTracker):
                in_view: Callable[[NDArray[np.float64]], NDArray[np.bool_]] | None) -> _Weighed:
         """Steps 1-2 of the module docstring for every vehicle that scanned: the particles' and the tracks'
         existence after the scan, which tracks were detected and looked at, which detections are free."""
-        counts = {"gated": 0, "associated": 0, "clusters": 0, "over": 0}
+        counts = {"gated": 0, "associated": 0, "clusters": 0, "over": 0, "pairs": 0}
         weighed = _Weighed(clouds, np.zeros(tracks.size, dtype=bool), None,
                            {b.vehicle: np.ones(b.z.shape[0], dtype=bool) for b in batches}, {}, counts)
         if not tracks.size:

@@ -4,8 +4,8 @@
 returns ``(new_state, diagnostics)`` and mutates nothing. One scan:
 
 1. predict every track to ``stamp_ns`` (:func:`gcs.core.multitarget.filter.predict`);
-2. for each vehicle, every track against every detection at once: innovations,
-   the chi-square gate (:mod:`~gcs.core.multitarget.gating`) and the association,
+2. for each vehicle, every track against every detection that can pass its gate
+   (:mod:`~gcs.core.multitarget.candidates`) at once: innovations, the chi-square gate (:mod:`~gcs.core.multitarget.gating`) and the association,
    GNN (:mod:`~gcs.core.multitarget.gnn`) or JPDA (:mod:`~gcs.core.multitarget.jpda`),
    turned into position-block information contributions per track;
 3. sum the contributions over vehicles and fuse them into every track
@@ -44,6 +44,7 @@ from gcs.core.models.motion import LinearMotionModel, constant_velocity
 from gcs.core.models.sensor import SensorModel
 from gcs.core.multitarget import filter as batched
 from gcs.core.multitarget.batches import DetectionBatch, detection_batches
+from gcs.core.multitarget.candidates import candidate_pairs
 from gcs.core.multitarget.diagnostics import ScanDiagnostics, scan_diagnostics
 from gcs.core.multitarget.gating import gate, gate_threshold
 from gcs.core.multitarget.gnn import assignment_costs, gnn_assign
@@ -147,7 +148,7 @@ class MultiTargetTracker:
         predicted_xy = mean[:, :2]
         a_parts, b_parts = [], []
         hit = np.zeros(tracks.size, dtype=bool)
-        counts = {"gated": 0, "associated": 0, "clusters": 0, "over": 0}
+        counts = {"gated": 0, "associated": 0, "clusters": 0, "over": 0, "pairs": 0}
         free = []  # per batch: detections no track took
         detected_by = {}
         for batch in batches:
@@ -191,10 +192,14 @@ class MultiTargetTracker:
 
     def _gated(self, mean: NDArray[np.float64], cov: NDArray[np.float64], batch: DetectionBatch,
                counts: dict[str, int]) -> tuple[batched.Innovations, NDArray[np.bool_]]:
-        """Innovations of every track (T, 4) against one vehicle's detections, and the gate (T, n)."""
-        inn = batched.innovations(mean, cov, batch.sensor, batch.z, batch.xyz, batch.pcov)
+        """Innovations of the tracks (T, 4) against one vehicle's detections, and the gate (T, n): only the pairs
+        that can pass it are evaluated (:mod:`~gcs.core.multitarget.candidates`)."""
+        gamma = gate_threshold(self.gate_probability, batch.sensor.dim)
+        pairs = candidate_pairs(mean, cov, batch.sensor, batch.z, batch.xyz, batch.pcov, gamma)
+        inn = batched.innovations(mean, cov, batch.sensor, batch.z, batch.xyz, batch.pcov, pairs)
         valid = gate(inn.d2, self.gate_probability, batch.sensor.dim)
         counts["gated"] += int(valid.any(axis=0).sum())
+        counts["pairs"] += inn.pairs
         return inn, valid
 
     def _beta(self, costs: NDArray[np.float64], valid: NDArray[np.bool_], counts: dict[str, int]
