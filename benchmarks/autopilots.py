@@ -35,7 +35,7 @@ import msgspec
 import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
-from scipy.optimize import least_squares
+from scipy.optimize import least_squares, minimize_scalar
 
 from gcs.adapters.mavlink_commands import LATERAL_ACCEL_MARGIN, SendMemory, due_actions
 from gcs.adapters.mavlink_link import HeadingCommand, VehicleLink, steering_command, update_from_message
@@ -64,6 +64,10 @@ STREAM_RATE_HZ = 5.0
 SETTLE_S = 10.0
 SMALL_STEP_DEG, LARGE_STEP_DEG = 10.0, 90.0
 """The course steps a course loop is identified from (the same for a personality and for ArduPlane SITL)."""
+HELD_LEADS_DEG = (10.0, 20.0)
+"""The leads of the turns held with a constant lead that give the loop's gain; below the bank limit."""
+HELD_S = 8.0
+"""A held turn's steady rate is its mean over its last this many seconds (of 20)."""
 """Course errors are counted from this long after the first plan."""
 PURSUIT_STEPS = 4
 STEERINGS = ("lead", "pursuit")
@@ -241,10 +245,13 @@ def fly(scenario: Scenario, world: World, personality: str, seed: int, duration_
 
 def step_response(personality: str, step_deg: float, seconds: float = 20.0, airspeed_mps: float = 25.0,
                   max_turn_rate_rad_s: float = IDENTIFIED_AT_TURN_RATE_RAD_S, dt: float = 0.05,
-                  turn_efficiency: float | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+                  turn_efficiency: float | None = None, hold: bool = False
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Times (s) and turn rates (rad/s) after GUIDED_CHANGE_HEADING turns the course ``step_deg`` to the left,
     from straight flight east in GUIDED, with the lateral acceleration limit the daemon sends
-    (``margin V omega_max``); ``turn_efficiency`` replaces the ``arduplane`` personality's."""
+    (``margin V omega_max``); ``turn_efficiency`` replaces the ``arduplane`` personality's. With ``hold`` the
+    course asked is ``step_deg`` ahead of the vehicle's, sent again :data:`STEER_RATE_HZ` times a second (a
+    turn held with a constant lead, as the daemon's steering holds one)."""
     frame = LocalFrame(47.0, 8.0, 400.0)
     config = AirframeConfig()
     gcs = mavlink.MAVLink(None, srcSystem=GCS_SYSID, srcComponent=mavlink.MAV_COMP_ID_MISSIONPLANNER)
@@ -262,13 +269,19 @@ def step_response(personality: str, step_deg: float, seconds: float = 20.0, airs
 
     send(gcs.command_long_encode(1, 1, mavlink.MAV_CMD_DO_SET_MODE, 0, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
                                  ARDUPLANE_MODES["GUIDED"], 0, 0, 0, 0, 0))
-    course_ned = math.degrees(ned_yaw_from_enu_heading(math.radians(step_deg))) % 360.0
-    send(gcs.command_int_encode(1, 1, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_GUIDED_CHANGE_HEADING, 0, 0,
-                                mavlink.HEADING_TYPE_COURSE_OVER_GROUND, course_ned,
-                                LATERAL_ACCEL_MARGIN * airspeed_mps * max_turn_rate_rad_s, 0, 0, 0, 0))
+    def course(enu_rad: float) -> None:
+        course_ned = math.degrees(ned_yaw_from_enu_heading(enu_rad)) % 360.0
+        send(gcs.command_int_encode(1, 1, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_GUIDED_CHANGE_HEADING, 0, 0,
+                                    mavlink.HEADING_TYPE_COURSE_OVER_GROUND, course_ned,
+                                    LATERAL_ACCEL_MARGIN * airspeed_mps * max_turn_rate_rad_s, 0, 0, 0, 0))
+
+    course(math.radians(step_deg))
+    per_command = int(round(1.0 / (STEER_RATE_HZ * dt)))
     times, rates = [], []
     t = 0.0
-    for _ in range(int(round(seconds / dt))):
+    for tick in range(int(round(seconds / dt))):
+        if hold and tick and tick % per_command == 0:
+            course(state.course_rad((0.0, 0.0)) + math.radians(step_deg))
         autopilot.update(t, state, (0.0, 0.0))
         state = airframe.step(state, autopilot.guidance, dt)
         t = round(t + dt, 9)
@@ -290,42 +303,68 @@ def _model_rates(gain: float, lag: float, step_rad: float, times: NDArray[np.flo
     return np.array(out)
 
 
+def held_rate(rates: NDArray[np.float64], times: NDArray[np.float64]) -> float:
+    """The steady turn rate of a turn held with a constant lead: the mean over its last :data:`HELD_S` seconds."""
+    return float(np.mean(rates[times > times[-1] - HELD_S]))
+
+
 def fit_course_loop(times: NDArray[np.float64], small: NDArray[np.float64], large: NDArray[np.float64],
-                    airspeed_mps: float, bank_to_turn: bool) -> CourseLoop:
+                    airspeed_mps: float, bank_to_turn: bool, held: dict[float, float] | None = None) -> CourseLoop:
     """The course loop of step responses, every ``times[0]`` s: ``K`` and ``tau`` fitted (least squares on the turn
     rate) to the :data:`SMALL_STEP_DEG` step's rates ``small``, and the largest turn rate the 90th percentile of the
-    :data:`LARGE_STEP_DEG` step's rates ``large`` (its plateau at the bank limit)."""
+    :data:`LARGE_STEP_DEG` step's rates ``large`` (its plateau at the bank limit).
+
+    With ``held`` (lead in degrees -> steady rate in rad/s of turns held with a constant lead sent again
+    :data:`STEER_RATE_HZ` times a second), ``K`` is theirs instead, and ``tau`` is fitted with it: a
+    bank-to-turn loop's first second after a step turns faster than the turn it settles into (the bank's
+    transient), and the daemon's steering holds a lead for as long as a turn lasts. A lead ``l`` held so
+    turns at ``omega = K_h l`` (least squares through the origin); the steering's lead is
+    ``omega / K + omega T / 2`` (:func:`gcs.core.steering.follow`, ``T`` the steering period), so
+    ``1 / K = 1 / K_h - T / 2``."""
     dt = float(times[0])
+    gain: float | None = None
+    if held is not None:
+        leads = np.radians(list(held))
+        held_gain = float(np.dot(leads, list(held.values())) / np.dot(leads, leads))
+        gain = 1.0 / (1.0 / held_gain - 0.5 / STEER_RATE_HZ)
 
     def residuals(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        return _model_rates(x[0], x[1], math.radians(SMALL_STEP_DEG), times, dt) - small
+        k, lag = (x[0], x[1]) if gain is None else (gain, x[0])
+        return _model_rates(k, lag, math.radians(SMALL_STEP_DEG), times, dt) - small
 
-    fit = least_squares(residuals, x0=[0.5, 0.5], bounds=([1e-3, 1e-3], [10.0, 10.0]))
-    return CourseLoop(gain_per_s=float(fit.x[0]), lag_s=float(fit.x[1]),
+    start, low, high = ([0.5, 0.5], [1e-3, 1e-3], [10.0, 10.0]) if gain is None else ([0.5], [1e-3], [10.0])
+    fit = least_squares(residuals, x0=start, bounds=(low, high))
+    return CourseLoop(gain_per_s=float(fit.x[0]) if gain is None else gain, lag_s=float(fit.x[-1]),
                       max_turn_rate_rad_s=float(np.percentile(large, 90)), airspeed_mps=airspeed_mps,
                       bank_to_turn=bank_to_turn)
 
 
 def identify(personality: str, airspeed_mps: float = 25.0, turn_efficiency: float | None = None) -> CourseLoop:
     """The personality's course loop (:func:`fit_course_loop` on its :func:`step_response` to course steps of
-    :data:`SMALL_STEP_DEG` and :data:`LARGE_STEP_DEG`)."""
+    :data:`SMALL_STEP_DEG` and :data:`LARGE_STEP_DEG`; for a bank-to-turn loop, ArduPlane's, also to turns held
+    with the leads :data:`HELD_LEADS_DEG`, as the real ArduPlane's is identified)."""
     times, small = step_response(personality, SMALL_STEP_DEG, airspeed_mps=airspeed_mps,
                                  turn_efficiency=turn_efficiency)
     _, large = step_response(personality, LARGE_STEP_DEG, airspeed_mps=airspeed_mps, turn_efficiency=turn_efficiency)
-    return fit_course_loop(times, small, large, airspeed_mps, course_loop(personality).bank_to_turn)
+    bank_to_turn = course_loop(personality).bank_to_turn
+    held = None
+    if bank_to_turn:
+        held = {}
+        for lead in HELD_LEADS_DEG:
+            held_times, rates = step_response(personality, lead, airspeed_mps=airspeed_mps,
+                                              turn_efficiency=turn_efficiency, hold=True)
+            held[lead] = held_rate(rates, held_times)
+    return fit_course_loop(times, small, large, airspeed_mps, bank_to_turn, held)
 
 
-def fit_turn_efficiency(times: NDArray[np.float64], small: NDArray[np.float64], large: NDArray[np.float64],
-                        airspeed_mps: float = 25.0) -> float:
-    """The ``arduplane`` personality's turn efficiency (:data:`sim_vehicles.arduplane.TURN_EFFICIENCY`) whose step
-    responses are nearest (least squares over both steps' rates) to ``small`` and ``large``, measured every
-    ``times[0]`` s on the real autopilot."""
-    seconds = float(times[-1])
+def fit_turn_efficiency(real: CourseLoop, airspeed_mps: float = 25.0) -> float:
+    """The ``arduplane`` personality's turn efficiency (:data:`sim_vehicles.arduplane.TURN_EFFICIENCY`) whose
+    identified loop is nearest the real ArduPlane's ``real``: least squares on the relative errors of the gain
+    ``K`` and of the largest turn rate (the roll lag is the scenario airframe's, not fitted)."""
 
-    def residuals(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        _, fit_small = step_response("arduplane", SMALL_STEP_DEG, seconds, airspeed_mps, turn_efficiency=x[0])
-        _, fit_large = step_response("arduplane", LARGE_STEP_DEG, seconds, airspeed_mps, turn_efficiency=x[0])
-        n = len(times)
-        return np.concatenate([fit_small[:n] - small, fit_large[:n] - large])
+    def misfit(efficiency: float) -> float:
+        loop = identify("arduplane", airspeed_mps, turn_efficiency=efficiency)
+        return ((loop.gain_per_s / real.gain_per_s - 1.0) ** 2
+                + (loop.max_turn_rate_rad_s / real.max_turn_rate_rad_s - 1.0) ** 2)
 
-    return float(least_squares(residuals, x0=[0.8], bounds=([0.2], [1.0])).x[0])
+    return float(minimize_scalar(misfit, bounds=(0.3, 1.0), method="bounded", options={"xatol": 1e-3}).x)

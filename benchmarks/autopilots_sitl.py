@@ -128,8 +128,9 @@ def identify_sitl(sitl: Path, airspeed_mps: float = 25.0) -> dict:
     times = np.array(steps["times_s"])
     small = np.mean(steps["rates_rad_s"]["10.0"], axis=0)
     large = np.mean(steps["rates_rad_s"]["90.0"], axis=0)
-    loop = fit_course_loop(times, small, large, airspeed_mps, bank_to_turn=True)
-    return {"sitl": asdict(loop), "turn_efficiency": fit_turn_efficiency(times, small, large, airspeed_mps),
+    held = {float(lead): float(np.mean(rates)) for lead, rates in steps["held_rad_s"].items()}
+    loop = fit_course_loop(times, small, large, airspeed_mps, bank_to_turn=True, held=held)
+    return {"sitl": asdict(loop), "turn_efficiency": fit_turn_efficiency(loop, airspeed_mps),
             "steered_with": asdict(COURSE_LOOPS["arduplane"]), "bank_deg_p90": steps["bank_deg_p90"],
             "ground_speed_mps_median": steps["ground_speed_mps_median"]}
 

@@ -57,9 +57,10 @@ from sim_vehicles.truth.fixed_wing import AirframeState
 
 __all__ = ["ArduPlaneAutopilot", "GuidedHeading", "TURN_EFFICIENCY"]
 
-TURN_EFFICIENCY = 0.76
+TURN_EFFICIENCY = 0.71
 """The turn rate ArduPlane SITL's plane achieves at a bank, as a share of the coordinated turn ``g tan(phi) / V``
-(module docstring): the least-squares fit of the personality's 10 and 90 degree course steps to SITL's."""
+(module docstring): the personality's course loop is then the real one's, gain and largest turn rate
+(:func:`benchmarks.autopilots.fit_turn_efficiency`)."""
 _AUTO = ARDUPLANE_MODES["AUTO"]
 _HEADING_TYPE_COG, _HEADING_TYPE_HEADING, _HEADING_TYPE_DEFAULT = 0, 1, 2
 _PID_PARAMS = {"GUIDED_P": "kp", "GUIDED_I": "ki", "GUIDED_D": "kd", "GUIDED_IMAX": "imax",

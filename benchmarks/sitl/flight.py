@@ -161,6 +161,7 @@ class _Flight:
         self.samples: dict[str, list[SteeringSample]] = {vid: [] for vid in vehicles}
         self.modes: dict[str, list[tuple[float, str]]] = {vid: [] for vid in vehicles}
         self.guided_s: dict[str, float | None] = {vid: None for vid in vehicles}
+        self.commands: dict[str, list[tuple[float, float | None, float | None]]] = {vid: [] for vid in vehicles}
 
     def elapsed(self) -> float:
         return time.monotonic() - self.started
@@ -241,6 +242,9 @@ class _Flight:
             self.samples[vehicle_id].append(SteeringSample(
                 link.position_stamp_s, course, wrap_angle(course - float(path.courses[index])),
                 float(path.turn_rates[index])))
+            attitude = self.vehicles[vehicle_id].pilot.latest.get("ATTITUDE")
+            lead = None if link.command is None else wrap_angle(link.command.heading_enu_rad - course)
+            self.commands[vehicle_id].append((link.position_stamp_s, lead, getattr(attitude, "roll", None)))
 
 
 def _fly_seed(options: FlightOptions, seed: int, scenario: Scenario, vehicles: dict[str, _Vehicle]) -> dict:
@@ -333,6 +337,7 @@ def _report(options: FlightOptions, scenario: Scenario, daemon: Daemon, flight: 
         "course_following": course_following(list(flight.samples.values()), limit),
         "samples": {vid: [[s.time_s, s.course_rad, s.course_error_rad, s.planned_rate_rad_s] for s in samples]
                     for vid, samples in flight.samples.items()},
+        "commands": flight.commands,
         "max_turn_rate_rad_s": limit,
         "clock": clock,
         "summary": summarise(daemon.records, daemon.plans, daemon.roster),

@@ -8,9 +8,9 @@ flight, with the lateral acceleration limit the daemon sends (``margin V omega_m
 gives them to a personality: :data:`SMALL_STEP_DEG` to the
 left and to the right, then :data:`LARGE_STEP_DEG` both ways. The course is read from
 GLOBAL_POSITION_INT at 20 Hz on SITL's clock, its rate taken by central differences and averaged over
-the two directions. ``K`` and ``tau`` are fitted as for a personality
-(:func:`benchmarks.autopilots.fit_course_loop`) to the small steps, and the largest turn rate is the
-median rate over the large steps' middle (from 20% to 80% of the turn), where the bank is at its limit.
+the two directions; then turns held with a constant lead (:data:`benchmarks.autopilots.HELD_LEADS_DEG`,
+the course asked that far ahead of the plane's, sent again four times a second as the daemon's steering
+sends it), both ways. The loop is fitted as a personality's is (:func:`benchmarks.autopilots.fit_course_loop`).
 
 Run inside a private network namespace (:mod:`benchmarks.sitl.namespace`); the result is written as JSON.
 """
@@ -27,18 +27,18 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from benchmarks.autopilots import HELD_LEADS_DEG, LARGE_STEP_DEG, SMALL_STEP_DEG, STEER_RATE_HZ, held_rate
 from benchmarks.sitl.arduplane import ArduPlaneSitl, defaults_beside, find_binary
 from benchmarks.sitl.pilot import Pilot, Sample
 from gcs.adapters.mavlink_commands import LATERAL_ACCEL_MARGIN
 from gcs.adapters.mavlink_wire import mavlink
 from gcs.core.geometry import wrap_angle
 
-__all__ = ["ALTITUDE_M", "LARGE_STEP_DEG", "SMALL_STEP_DEG", "fly_steps", "main", "step_rates"]
+__all__ = ["ALTITUDE_M", "fly_steps", "main", "step_rates"]
 
 log = logging.getLogger(__name__)
 
 ALTITUDE_M = 150.0
-SMALL_STEP_DEG, LARGE_STEP_DEG = 10.0, 90.0
 STEP_S = 20.0
 """Seconds recorded after each step."""
 SETTLE_S = 12.0
@@ -80,9 +80,22 @@ def fly_steps(pilot: Pilot, airspeed_mps: float, max_turn_rate_rad_s: float) -> 
         pilot.pump(STEP_S + 1.5)
         times, rates = step_rates(pilot.samples, start, step)
         steps.setdefault(str(abs(step_deg)), []).append(rates.tolist())
+    held: dict[str, list[float]] = {}
+    for lead_deg in HELD_LEADS_DEG:
+        for sign in (1.0, -1.0):
+            pilot.guided_course(pilot.course_rad, accel)
+            pilot.pump(SETTLE_S)
+            start = pilot.boot_s
+            lead = sign * math.radians(lead_deg)
+            for _ in range(int(STEP_S * STEER_RATE_HZ)):  # the lead held, sent again as the daemon sends it
+                pilot.guided_course(wrap_angle(pilot.course_rad + lead), accel)
+                pilot.pump(1.0 / STEER_RATE_HZ)
+            pilot.pump(1.5)
+            held_times, rates = step_rates(pilot.samples, start, lead)
+            held.setdefault(str(lead_deg), []).append(held_rate(rates, held_times))
     rolls = np.degrees(np.abs([s.roll_rad for s in pilot.samples]))
     speeds = np.array([s.speed_mps for s in pilot.samples])
-    return {"times_s": times.tolist(), "rates_rad_s": steps, "bank_deg_max": float(rolls.max()),
+    return {"times_s": times.tolist(), "rates_rad_s": steps, "held_rad_s": held, "bank_deg_max": float(rolls.max()),
             "bank_deg_p90": float(np.percentile(rolls, 90)), "ground_speed_mps_median": float(np.median(speeds)),
             "airspeed_mps": airspeed_mps, "max_turn_rate_rad_s": max_turn_rate_rad_s,
             "accel_limit_mps2": accel}

@@ -29,6 +29,7 @@ from __future__ import annotations
 import logging
 import math
 import sys
+import time
 from collections import Counter
 
 from gcs.adapters.mavlink_commands import (DEFAULT_MAX_TURN_RATE_RAD_S, DEFAULT_STREAM_RATE_HZ,
@@ -48,6 +49,10 @@ HEARTBEAT_PERIOD_S = 1.0
 MAX_MESSAGES_PER_POLL = 10_000
 """Bound on one poll's reading, so a flooded link cannot starve the daemon loop."""
 
+
+
+HANDBACK_ANSWER_S = 2.0
+"""How long a stopping daemon waits for the vehicles it hands back to answer (:meth:`MavlinkCommander.hand_back_before_closing`)."""
 
 class _Link:
     """One pymavlink connection and the vehicles (sysid -> vehicle id) behind it."""
@@ -125,6 +130,7 @@ class MavlinkCommander:
         self.stream_rate_hz = stream_rate_hz
         self.takeover = takeover
         self._released: dict[str, str] = {}
+        self._handing_back: set[str] = set()
         self.carrot_period_s = 1.0 / carrot_rate_hz
         self.link_timeout_s = link_timeout_s
         self.turn_rates = {vid: (max_turn_rate_rad_s or {}).get(vid, DEFAULT_MAX_TURN_RATE_RAD_S) for vid in roster}
@@ -186,7 +192,25 @@ class MavlinkCommander:
         self._released[vehicle_id] = why
         if memory.took_over:
             self._count("handbacks", link)
+            self._handing_back.add(vehicle_id)
+            link.last_ack.pop(mavlink.MAV_CMD_DO_SET_MODE, None)
             log.info("%s: handed back in %s (%s)", vehicle_id, self.takeover.handback, why)
+
+    def hand_back_before_closing(self, now_s: float, timeout_s: float = HANDBACK_ANSWER_S) -> None:
+        """Send what is due at ``now_s`` (the hand-backs of :meth:`let_go`) and wait, at most ``timeout_s`` of wall
+        time, for each vehicle alive and being handed back to answer its mode request: an autopilot may drop what
+        is still in its input buffer when the connection closes (ArduPilot SITL's TCP ports do), and the
+        hand-back must reach it."""
+        self.service(now_s)
+        waiting = [vid for vid in self._handing_back if self._vehicles[vid].alive(now_s, self.link_timeout_s)]
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            waiting = [vid for vid in waiting if mavlink.MAV_CMD_DO_SET_MODE not in self._vehicles[vid].last_ack]
+            if not waiting:
+                return
+            self.poll(now_s)
+            time.sleep(0.01)
+        log.warning("no answer to the hand-back from %s within %g s", ", ".join(sorted(waiting)), timeout_s)
 
     def counters(self) -> Counter:
         """Totals over every link and vehicle: sent, received, bad_data, unknown_sysid, carrots, ..."""

@@ -22,7 +22,7 @@ import socket
 import time
 from collections.abc import Callable
 
-from gcs.adapters.mavlink_wire import mavutil
+from gcs.adapters.mavlink_v2 import mavutil
 
 __all__ = ["RetryingTcp", "RETRY_S"]
 

@@ -20,16 +20,11 @@ import hashlib
 import math
 import os
 import socket
-import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-if "pymavlink.mavutil" in sys.modules and os.environ.get("MAVLINK20") != "1":  # pragma: no cover
-    raise ImportError("pymavlink.mavutil was imported before MAVLINK20=1 was set; import "
-                      "gcs.adapters.mavlink_wire first so that MAVLink 2 is selected")
-os.environ["MAVLINK20"] = "1"
-
-from pymavlink import mavutil  # noqa: E402
+from gcs.adapters.mavlink_tcp import RetryingTcp
+from gcs.adapters.mavlink_v2 import mavutil
 
 mavlink = mavutil.mavlink
 """pymavlink's MAVLink 2 module (``all`` dialect: message classes, enums, ``MAVLink``)."""
@@ -147,8 +142,6 @@ def open_connection(connection: str, source_system: int, source_component: int =
         if scheme in ("udpin", "udp"):
             return _listening_udp(text, address, source_system, source_component)
         if scheme == "tcp":  # an autopilot that is not up yet, or goes away, is waited for
-            from gcs.adapters.mavlink_tcp import RetryingTcp  # it builds on this module
-
             mavutil.set_dialect("ardupilotmega")  # as mavlink_connection(dialect=...) does
             return RetryingTcp(address, source_system=source_system, source_component=source_component)
         return mavutil.mavlink_connection(text, source_system=source_system, source_component=source_component,

@@ -17,12 +17,12 @@ by ``gcs-bench autopilots --identify``): small course errors ``e`` are closed at
     \\qquad |\\omega| \\le \\omega_{max}.
 
 ArduPlane's loop is a bank demand ``phi = k_p e`` (GUIDED_P, 5000 centidegrees a
-radian) and a turn ``omega = eta g tan(phi) / V``, where ``eta`` (0.76 on SITL) is the
+radian) and a turn ``omega = eta g tan(phi) / V``, where ``eta`` (0.71 on SITL) is the
 share of the coordinated turn the plane achieves at a bank, so ``K = eta g k_p / V``:
-0.27 /s at 25 m/s, a 3.7 s time constant for a small step. Its largest turn rate is
+0.25 /s at 25 m/s, a 4 s time constant for a small step. Its largest turn rate is
 set by the bank limit ``atan(a / g)`` that the lateral acceleration limit ``a`` of each
-command gives: 0.177 rad/s under the daemon's commands at 0.2 rad/s, which is what
-the planner plans an ArduPlane at (:meth:`CourseLoop.flyable_turn_rate`).
+command gives: 0.177 rad/s under the daemon's commands at 0.2 rad/s, of which the
+planner plans an ArduPlane at :data:`STEERING_HEADROOM` (:meth:`CourseLoop.flyable_turn_rate`).
 
 **Path following** (:func:`follow`). From the point of the path nearest the
 vehicle: its signed cross-track error ``d`` (left of the path positive), the
@@ -61,11 +61,15 @@ from numpy.typing import NDArray
 from gcs.core.geometry import wrap_angle
 from gcs.core.kinematics import VehicleState, rollout
 
-__all__ = ["CourseLoop", "COURSE_LOOPS", "IDENTIFIED_AT_TURN_RATE_RAD_S", "PlannedPath", "Steering", "course_loop", "follow"]
+__all__ = ["CourseLoop", "COURSE_LOOPS", "IDENTIFIED_AT_TURN_RATE_RAD_S", "STEERING_HEADROOM", "PlannedPath", "Steering", "course_loop", "follow"]
 
 IDENTIFIED_AT_TURN_RATE_RAD_S = 0.2
 """The configured turn-rate limit of the vehicle a course loop is identified on (the daemon sends its course steps
 with the lateral acceleration limit ``margin V`` times it)."""
+STEERING_HEADROOM = 0.9
+"""A vehicle is planned at this share of the turn rate its autopilot reaches, so that the path follower can
+turn harder than the plan to win back an error (a path planned at the very limit leaves it none: a vehicle
+that falls outside a turn then stays outside, and one a little inside is asked for less than the plan)."""
 SAMPLES_PER_STEP = 10
 """Points per plan step on a :class:`PlannedPath` (0.1 s apart with 1 s steps)."""
 LOOKAHEAD_S = 4.0
@@ -92,17 +96,18 @@ class CourseLoop:
         return self.gain_per_s * (self.airspeed_mps / max(airspeed_mps, 1.0) if self.bank_to_turn else 1.0)
 
     def flyable_turn_rate(self, configured_rad_s: float) -> float:
-        """The turn-rate limit to plan a vehicle at whose airframe is configured for ``configured_rad_s``: the rate
-        this autopilot reaches under the daemon's commands. The lateral acceleration limit the daemon sends,
-        and so the rate reached, scale with the configured limit; the loop was identified at
-        :data:`IDENTIFIED_AT_TURN_RATE_RAD_S`."""
-        return configured_rad_s * min(1.0, self.max_turn_rate_rad_s / IDENTIFIED_AT_TURN_RATE_RAD_S)
+        """The turn-rate limit to plan a vehicle at whose airframe is configured for ``configured_rad_s``:
+        :data:`STEERING_HEADROOM` of the rate this autopilot reaches under the daemon's commands. The lateral
+        acceleration limit the daemon sends, and so the rate reached, scale with the configured limit; the
+        loop was identified at :data:`IDENTIFIED_AT_TURN_RATE_RAD_S`."""
+        reached = configured_rad_s * min(1.0, self.max_turn_rate_rad_s / IDENTIFIED_AT_TURN_RATE_RAD_S)
+        return STEERING_HEADROOM * reached
 
 
 COURSE_LOOPS: dict[str, CourseLoop] = {
     "ideal": CourseLoop(gain_per_s=0.991, lag_s=0.513, max_turn_rate_rad_s=0.2, airspeed_mps=25.0,
                         bank_to_turn=False),
-    "arduplane": CourseLoop(gain_per_s=0.268, lag_s=0.218, max_turn_rate_rad_s=0.177, airspeed_mps=25.0,
+    "arduplane": CourseLoop(gain_per_s=0.249, lag_s=0.208, max_turn_rate_rad_s=0.177, airspeed_mps=25.0,
                             bank_to_turn=True),
 }
 """The course loops a vehicle is steered with, by the autopilot its scenario names, at 25 m/s. ``arduplane`` is

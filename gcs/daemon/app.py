@@ -184,7 +184,7 @@ class Daemon:
         self.engine.flush()
         if self.commander is not None and not self._closed:
             self._carry_out([self.engine.let_go_all("the daemon stopped")])
-            self.commander.service(self.clock())  # the hand-backs go out before the links close
+            self.commander.hand_back_before_closing(self.clock())  # answered before the links close
             self.commander.close()
         self._closed = True
         if self.live is not None:

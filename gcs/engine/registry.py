@@ -82,14 +82,20 @@ class Registry:
         entry.position_stamp_ns = report.stamp_ns
 
     def on_nav(self, nav: NavReport) -> None:
-        """An accepted nav report: heading and velocity (unless a newer nav report is known already)."""
+        """An accepted nav report: heading and velocity (unless a newer nav report is known already).
+
+        The heading the planner flies on (wang2012 eq. 1 moves a vehicle along its heading over the
+        ground) is the course over the ground, the velocity's direction, when the report has a velocity
+        of more than 1 m/s: a plane's nose points off its track in a wind, and in a turn by its
+        sideslip (ArduPilot SITL's plane: several degrees), and a path started on the nose's heading
+        is that far off the vehicle's. Without a velocity it is the reported heading."""
         entry = self.entries[nav.vehicle_id]
         if entry.nav_stamp_ns is not None and nav.stamp_ns < entry.nav_stamp_ns:
             return
-        if nav.heading_rad is not None:
-            entry.heading_rad = nav.heading_rad
-        elif nav.velocity_enu_mps is not None and math.hypot(*nav.velocity_enu_mps[:2]) > 1.0:
+        if nav.velocity_enu_mps is not None and math.hypot(*nav.velocity_enu_mps[:2]) > 1.0:
             entry.heading_rad = math.atan2(nav.velocity_enu_mps[1], nav.velocity_enu_mps[0])
+        elif nav.heading_rad is not None:
+            entry.heading_rad = nav.heading_rad
         if nav.velocity_enu_mps is not None:
             entry.velocity_enu_mps = np.asarray(nav.velocity_enu_mps, dtype=np.float64)
         entry.nav_stamp_ns = nav.stamp_ns

@@ -12,6 +12,7 @@ from gcs.adapters.mavlink_wire import mavlink
 from gcs.config import ScenarioError
 from gcs.config.simulation import AirframeConfig
 from gcs.scenarios import load_scenario
+from sim_vehicles.arduplane import TURN_EFFICIENCY
 from sim_vehicles.guided_heading import bank_limit_cd
 from sim_vehicles.truth.fixed_wing import GRAVITY_MPS2
 from tests.autopilot_harness import ALTITUDE, FRAME, SPEED, Flight
@@ -81,12 +82,13 @@ def _heading_step(name: str, step_deg: float, accel_mps2: float, seconds: float)
 
 
 def test_arduplane_small_heading_step_follows_the_closed_loop_of_its_pid_and_bank_lag() -> None:
-    """Below the bank limit: phi_c = kp e, phi lags with tau_phi, psi_dot = g phi / V, so the error obeys
-    tau_phi e'' + e' + K e = 0, K = g kp / V; e(t) = e0 (s2 exp(s1 t) - s1 exp(s2 t)) / (s2 - s1)."""
+    """Below the bank limit: phi_c = kp e, phi lags with tau_phi, psi_dot = eta g phi / V (the turn efficiency),
+    so the error obeys tau_phi e'' + e' + K e = 0, K = eta g kp / V;
+    e(t) = e0 (s2 exp(s1 t) - s1 exp(s2 t)) / (s2 - s1)."""
     step = math.radians(4.0)
     flight, states = _heading_step("arduplane", 4.0, 5.0, 15.0)
     kp = math.radians(5000.0 / 100.0)  # GUIDED_P 5000 cdeg/rad (ArduPlane/Parameters.h)
-    gain, tau = GRAVITY_MPS2 * kp / SPEED, AirframeConfig().roll_time_constant_s
+    gain, tau = TURN_EFFICIENCY * GRAVITY_MPS2 * kp / SPEED, AirframeConfig().roll_time_constant_s
     root = math.sqrt(1.0 - 4.0 * tau * gain)
     s1, s2 = (-1.0 + root) / (2.0 * tau), (-1.0 - root) / (2.0 * tau)
     for t in (1.0, 2.0, 3.0, 5.0, 8.0):
@@ -97,10 +99,10 @@ def test_arduplane_small_heading_step_follows_the_closed_loop_of_its_pid_and_ban
 
 
 def test_arduplane_large_heading_step_turns_at_the_bank_limit_of_param3() -> None:
-    """A 120 degree step saturates the PID at atan(a / g): the turn rate is g tan(atan(a / g)) / V = a / V."""
+    """A 120 degree step saturates the PID at atan(a / g): the turn rate is eta g tan(atan(a / g)) / V = eta a / V."""
     accel = 4.0
     flight, states = _heading_step("arduplane", 120.0, accel, 30.0)
-    rate = accel / SPEED
+    rate = TURN_EFFICIENCY * accel / SPEED
     middle = [s.turn_rate_rad_s for s in states if 0.5 < s.heading_rad < 1.2]
     assert min(middle) == pytest.approx(rate, rel=0.01) and max(middle) == pytest.approx(rate, rel=0.01)
     assert states[-1].heading_rad == pytest.approx(math.radians(120.0), abs=math.radians(0.5))

@@ -16,7 +16,7 @@ from gcs.adapters.mavlink_wire import mavlink, ned_yaw_from_enu_heading
 from gcs.config.simulation import AirframeConfig
 from gcs.core.geometry import wrap_angle
 from gcs.core.kinematics import VehicleState, rollout
-from gcs.core.steering import COURSE_LOOPS, PlannedPath, follow
+from gcs.core.steering import COURSE_LOOPS, STEERING_HEADROOM, PlannedPath, follow
 from sim_vehicles.arduplane import TURN_EFFICIENCY
 from sim_vehicles.guided_heading import GRAVITY_MSS, GUIDED_P_DEFAULT
 from tests.autopilot_harness import ALTITUDE, SPEED, Flight
@@ -42,11 +42,11 @@ def test_the_course_loops_steered_with_are_their_closed_forms() -> None:
     assert ideal.lag_s == pytest.approx(airframe.roll_time_constant_s, rel=0.1)
 
 
-def test_a_vehicle_is_planned_at_the_turn_rate_its_autopilot_reaches() -> None:
+def test_a_vehicle_is_planned_below_the_turn_rate_its_autopilot_reaches() -> None:
     arduplane, ideal = COURSE_LOOPS["arduplane"], COURSE_LOOPS["ideal"]
-    assert arduplane.flyable_turn_rate(0.2) == pytest.approx(arduplane.max_turn_rate_rad_s)
-    assert arduplane.flyable_turn_rate(0.1) == pytest.approx(arduplane.max_turn_rate_rad_s / 2)  # accel sent halves
-    assert ideal.flyable_turn_rate(0.2) == pytest.approx(0.2, rel=1e-3)  # the ideal airframe reaches its limit
+    assert arduplane.flyable_turn_rate(0.2) == pytest.approx(STEERING_HEADROOM * arduplane.max_turn_rate_rad_s)
+    assert arduplane.flyable_turn_rate(0.1) == pytest.approx(arduplane.flyable_turn_rate(0.2) / 2)  # accel sent halves
+    assert ideal.flyable_turn_rate(0.2) == pytest.approx(STEERING_HEADROOM * 0.2, rel=1e-3)  # it reaches its limit
 
 
 def test_a_bank_to_turn_gain_scales_inversely_with_airspeed() -> None:

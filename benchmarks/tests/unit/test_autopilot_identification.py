@@ -38,7 +38,7 @@ def test_identified_gains_and_rates_match_the_closed_form_loops() -> None:
     airframe = AirframeConfig()
     kp_rad = GUIDED_P_DEFAULT / 100.0 * math.pi / 180.0  # centidegrees of bank per radian -> radians per radian
     arduplane = identify("arduplane")
-    assert arduplane.gain_per_s == pytest.approx(TURN_EFFICIENCY * GRAVITY_MSS * kp_rad / SPEED, rel=0.03)
+    assert arduplane.gain_per_s == pytest.approx(TURN_EFFICIENCY * GRAVITY_MSS * kp_rad / SPEED, rel=0.05)
     # the bank limit atan(a / g) of the acceleration a = margin V omega sent: omega = eta a / V
     assert arduplane.max_turn_rate_rad_s == pytest.approx(
         TURN_EFFICIENCY * LATERAL_ACCEL_MARGIN * IDENTIFIED_AT_TURN_RATE_RAD_S, rel=0.03)
