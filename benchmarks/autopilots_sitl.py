@@ -29,12 +29,13 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.autopilots import fit_course_loop, fit_turn_efficiency
+from benchmarks.autopilots import fit_course_loop, fit_turn_efficiency, identify
 from benchmarks.autopilots_report import _fly, summarise
 from benchmarks.course_following import SteeringSample, course_following
 from benchmarks.sitl.namespace import run_private
 from benchmarks.urban_report import paired_p
 from gcs.core.steering import COURSE_LOOPS
+from sim_vehicles.arduplane import TURN_EFFICIENCY
 
 __all__ = ["KEPT_UP", "compare", "format_comparison", "format_identification", "identify_sitl", "sitl_flights"]
 
@@ -130,18 +131,23 @@ def identify_sitl(sitl: Path, airspeed_mps: float = 25.0) -> dict:
     large = np.mean(steps["rates_rad_s"]["90.0"], axis=0)
     held = {float(lead): float(np.mean(rates)) for lead, rates in steps["held_rad_s"].items()}
     loop = fit_course_loop(times, small, large, airspeed_mps, bank_to_turn=True, held=held)
-    return {"sitl": asdict(loop), "turn_efficiency": fit_turn_efficiency(loop, airspeed_mps),
+    efficiency = fit_turn_efficiency(loop, airspeed_mps)
+    return {"sitl": asdict(loop), "turn_efficiency": efficiency,
+            "personality_fitted": asdict(identify("arduplane", airspeed_mps, turn_efficiency=efficiency)),
+            "personality": asdict(identify("arduplane", airspeed_mps)), "personality_turn_efficiency": TURN_EFFICIENCY,
             "steered_with": asdict(COURSE_LOOPS["arduplane"]), "bank_deg_p90": steps["bank_deg_p90"],
             "ground_speed_mps_median": steps["ground_speed_mps_median"]}
 
 
 def format_identification(found: dict) -> str:
-    real, used = found["sitl"], found["steered_with"]
-    return "\n".join([
-        "| ArduPlane course loop | K (1/s) | tau (s) | largest turn rate (deg/s) |", "|---|---|---|---|",
-        f"| SITL, identified | {real['gain_per_s']:.3f} | {real['lag_s']:.3f} | "
-        f"{math.degrees(real['max_turn_rate_rad_s']):.2f} |",
-        f"| steered with (the personality's) | {used['gain_per_s']:.3f} | {used['lag_s']:.3f} | "
-        f"{math.degrees(used['max_turn_rate_rad_s']):.2f} |", "",
-        f"personality turn efficiency fitted to SITL: {found['turn_efficiency']:.3f} "
-        f"(SITL bank p90 {found['bank_deg_p90']:.1f} deg, ground speed {found['ground_speed_mps_median']:.1f} m/s)"])
+    rows = [("ArduPlane SITL, identified now", found["sitl"]),
+            ("steered with (gcs/core/steering.py)", found["steered_with"]),
+            (f"the personality, turn efficiency {found['personality_turn_efficiency']:.2f}", found["personality"]),
+            (f"the personality, turn efficiency {found['turn_efficiency']:.3f} (fitted now)",
+             found["personality_fitted"])]
+    lines = ["| course loop | K (1/s) | tau (s) | largest turn rate (deg/s) |", "|---|---|---|---|"]
+    lines += [f"| {name} | {loop['gain_per_s']:.3f} | {loop['lag_s']:.3f} | "
+              f"{math.degrees(loop['max_turn_rate_rad_s']):.2f} |" for name, loop in rows]
+    lines += ["", f"SITL bank p90 {found['bank_deg_p90']:.1f} deg, ground speed {found['ground_speed_mps_median']:.1f} m/s; "
+                  "the personality's roll lag is the scenario airframe's"]
+    return "\n".join(lines)

@@ -22,7 +22,8 @@ In a private network namespace (:mod:`benchmarks.sitl.namespace`; this module re
 Measured per seed (:func:`_report`): when each vehicle was taken over; the telemetry rates the daemon
 received; its MAVLink counters per vehicle; the course following
 (:func:`benchmarks.course_following.course_following` on the daemon's own telemetry at each steering
-instant, from :data:`SETTLE_S` after the first plan); the decision steps scored against the bridge's
+instant, from :data:`SETTLE_S` after the first plan, with the lead the daemon asked for and the bank
+the plane flew then); the decision steps scored against the bridge's
 truth (:func:`gcs.daemon.demo_summary.summarise`); SITL's clock against the wall clock over the flight;
 each vehicle's mode changes as SITL reports them; and for ``cut``, when the daemon lost and found the
 link again.

@@ -39,6 +39,7 @@ from gcs.adapters.recording import Recorder
 from gcs.adapters.zenoh_io import Received, ZenohIO
 from gcs.adapters.zenoh_session import listening_endpoints
 from gcs.config import Scenario
+from gcs.core.filters.iterated import compile_kernel
 from gcs.core.geometry import LocalFrame
 from gcs.core.steering import PlannedPath, course_loop
 from gcs.core.world import World
@@ -171,6 +172,7 @@ class Daemon:
         listen = list(self.options.zenoh.listen)
         self.zenoh_listening = listening_endpoints(session) if any(e.endswith(":0") for e in listen) else listen
         self.mavlink_bound = self.commander.bound_connections() if self.commander is not None else {}
+        compile_kernel()  # with the fast extra, now (about 2 s; what arrives meanwhile waits in the sockets)
         log.info("daemon up: scenario %s, planner %s, zenoh %s listen %s connect %s, MAVLink %s",
                  self.scenario.name, self.planner_name, self.options.zenoh.mode, self.zenoh_listening,
                  list(self.options.zenoh.connect),

@@ -45,7 +45,8 @@ def test_bridge_reads_telemetry_counts_bad_and_prints_its_summary_on_sigint() ->
         out = process.stdout.read()
     assert code == 130, errors.rest()  # stopped by Ctrl-C, with its summary
     summary = re.search(r"uav2: (\d+) MAVLink messages read, (\d+) nav reports, (\d+) sensor reports \(\d+ "
-                        r"detections\), (\d+) bad telemetry, liveliness withdrawn 0 times", out)
+                        r"detections\), (\d+) bad telemetry, 0 positions without a GPS fix, liveliness withdrawn 0 "
+                        r"times", out)
     assert summary is not None, out
     read, navs, reports, bad = (int(g) for g in summary.groups())
     assert read == sent and bad == 1  # every datagram on loopback, one of them bad

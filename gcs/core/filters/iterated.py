@@ -35,9 +35,10 @@ from gcs.core.filters.information import check_estimate
 from gcs.core.filters.uif import UnscentedInformationFilter, checked_measurements
 from gcs.core.filters.uif_kernel import NO_COMPONENT, Kernel, compiled_update
 from gcs.core.models.components import KNOWN_COMPONENTS
+from gcs.core.models.motion import constant_velocity
 from gcs.core.models.sensor import DetectionGroup, SensorModel
 
-__all__ = ["RELINEARISE_SIGMA", "MAX_RELINEARISATIONS", "iterated_update", "iterated_update_many",
+__all__ = ["RELINEARISE_SIGMA", "MAX_RELINEARISATIONS", "compile_kernel", "iterated_update", "iterated_update_many",
            "kernel_available"]
 
 RELINEARISE_SIGMA = 3.0
@@ -48,6 +49,20 @@ MAX_RELINEARISATIONS = 3
 def kernel_available() -> bool:
     """Whether :func:`iterated_update` runs the compiled kernel (numba is installed)."""
     return compiled_update() is not None
+
+
+def compile_kernel() -> None:
+    """Compile the kernel now, on a small update of its own (about 2 s, once a process; nothing without numba),
+    rather than on the first update that counts: the daemon does this as it opens, so that its first fused
+    step does not wait."""
+    if compiled_update() is None:
+        return
+    truth = np.array([500.0, 0.0])
+    prior = GaussianEstimate(np.array([510.0, 5.0, 0.0, 0.0]), np.diag([100.0, 100.0, 25.0, 25.0]), 0)
+    sensor = SensorModel.range_bearing(10.0, 0.05, 0.05)
+    xyz = np.array([[0.0, 0.0, 200.0]])
+    iterated_update(UnscentedInformationFilter(constant_velocity(1.0)), prior,
+                    [(sensor, sensor.measure(truth, xyz), xyz, None)])
 
 
 def iterated_update(uif: UnscentedInformationFilter, prior: GaussianEstimate,
