@@ -27,8 +27,8 @@ class PilotError(RuntimeError):
 
 @dataclass(frozen=True)
 class Sample:
-    """One GLOBAL_POSITION_INT: SITL time (s), ENU-free quantities: course over ground (ENU rad), ground speed
-    (m/s), altitude above home (m), latitude and longitude (degrees), and the latest roll (rad)."""
+    """One GLOBAL_POSITION_INT: SITL time (s), course over ground (ENU rad), ground speed (m/s), altitude above
+    home (m), latitude and longitude (degrees), and the latest roll (rad)."""
 
     time_s: float
     course_rad: float
@@ -47,7 +47,6 @@ class Pilot:
         self.conn = open_connection(connection, PILOT_SYSID, PILOT_COMPONENT)
         self.latest: dict[str, object] = {}
         self.samples: list[Sample] = []
-        self.acks: dict[int, int] = {}
         self.recording = False
 
     def close(self) -> None:
@@ -70,9 +69,7 @@ class Pilot:
             return
         kind = message.get_type()
         self.latest[kind] = message
-        if kind == "COMMAND_ACK":
-            self.acks[int(message.command)] = int(message.result)
-        elif kind == "GLOBAL_POSITION_INT" and self.recording and message.lat != 0:
+        if kind == "GLOBAL_POSITION_INT" and self.recording and message.lat != 0:
             attitude = self.latest.get("ATTITUDE")
             self.samples.append(Sample(
                 message.time_boot_ms * 1e-3, math.atan2(message.vx, message.vy),
@@ -135,9 +132,6 @@ class Pilot:
 
     def arm(self) -> None:
         self.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
-
-    def set_parameter(self, name: str, value: float) -> None:
-        self.conn.mav.param_set_send(self.sysid, 1, name.encode("ascii"), value, mavlink.MAV_PARAM_TYPE_REAL32)
 
     def guided_course(self, course_enu_rad: float, accel_limit_mps2: float) -> None:
         """GUIDED_CHANGE_HEADING: course over ground (ENU radians), lateral acceleration limit (m/s^2)."""
