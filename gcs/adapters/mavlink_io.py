@@ -52,6 +52,8 @@ MAX_MESSAGES_PER_POLL = 10_000
 
 
 HANDBACK_ANSWER_S = 2.0
+SILENT_S = 0.5
+"""While the stopping daemon waits for hand-back answers, a vehicle not heard from for this long is not waited for."""
 """How long a stopping daemon waits for the vehicles it hands back to answer (:meth:`MavlinkCommander.hand_back_before_closing`)."""
 
 class _Link:
@@ -198,17 +200,19 @@ class MavlinkCommander:
 
     def hand_back_before_closing(self, now_s: float, timeout_s: float = HANDBACK_ANSWER_S) -> None:
         """Send what is due at ``now_s`` (the hand-backs of :meth:`let_go`) and wait, at most ``timeout_s`` of wall
-        time, for each vehicle alive and being handed back to answer its mode request: an autopilot may drop what
-        is still in its input buffer when the connection closes (ArduPilot SITL's TCP ports do), and the
-        hand-back must reach it."""
+        time, for each vehicle being handed back to answer its mode request, while it is still heard from: an
+        autopilot may drop what is still in its input buffer when the connection closes (ArduPilot SITL's TCP
+        ports do), and the hand-back must reach it. A vehicle not heard from for :data:`SILENT_S` (gone
+        already, or a simulator that has ended) is not waited for."""
         self.service(now_s)
         waiting = [vid for vid in self._handing_back if self._vehicles[vid].alive(now_s, self.link_timeout_s)]
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            waiting = [vid for vid in waiting if mavlink.MAV_CMD_DO_SET_MODE not in self._vehicles[vid].last_ack]
+        start = time.monotonic()
+        while (elapsed := time.monotonic() - start) < timeout_s:
+            self.poll(now_s + elapsed)
+            waiting = [vid for vid in waiting if mavlink.MAV_CMD_DO_SET_MODE not in self._vehicles[vid].last_ack
+                       and (elapsed < SILENT_S or self._vehicles[vid].heard_since(now_s + elapsed - SILENT_S))]
             if not waiting:
                 return
-            self.poll(now_s)
             time.sleep(0.01)
         log.warning("no answer to the hand-back from %s within %g s", ", ".join(sorted(waiting)), timeout_s)
 

@@ -94,6 +94,10 @@ class VehicleLink:
         """The HEARTBEAT names ArduPilot: steered by GUIDED_CHANGE_HEADING, not by carrots."""
         return self.autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
 
+    def heard_since(self, since_s: float) -> bool:
+        """A HEARTBEAT or a position received at ``since_s`` or later."""
+        return any(t is not None and t >= since_s for t in (self.last_heartbeat_s, self.position_stamp_s))
+
     def alive(self, now_s: float, timeout_s: float) -> bool:
         """A HEARTBEAT within ``timeout_s`` of ``now_s``."""
         return self.last_heartbeat_s is not None and now_s - self.last_heartbeat_s <= timeout_s
