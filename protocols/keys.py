@@ -10,6 +10,11 @@ Key space (``<prefix>`` defaults to ``gcs``)::
     <prefix>/plan/<vehicle_id>             PlanCommand       daemon
     <prefix>/daemon/status                 DaemonStatus      daemon, published and queryable
     <prefix>/sim/truth/<target_id>         TargetTruth       simulator only (scoring, display)
+    <prefix>/federation/<member_id>/tracks MemberTracks      daemon -> the federation's other daemons
+    <prefix>/federation/<member_id>/alive  liveliness token  (no payload) while a member runs
+
+A federation of daemons (:mod:`protocols.federation`) shares a prefix of its own for the
+``federation`` keys; each daemon keeps its team's vehicles, tracks and plans under the team's prefix.
 
 A prefix is one or more ``/``-separated chunks, each matching ``[A-Za-z0-9_-]+``
 (``"replay/run1"`` is valid), so replayed data can run beside live data. Ids match
@@ -30,6 +35,7 @@ from protocols.errors import ProtocolError
 from protocols.fields import ID_REGEX
 from protocols.messages import (
     DaemonStatus,
+    MemberTracks,
     Message,
     NavReport,
     PlanCommand,
@@ -46,6 +52,10 @@ __all__ = [
     "KeyKind",
     "ParsedKey",
     "alive_key",
+    "member_alive_key",
+    "member_alive_selector",
+    "member_tracks_key",
+    "member_tracks_selector",
     "alive_selector",
     "nav_key",
     "navs_selector",
@@ -67,8 +77,10 @@ __all__ = [
 
 DEFAULT_PREFIX = "gcs"
 
-KeyKind = Literal["report", "nav", "alive", "scenario", "track", "plan", "status", "truth"]
-KEY_KINDS: tuple[str, ...] = ("report", "nav", "alive", "scenario", "track", "plan", "status", "truth")
+KeyKind = Literal["report", "nav", "alive", "scenario", "track", "plan", "status", "truth", "member",
+                  "member_alive"]
+KEY_KINDS: tuple[str, ...] = ("report", "nav", "alive", "scenario", "track", "plan", "status", "truth", "member",
+                              "member_alive")
 
 #: Message type carried on each kind of key (``alive`` is a liveliness token: no payload).
 MESSAGE_TYPE_BY_KIND: Mapping[str, type[Message]] = MappingProxyType(
@@ -80,6 +92,7 @@ MESSAGE_TYPE_BY_KIND: Mapping[str, type[Message]] = MappingProxyType(
         "plan": PlanCommand,
         "status": DaemonStatus,
         "truth": TargetTruth,
+        "member": MemberTracks,
     }
 )
 
@@ -96,10 +109,10 @@ class ParsedKey:
     ----------
     kind : str
         One of ``"report"``, ``"nav"``, ``"alive"``, ``"scenario"``, ``"track"``, ``"plan"``, ``"status"``,
-        ``"truth"``.
+        ``"truth"``, ``"member"`` (a federation member's tracks), ``"member_alive"`` (its liveliness token).
     ident : str or None
-        The vehicle id (report, nav, alive, scenario, plan), the target id (track, truth), or None
-        (status).
+        The vehicle id (report, nav, alive, scenario, plan), the target id (track, truth), the member id
+        (member, member_alive), or None (status).
     """
 
     kind: KeyKind
@@ -190,6 +203,26 @@ def truth_key(target_id: str, prefix: str = DEFAULT_PREFIX) -> str:
     return f"{validate_prefix(prefix)}/sim/truth/{validate_id(target_id, 'target_id')}"
 
 
+def member_tracks_key(member_id: str, prefix: str = DEFAULT_PREFIX) -> str:
+    """Key of a federation member's tracks: ``<prefix>/federation/<member_id>/tracks``."""
+    return f"{validate_prefix(prefix)}/federation/{validate_id(member_id, 'member_id')}/tracks"
+
+
+def member_alive_key(member_id: str, prefix: str = DEFAULT_PREFIX) -> str:
+    """Key of a federation member's liveliness token: ``<prefix>/federation/<member_id>/alive``."""
+    return f"{validate_prefix(prefix)}/federation/{validate_id(member_id, 'member_id')}/alive"
+
+
+def member_tracks_selector(prefix: str = DEFAULT_PREFIX) -> str:
+    """Selector for every federation member's tracks: ``<prefix>/federation/*/tracks``."""
+    return f"{validate_prefix(prefix)}/federation/*/tracks"
+
+
+def member_alive_selector(prefix: str = DEFAULT_PREFIX) -> str:
+    """Selector for every federation member's liveliness token: ``<prefix>/federation/*/alive``."""
+    return f"{validate_prefix(prefix)}/federation/*/alive"
+
+
 def truth_selector(prefix: str = DEFAULT_PREFIX) -> str:
     """Selector for every simulated target's truth: ``<prefix>/sim/truth/*``."""
     return f"{validate_prefix(prefix)}/sim/truth/*"
@@ -263,8 +296,12 @@ def parse_key(key: str, prefix: str = DEFAULT_PREFIX) -> ParsedKey:
         return ParsedKey(kind="status", ident=None)
     if len(parts) == 3 and parts[:2] == ["sim", "truth"]:
         return ParsedKey(kind="truth", ident=validate_id(parts[2], "target_id"))
+    if len(parts) == 3 and parts[0] == "federation" and parts[2] in ("tracks", "alive"):
+        return ParsedKey(kind="member" if parts[2] == "tracks" else "member_alive",
+                         ident=validate_id(parts[1], "member_id"))
     raise ProtocolError(
         f"key {key!r} is not in the key space under prefix {prefix!r} (expected "
-        "vehicle/<id>/report|nav|alive|scenario, track/<id>, plan/<id>, daemon/status or sim/truth/<id>)",
+        "vehicle/<id>/report|nav|alive|scenario, track/<id>, plan/<id>, daemon/status, sim/truth/<id> "
+        "or federation/<id>/tracks|alive)",
         reason="key",
     )

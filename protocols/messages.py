@@ -61,6 +61,7 @@ from protocols.fields import (
     VelocityMps,
     check_covariance,
 )
+from protocols.federation import FederatedTrack, MemberTracks
 from protocols.sensor_report import MAX_DETECTIONS, Measurement, SensorReport
 from protocols.status import DaemonStatus, TrackSummary, VehicleStatus
 from protocols.vehicle_scenario import VehicleScenario
@@ -71,9 +72,11 @@ __all__ = [
     "MAX_STATE_DIM",
     "TRACK_MODEL_DIMS",
     "DaemonStatus",
+    "FederatedTrack",
     "GpsFix",
     "InsIncrement",
     "Measurement",
+    "MemberTracks",
     "Message",
     "MESSAGE_TYPES",
     "NavReport",
@@ -298,4 +301,5 @@ class TargetTruth(Message, frozen=True, forbid_unknown_fields=True, kw_only=True
 MESSAGE_TYPES: tuple[type[Message], ...] = (
     SensorReport, Measurement, GpsFix, InsIncrement, NavReport, PredictedPoint,
     TrackEstimate, PlanCommand, VehicleStatus, TrackSummary, DaemonStatus, TargetTruth, VehicleScenario,
+    FederatedTrack, MemberTracks,
 )

@@ -17,7 +17,7 @@ VEHICLE_KINDS = ("report", "nav", "scenario", "alive")
 
 def prefix_of(key: str) -> str | None:
     """The prefix a key of the key space is under (``gcs`` for ``gcs/vehicle/uav1/report``)."""
-    for marker in ("/vehicle/", "/track/", "/plan/", "/daemon/", "/sim/"):
+    for marker in ("/vehicle/", "/track/", "/plan/", "/daemon/", "/sim/", "/federation/"):
         if marker in key:
             return key[: key.index(marker)]
     return None

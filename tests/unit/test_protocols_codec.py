@@ -18,6 +18,8 @@ from protocols import (
     MAX_PAYLOAD_BYTES,
     MESSAGE_TYPES,
     DaemonStatus,
+    FederatedTrack,
+    MemberTracks,
     TargetTruth,
     GpsFix,
     InsIncrement,
@@ -231,6 +233,32 @@ vehicle_scenarios = st.builds(
     fingerprint=st.from_regex(r"[0-9a-f]{8,64}", fullmatch=True),
 )
 
+federated_tracks = st.builds(
+    FederatedTrack,
+    global_id=ids,
+    born_ns=stamps,
+    local_id=ids,
+    stamp_ns=stamps,
+    state=st.lists(positions, min_size=4, max_size=4).map(tuple),
+    covariance=covariances(4),
+    detected_ns=stamps,
+)
+
+
+@st.composite
+def member_tracks(draw: st.DrawFn) -> MemberTracks:
+    x_min, y_min = draw(floats(-1e8, 0.0)), draw(floats(-1e8, 0.0))
+    vehicles = draw(st.integers(0, 100))
+    return MemberTracks(
+        member_id=draw(ids), seq=draw(stamps), stamp_ns=draw(stamps),
+        area_enu_m=(x_min, y_min, draw(floats(1.0, 1e8)), draw(floats(1.0, 1e8))),
+        team_xy_m=(draw(positions), draw(positions)), vehicles=vehicles,
+        spare_vehicles=draw(st.integers(0, vehicles)),
+        tracks=tuple(draw(st.lists(federated_tracks, max_size=3))),
+        searching=tuple(draw(st.lists(ids, max_size=3))),
+    )
+
+
 STRATEGIES = {
     SensorReport: sensor_reports(),
     Measurement: measurements,
@@ -245,6 +273,8 @@ STRATEGIES = {
     DaemonStatus: daemon_statuses,
     TargetTruth: target_truths,
     VehicleScenario: vehicle_scenarios,
+    FederatedTrack: federated_tracks,
+    MemberTracks: member_tracks(),
 }
 any_message = st.one_of(*STRATEGIES.values())
 ENCODINGS = [encoding_for(tp) for tp in MESSAGE_TYPES]

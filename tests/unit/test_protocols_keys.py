@@ -14,6 +14,7 @@ from protocols import (
     KEY_KINDS,
     MESSAGE_TYPE_BY_KIND,
     DaemonStatus,
+    MemberTracks,
     TargetTruth,
     NavReport,
     ParsedKey,
@@ -25,6 +26,10 @@ from protocols import (
     alive_key,
     alive_selector,
     encoding_for,
+    member_alive_key,
+    member_alive_selector,
+    member_tracks_key,
+    member_tracks_selector,
     nav_key,
     navs_selector,
     parse_key,
@@ -196,7 +201,7 @@ def test_parse_key_rejects_non_strings() -> None:
 
 
 def test_kind_to_message_type() -> None:
-    assert set(KEY_KINDS) == set(MESSAGE_TYPE_BY_KIND) | {"alive"}
+    assert set(KEY_KINDS) == set(MESSAGE_TYPE_BY_KIND) | {"alive", "member_alive"}
     assert dict(MESSAGE_TYPE_BY_KIND) == {
         "report": SensorReport,
         "nav": NavReport,
@@ -205,11 +210,24 @@ def test_kind_to_message_type() -> None:
         "plan": PlanCommand,
         "status": DaemonStatus,
         "truth": TargetTruth,
+        "member": MemberTracks,
     }
     with pytest.raises(TypeError):
         MESSAGE_TYPE_BY_KIND["alive"] = SensorReport  # type: ignore[index]
     for tp in MESSAGE_TYPE_BY_KIND.values():
         assert encoding_for(tp).endswith(f"gcs.{tp.__name__}/{ {DaemonStatus: 4, SensorReport: 2}.get(tp, 1)}")
+
+
+def test_federation_keys_round_trip() -> None:
+    assert member_tracks_key("north", "fed") == "fed/federation/north/tracks"
+    assert parse_key(member_tracks_key("north", "fed"), "fed") == ParsedKey(kind="member", ident="north")
+    assert parse_key(member_alive_key("north", "fed"), "fed") == ParsedKey(kind="member_alive", ident="north")
+    assert member_tracks_selector("fed") == "fed/federation/*/tracks"
+    assert member_alive_selector("fed") == "fed/federation/*/alive"
+    with pytest.raises(ProtocolError, match="member_id"):
+        member_tracks_key("a/b", "fed")
+    with pytest.raises(ProtocolError, match="federation/<id>/tracks"):
+        parse_key("fed/federation/north/plans", "fed")
 
 
 def test_truth_keys_round_trip() -> None:
