@@ -39,6 +39,8 @@ import logging
 from collections import Counter, deque
 from collections.abc import Callable
 
+import numpy as np
+
 from gcs.config import Scenario
 from gcs.core.filters.estimate import GaussianEstimate
 from gcs.core.multitarget.planning import plans_targets
@@ -49,6 +51,7 @@ from gcs.core.world import World
 from gcs.engine.acceptance import ALIVE_REFRESH_S, MAX_OBSERVER_TOKENS, NS_PER_S, Acceptance
 from gcs.engine.events import (Action, Arrived, Heartbeat, Input, LetGo, Observed, PlanDone, PlannerFree,
                                PublishTrack, RetireTrack, Tick)
+from gcs.engine.federation import FederationMember
 from gcs.engine.fusion import FusionDiverged, fuse_step, track_message, with_observers
 from gcs.engine.hand_over import PlanHandOver
 from gcs.engine.memory import CommandAges, LoopMemory, Planning
@@ -97,6 +100,14 @@ class Engine:
             raise ValueError(f"planner {self.planner_name!r} cannot share the vehicles between targets; "
                              f"scenario {scenario.name!r} has [multitarget] ({', '.join(MULTITARGET_PLANNERS)} can)")
         self.tracks_now: dict[str, TrackEstimate] = {}  # the newest step's tracks by target id
+        self.federation: FederationMember | None = None
+        if options.federation is not None:
+            if self.keeper is None:
+                raise ValueError(f"a federation member tracks many targets: scenario {scenario.name!r} needs a "
+                                 "[multitarget] table")
+            starvation = scenario.multitarget.starvation_s if scenario.multitarget is not None else 0.0
+            self.federation = FederationMember(options.federation, self.keeper.motion, self.counters)
+            self._starvation_s = starvation
 
     # ------------------------------------------------------------------ input
 
@@ -117,6 +128,9 @@ class Engine:
 
     def _arrived(self, item: Arrived) -> list[Action]:
         self._now_s = item.now_s
+        if self.federation is not None and self.federation.owns(item.key):
+            self.federation.arrived(item.kind, item.key, item.payload, item.encoding)
+            return []
         message = self.acceptance.arrived(item)
         if isinstance(message, TargetTruth) and self.keeper is not None:  # the tracks against every target
             self.scorer.add_truth(message.stamp_ns, message.position_enu_m, message.target_id)
@@ -172,6 +186,11 @@ class Engine:
             current = {track.target_id: track for track in tracks}
             actions.extend(RetireTrack(target_id) for target_id in self.tracks_now if target_id not in current)
             self.tracks_now = current
+            if self.federation is not None:  # the federation's picture decides what this team plans for
+                published, targets = self.federation.after_scan(
+                    ready.stamp_ns, self.keeper.own_tracks(), self._team_centre(now), len(self.registry.plannable(now)),
+                    tracker, self._starvation_s)
+                actions.append(published)
         else:
             estimate, detections = fuse_step(tracker, self.loop.estimate, ready, roster, self.navigator)
             self.loop.estimate = estimate
@@ -200,6 +219,15 @@ class Engine:
         # What is known of the vehicles now: by the time the planner is free, newer reports may be in.
         return Planning(ready, tuple(active), self.registry.snapshot(active), estimate, predicted, scale,
                         tick.monotonic_s, targets)
+
+    def _team_centre(self, now_s: float) -> tuple[float, float]:
+        """The mean position (x, y) of the vehicles that can be planned for now; the area's centre when none can."""
+        positions = [self.registry.entries[v].position_enu_m for v in self.registry.plannable(now_s)]
+        if not positions:
+            assert self.options.federation is not None
+            x_min, y_min, x_max, y_max = self.options.federation.area
+            return 0.5 * (x_min + x_max), 0.5 * (y_min + y_max)
+        return float(np.mean([p[0] for p in positions])), float(np.mean([p[1] for p in positions]))
 
     def _record(self, ready: ReadyStep, active: list[str], estimate: GaussianEstimate | None, wall_ns: int,
                 detected: dict[str, bool] | None = None,

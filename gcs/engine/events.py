@@ -17,11 +17,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from gcs.engine.federation import PublishMemberTracks
 from gcs.engine.plan_jobs import PlanJob, PlanOutcome
 from protocols.messages import NavReport, PlanCommand, SensorReport, TargetTruth, TrackEstimate, VehicleScenario
 
 __all__ = ["Arrived", "Heartbeat", "Tick", "PlanDone", "PlannerFree", "Observed", "PublishTrack", "PublishPlan",
-           "SubmitPlan", "LetGo", "Action", "Input"]
+           "SubmitPlan", "LetGo", "PublishMemberTracks", "Action", "Input"]
 
 
 # ------------------------------------------------------------------ inputs
@@ -129,4 +130,4 @@ class LetGo:
     why: str
 
 
-Action = Observed | PublishTrack | RetireTrack | PublishPlan | SubmitPlan | LetGo
+Action = Observed | PublishTrack | RetireTrack | PublishPlan | SubmitPlan | LetGo | PublishMemberTracks

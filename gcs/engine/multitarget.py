@@ -35,6 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gcs.config import Scenario
+from gcs.core.federation import OwnTracks
 from gcs.core.filters.estimate import GaussianEstimate
 from gcs.core.filters.prediction import HorizonPrediction
 from gcs.core.models.motion import constant_velocity
@@ -166,6 +167,12 @@ class TrackKeeper:
                 messages.append(track_message(config, estimate, track_name(track_id), MODEL, seq,
                                               contributing[track_id], self._prediction(plan, row, ready.stamp_ns)))
         return Scanned(tuple(messages), detected, diagnostics)
+
+    def own_tracks(self) -> OwnTracks:
+        """The confirmed tracks of the newest scan, with the stamp of each one's newest detection (for a federation)."""
+        confirmed = self.state.tracks.confirmed()
+        detected = np.array([self._detected_ns.get(int(i), 0) for i in confirmed.ids], dtype=np.int64)
+        return OwnTracks(confirmed.ids.astype(np.int64), confirmed.mean, confirmed.cov, detected)
 
     def targets(self) -> TargetsToPlan | None:
         """The newest scan's confirmed tracks and lost targets to plan for, weighted by the time each has gone

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from gcs.engine.federation import FederationOptions
+
 __all__ = ["EngineOptions"]
 
 
@@ -22,7 +24,8 @@ class EngineOptions:
     ``autopilot_turn_rates``: plan each vehicle at the turn rate its autopilot reaches under the daemon's
     commands (:meth:`gcs.core.steering.CourseLoop.flyable_turn_rate`), as the daemon steers real and
     simulated autopilots; False plans at the scenario's own limits, for vehicles that fly the plan
-    itself (the benchmarks' in-process loops).
+    itself (the benchmarks' in-process loops); ``federation``: the engine is a member of a federation of
+    daemons (:mod:`gcs.engine.federation`; with ``[multitarget]`` only).
     """
 
     prefix: str = "gcs"
@@ -34,3 +37,4 @@ class EngineOptions:
     handback_after_lost_s: float = 60.0
     plan_every_step: bool = False
     autopilot_turn_rates: bool = True
+    federation: FederationOptions | None = None

@@ -1,0 +1,116 @@
+"""One name per target across a federation: how a member names its own tracks.
+
+Every member names each of its confirmed tracks with a **global id**, and every member decides
+alone, from what the others publish; the rules make them agree:
+
+1. A track keeps its name for as long as it lives.
+2. A new track takes the name of the nearest target the federation already knows (a track another
+   member holds, or a target lost by all and still searched for) whose position gates with it: the
+   squared Mahalanobis distance of the positions, under the sum of their covariances, below the
+   chi-square quantile :data:`ADOPT_PROBABILITY` (2 degrees of freedom). This is how a car keeps its
+   id when it drives from one team's area into the next, or when a member that died is replaced.
+3. Otherwise it gets a new name, ``<member>-<local id>``, born at the track's stamp.
+4. When two members named one car at once, each sees the other's track gate with its own within
+   the tighter :data:`RENAME_PROBABILITY`; the one holding the younger name (later ``born_ns``, then
+   the larger id) takes the older. Both end with the older name, and the renaming is counted as an
+   id change.
+
+No two own tracks carry one name.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from gcs.core.multitarget.gating import gate_threshold
+
+__all__ = ["ADOPT_PROBABILITY", "RENAME_PROBABILITY", "GlobalName", "KnownTarget", "GlobalNames", "older"]
+
+ADOPT_PROBABILITY = 0.999
+RENAME_PROBABILITY = 0.99
+
+
+@dataclass(frozen=True)
+class GlobalName:
+    """A global id and when it was first given (ns)."""
+
+    global_id: str
+    born_ns: int
+
+
+@dataclass(frozen=True)
+class KnownTarget:
+    """A target the federation knows apart from this member's own tracks, at the naming stamp: its name,
+    position (2,) and position covariance (2, 2); ``held`` when another member holds a track on it (else
+    it is lost and searched for)."""
+
+    name: GlobalName
+    position: NDArray[np.float64]
+    position_cov: NDArray[np.float64]
+    held: bool
+
+
+def older(a: GlobalName, b: GlobalName) -> bool:
+    """Whether name ``a`` wins over ``b`` (rule 4): born earlier, or born at once with the smaller id."""
+    return (a.born_ns, a.global_id) < (b.born_ns, b.global_id)
+
+
+def _distance2(position: NDArray[np.float64], cov: NDArray[np.float64], known: KnownTarget) -> float:
+    delta = position - known.position
+    return float(delta @ np.linalg.solve(cov + known.position_cov, delta))
+
+
+class GlobalNames:
+    """A member's names for its own tracks (module docstring); :attr:`changes` counts the renamings."""
+
+    def __init__(self, member_id: str) -> None:
+        self.member_id = member_id
+        self.names: dict[int, GlobalName] = {}
+        self.changes = 0
+        self._adopt = gate_threshold(ADOPT_PROBABILITY, 2)
+        self._rename = gate_threshold(RENAME_PROBABILITY, 2)
+
+    def assign(self, stamp_ns: int, ids: Sequence[int], positions: NDArray[np.float64],
+               position_covs: NDArray[np.float64], known: Sequence[KnownTarget]) -> dict[int, GlobalName]:
+        """Name the own tracks ``ids`` (positions (T, 2), covariances (T, 2, 2), at ``stamp_ns``) against the targets
+        ``known``; every own track's name by its id."""
+        rows = {int(track_id): row for row, track_id in enumerate(ids)}
+        self.names = {track_id: name for track_id, name in self.names.items() if track_id in rows}
+        for track_id, name in sorted(self.names.items()):
+            self._rename_if_younger(track_id, name, positions[rows[track_id]], position_covs[rows[track_id]], known)
+        carried = {name.global_id for name in self.names.values()}
+        pairs = []
+        for track_id in sorted(set(rows) - set(self.names)):
+            row = rows[track_id]
+            for index, target in enumerate(known):
+                if target.name.global_id not in carried:
+                    d2 = _distance2(positions[row], position_covs[row], target)
+                    if d2 < self._adopt:
+                        pairs.append((d2, track_id, index))
+        for _, track_id, index in sorted(pairs):
+            name = known[index].name
+            if track_id not in self.names and name.global_id not in carried:
+                self.names[track_id] = name
+                carried.add(name.global_id)
+        for track_id in sorted(set(rows) - set(self.names)):
+            self.names[track_id] = GlobalName(f"{self.member_id}-t{track_id}", stamp_ns)
+        return dict(self.names)
+
+    def _rename_if_younger(self, track_id: int, name: GlobalName, position: NDArray[np.float64],
+                           cov: NDArray[np.float64], known: Sequence[KnownTarget]) -> None:
+        carried = {n.global_id for t, n in self.names.items() if t != track_id}
+        best: tuple[float, GlobalName] | None = None
+        for target in known:
+            other = target.name
+            if (target.held and other.global_id != name.global_id and other.global_id not in carried
+                    and older(other, name)):
+                d2 = _distance2(position, cov, target)
+                if d2 < self._rename and (best is None or d2 < best[0]):
+                    best = (d2, other)
+        if best is not None:
+            self.names[track_id] = best[1]
+            self.changes += 1

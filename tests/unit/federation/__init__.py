@@ -1,0 +1,1 @@
+"""Tests of gcs.core.multitarget (issue 25, many targets)."""
