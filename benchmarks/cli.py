@@ -38,6 +38,8 @@ SUBCOMMANDS: tuple[Subcommand, ...] = (
                "three UAVs shared between many ground targets: the summed objective, assignment, fixed orbits"),
     Subcommand("scale", f"{_TRACKING}:add_scale",
                "the many-target loop's decision time, ingest rate and memory for 1-20 targets and 3-10 UAVs"),
+    Subcommand("federation", f"{_TRACKING}:add_federation",
+               "several daemons with their teams, sharing tracks, against one central daemon"),
     Subcommand("roads", f"{_TRACKING}:add_roads",
                "the road trackers against the scenario's estimator, open loop, paired seeds"),
     Subcommand("daemon", f"{_SYSTEM}:add_daemon",

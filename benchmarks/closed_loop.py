@@ -43,7 +43,8 @@ from gcs.core.planners.baselines import orbit_heading
 from gcs.core.steering import PlannedPath
 from gcs.core.world import World
 from gcs.engine.engine import Engine, EngineOptions
-from gcs.engine.events import Arrived, LetGo, PlannerFree, PublishPlan, PublishTrack, SubmitPlan, Tick
+from gcs.engine.events import (Arrived, LetGo, PlannerFree, PublishMemberTracks, PublishPlan, PublishTrack, SubmitPlan,
+                               Tick)
 from gcs.engine.plan_at_once import JobPlanner, plan_at_once
 from gcs.engine.plan_jobs import plan_job
 from gcs.engine.steps import HOLD_WAITS
@@ -74,7 +75,8 @@ first step is planned at its stamp as every later one is, as wang2012's loop doe
 class EngineLoop:
     """The engine with a shell that carries out its actions at once (module docstring).
 
-    Kept for the benchmark: every published track and plan by its stamp (:attr:`tracks`, :attr:`commands`),
+    Kept for the benchmark: every published track and plan by its stamp (:attr:`tracks`, :attr:`commands`), a
+    federation member's messages in order (:attr:`member_tracks`),
     how long each plan took
     (:attr:`plan_seconds`, by the stamp of the step it was planned for) and each tick (:attr:`tick_seconds`,
     by the decision step the clock was in), the vehicles given back (:attr:`let_go`).
@@ -91,6 +93,7 @@ class EngineLoop:
         self.plan_seconds: dict[int, float] = {}
         self.tick_seconds: dict[int, float] = defaultdict(float)
         self.let_go: list[tuple[float, tuple[str, ...]]] = []
+        self.member_tracks: list[PublishMemberTracks] = []
         self._now_s = 0.0
 
     def declare(self, vehicle_ids: Iterable[str], now_s: float) -> None:
@@ -134,6 +137,8 @@ class EngineLoop:
                 self.commands[action.command.stamp_ns].append(action.command)
             elif isinstance(action, LetGo):
                 self.let_go.append((self._now_s, action.vehicle_ids))
+            elif isinstance(action, PublishMemberTracks):
+                self.member_tracks.append(action)
             elif isinstance(action, SubmitPlan):
                 started = self._time()
                 done = plan_at_once(self.engine, action.job, self.rng, self.planner)

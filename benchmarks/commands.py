@@ -231,6 +231,22 @@ def cmd_scale(args: argparse.Namespace) -> int:
     return _printed(report, scale, args.json)
 
 
+def cmd_federation(args: argparse.Namespace) -> int:
+    from benchmarks import federation_report
+    from benchmarks.federation import FederationConfig
+    from benchmarks.multitarget import BenchConfig
+
+    if args.kill is not None and args.kill[0] >= args.members:
+        raise UsageError(f"--kill: member {args.kill[0]} is not among the {args.members} members "
+                         f"(0..{args.members - 1}); give a member below --members")
+    config = FederationConfig(args.members, args.uavs_per_member,
+                              BenchConfig(targets=args.targets, steps=args.steps, pd=args.pd, clutter=args.clutter),
+                              args.fusion, args.kill, args.range_m)
+    report = federation_report.run_benchmark(config, runs=args.runs, seed=args.seed, central=not args.no_central,
+                                             progress=progress)
+    return _printed(report, federation_report, args.json)
+
+
 def _printed(report: dict, module, json_path) -> int:
     """Print ``module.format_report(report)``, write its JSON to ``json_path`` (a Path) if given; exit status 0."""
     print(module.format_report(report))

@@ -11,7 +11,7 @@ from benchmarks.arguments import (PLOTS_HELP, finish, non_negative_float, output
                                   positive_int, probability)
 
 __all__ = ["add_estimation", "add_urban", "add_aoa", "add_skf", "add_imm", "add_multitarget", "add_sharing",
-           "add_scale", "add_roads"]
+           "add_scale", "add_roads", "add_federation"]
 
 def add_estimation(sub: argparse._SubParsersAction) -> None:
     """Register ``gcs-bench estimation``."""
@@ -204,6 +204,39 @@ def add_roads(sub: argparse._SubParsersAction) -> None:
     roads.set_defaults(handler=run)
     finish(roads)
     roads.set_defaults(check=check)  # its own options: no --json, --plots or --scenario
+
+
+def _member_and_step(text: str) -> tuple[int, int]:
+    """``--kill M,K``: member index and decision step."""
+    parts = text.split(",")
+    if len(parts) != 2 or not all(p.strip().isdigit() for p in parts):
+        raise argparse.ArgumentTypeError(f"expected MEMBER,STEP (two non-negative integers, e.g. 1,90), got {text!r}")
+    return int(parts[0]), int(parts[1])
+
+
+def add_federation(sub: argparse._SubParsersAction) -> None:
+    """Register ``gcs-bench federation``."""
+    fed = sub.add_parser(
+        "federation", help="several daemons with their teams, sharing tracks, against one central daemon",
+        description="The city cut in one strip per member; each member's engine flies its team and publishes its "
+                    "tracks to the others, which fuse them by global id (covariance intersection). Against one "
+                    "engine flying every UAV on the same paired seeds: GOSPA, id changes per target, the steps "
+                    "with NEES inside its 95%% band, hand-over and take-up times, bytes per second per member and "
+                    "the decision time.")
+    _many_target_scene_arguments(fed)
+    fed.set_defaults(targets=6, steps=180)
+    fed.add_argument("--members", type=positive_int, default=3, help="daemons (default 3)")
+    fed.add_argument("--uavs-per-member", type=positive_int, default=3, help="UAVs per daemon (default 3)")
+    fed.add_argument("--fusion", choices=("ci", "independent"), default="ci",
+                     help="how members' tracks of one target are fused (default ci: covariance intersection)")
+    fed.add_argument("--kill", type=_member_and_step, metavar="MEMBER,STEP",
+                     help="member (0-based) that dies at this decision step")
+    fed.add_argument("--range", type=positive_float, default=1000.0, dest="range_m",
+                     help="the UAVs' sensor range, metres (default 1000: a team sees its strip, not the city)")
+    fed.add_argument("--no-central", action="store_true", help="fly the federation only")
+    fed.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
+    fed.set_defaults(handler=outputs_checked(commands.cmd_federation))
+    finish(fed)
 
 
 def _many_target_scene_arguments(parser: argparse.ArgumentParser) -> None:

@@ -222,7 +222,7 @@ class Engine:
 
     def _team_centre(self, now_s: float) -> tuple[float, float]:
         """The mean position (x, y) of the vehicles that can be planned for now; the area's centre when none can."""
-        positions = [self.registry.entries[v].position_enu_m for v in self.registry.plannable(now_s)]
+        positions = [p for v in self.registry.plannable(now_s) if (p := self.registry.entries[v].position_enu_m)]
         if not positions:
             assert self.options.federation is not None
             x_min, y_min, x_max, y_max = self.options.federation.area

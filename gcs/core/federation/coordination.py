@@ -5,8 +5,9 @@ vehicles, and the targets by global id), so they agree without a negotiation:
 
 * **area**: a target whose position lies in a member's area is that member's;
 * **handing over**: a member that holds a track on a target which has driven into another live
-  member's area keeps planning for it until that member detects it itself (its newest detection is
-  the newest of all); then the hand-over is complete and only the area's member plans for it;
+  member's area keeps planning for it until that member has it in sight itself
+  (:attr:`GlobalTarget.detected_by <gcs.core.federation.picture.GlobalTarget.detected_by>`); then the
+  hand-over is complete and only the area's member plans for it;
 * **search**: a target that no live member's area contains, or that is lost (no member holds a track
   on it), is searched for by the member whose area contains it, else by the nearest team (its
   centre to the target) that has a vehicle to spare, else by the nearest team.
@@ -50,7 +51,8 @@ class Claim:
 
 
 def _inside(area: Area, xy: NDArray[np.float64]) -> bool:
-    return area[0] <= xy[0] < area[2] and area[1] <= xy[1] < area[3]
+    x, y = float(xy[0]), float(xy[1])
+    return area[0] <= x < area[2] and area[1] <= y < area[3]
 
 
 def area_owner(teams: Mapping[str, Team], xy: NDArray[np.float64]) -> str | None:

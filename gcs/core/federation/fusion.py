@@ -47,11 +47,13 @@ def predict_to(motion: LinearMotionModel, mean: NDArray[np.float64], cov: NDArra
     if to_ns <= from_ns:
         return mean, cov
     f, q = motion.matrices((to_ns - from_ns) / NS_PER_S)
-    return f @ mean, f @ cov @ f.T + q
+    predicted_mean: NDArray[np.float64] = f @ mean
+    predicted_cov: NDArray[np.float64] = f @ cov @ f.T + q
+    return predicted_mean, predicted_cov
 
 
 def _information(cov: NDArray[np.float64]) -> NDArray[np.float64]:
-    return np.linalg.inv(cov)
+    return np.asarray(np.linalg.inv(cov), dtype=np.float64)
 
 
 def _intersect_two(mean_a: NDArray[np.float64], cov_a: NDArray[np.float64], mean_b: NDArray[np.float64],

@@ -10,7 +10,9 @@ picture of that stamp:
   by default, :mod:`gcs.core.federation.fusion`): a :class:`GlobalTarget` each;
 * the **lost** targets: a global id that some member held and none holds any more (its holder deleted
   the track, or died) is kept, predicted on, and searched for until :attr:`FederatedPicture.forget_s`
-  after its last detection; it is no longer lost once a member names a track after it.
+  after its last detection; it is no longer lost once a member names a track after it. A global id
+  that went because its holder took an older name for the same car (its last estimate gates with a
+  target held now) is not lost.
 
 A member whose liveliness token is withdrawn, or that has published nothing for :data:`SILENT_S`,
 is gone: its tracks leave the picture at once and their targets become lost targets, for the others
@@ -19,7 +21,7 @@ to take up.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -28,6 +30,7 @@ from numpy.typing import NDArray
 from gcs.core.federation.fusion import FusionRule, covariance_intersection, predict_to
 from gcs.core.federation.global_ids import GlobalName, GlobalNames, KnownTarget
 from gcs.core.models.motion import LinearMotionModel
+from gcs.core.multitarget.gating import gate_threshold
 from protocols.federation import MemberTracks
 
 __all__ = ["SILENT_S", "GlobalTarget", "OwnTracks", "Picture", "FederatedPicture"]
@@ -35,6 +38,12 @@ __all__ = ["SILENT_S", "GlobalTarget", "OwnTracks", "Picture", "FederatedPicture
 NS_PER_S = 1_000_000_000
 SILENT_S = 3.0
 """A member that has published nothing for this long (data time) is taken as gone, token or not."""
+RECENT_DETECTION_S = 2.0
+"""A holder whose newest detection of a target is this close to the newest of all has it in sight (others' messages
+arrive a step late, so their detections look one step older than the member's own)."""
+MERGED_PROBABILITY = 0.999
+"""A global id that is no longer held, whose last estimate gates with a target held now (2 degrees of freedom), was
+renamed to it (:mod:`~gcs.core.federation.global_ids`, rule 4), not lost."""
 
 
 @dataclass(frozen=True)
@@ -55,7 +64,8 @@ class OwnTracks:
 @dataclass(frozen=True)
 class GlobalTarget:
     """One target of the picture: its name, fused (or, lost, predicted) estimate, the members holding a track on it
-    (empty when lost), those whose own newest detection of it is the newest of all, and that detection's stamp."""
+    (empty when lost), the newest detection's stamp, and the holders that have it in sight (their newest detection
+    within :data:`RECENT_DETECTION_S` of that)."""
 
     name: GlobalName
     mean: NDArray[np.float64]
@@ -73,6 +83,17 @@ class Picture:
     targets: tuple[GlobalTarget, ...]
     lost: tuple[GlobalTarget, ...]
     own_names: Mapping[int, GlobalName]
+
+
+@dataclass(frozen=True)
+class _Held:
+    """One member's track on a global id, at the picture's stamp."""
+
+    member: str
+    mean: NDArray[np.float64]
+    cov: NDArray[np.float64]
+    detected_ns: int
+    name: GlobalName
 
 
 @dataclass
@@ -101,6 +122,7 @@ class FederatedPicture:
 
     def __post_init__(self) -> None:
         self.names = GlobalNames(self.member_id)
+        self._merge_gate = gate_threshold(MERGED_PROBABILITY, 2)
 
     def heard(self, message: MemberTracks) -> bool:
         """Take another member's message; False (ignored) when it is this member's own or older than the one held."""
@@ -125,49 +147,62 @@ class FederatedPicture:
 
     def update(self, stamp_ns: int, own: OwnTracks) -> Picture:
         """The picture at ``stamp_ns`` with the member's own confirmed tracks ``own`` (module docstring)."""
-        held: dict[str, list[tuple[str, NDArray[np.float64], NDArray[np.float64], int, GlobalName]]] = {}
+        held: dict[str, list[_Held]] = {}
         for member_id, message in sorted(self.present(stamp_ns).items()):
             for track in message.tracks:
                 mean, cov = predict_to(self.motion, np.array(track.state), np.array(track.covariance).reshape(4, 4),
                                        track.stamp_ns, stamp_ns)
                 held.setdefault(track.global_id, []).append(
-                    (member_id, mean, cov, track.detected_ns, GlobalName(track.global_id, track.born_ns)))
-        known = [KnownTarget(rows[0][4], *self._fused_position(rows), held=True) for rows in held.values()]
-        for gid, lost in sorted(self._lost.items()):
+                    _Held(member_id, mean, cov, track.detected_ns, GlobalName(track.global_id, track.born_ns)))
+        known = [KnownTarget(rows[0].name, *self._fused_position(rows), held=True) for rows in held.values()]
+        for gid, gone in sorted(self._lost.items()):
             if gid not in held:
-                mean, cov = self._lost_at(lost, stamp_ns)
-                known.append(KnownTarget(lost.name, mean[:2], cov[:2, :2], held=False))
+                mean, cov = self._lost_at(gone, stamp_ns)
+                known.append(KnownTarget(gone.name, mean[:2], cov[:2, :2], held=False))
         names = self.names.assign(stamp_ns, own.ids.tolist(), own.means[:, :2], own.covs[:, :2, :2], known)
         for row, track_id in enumerate(own.ids.tolist()):
             name = names[int(track_id)]
             held.setdefault(name.global_id, []).append(
-                (self.member_id, own.means[row], own.covs[row], int(own.detected_ns[row]), name))
+                _Held(self.member_id, own.means[row], own.covs[row], int(own.detected_ns[row]), name))
         targets = tuple(self._target(gid, rows) for gid, rows in sorted(held.items()))
         self._mark_lost({t.name.global_id: t for t in targets}, stamp_ns)
-        lost = tuple(GlobalTarget(lost.name, *self._lost_at(lost, stamp_ns), holders=(), detected_ns=lost.detected_ns)
-                     for _, lost in sorted(self._lost.items()))
+        lost = tuple(GlobalTarget(gone.name, *self._lost_at(gone, stamp_ns), holders=(), detected_ns=gone.detected_ns)
+                     for _, gone in sorted(self._lost.items()))
         return Picture(stamp_ns, targets, lost, names)
 
-    def _fused_position(self, rows: Sequence) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        mean, cov = self.fusion(np.array([r[1] for r in rows]), np.array([r[2] for r in rows]))
+    def _fuse(self, rows: Sequence[_Held]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        return self.fusion(np.array([r.mean for r in rows]), np.array([r.cov for r in rows]))
+
+    def _fused_position(self, rows: Sequence[_Held]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        mean, cov = self._fuse(rows)
         return mean[:2], cov[:2, :2]
 
-    def _target(self, gid: str, rows: Sequence) -> GlobalTarget:
-        mean, cov = self.fusion(np.array([r[1] for r in rows]), np.array([r[2] for r in rows]))
-        newest = max(r[3] for r in rows)
-        name = min((r[4] for r in rows), key=lambda n: (n.born_ns, n.global_id))
-        return GlobalTarget(GlobalName(gid, name.born_ns), mean, cov, tuple(sorted({r[0] for r in rows})), newest,
-                            tuple(sorted({r[0] for r in rows if r[3] == newest})))
+    def _target(self, gid: str, rows: Sequence[_Held]) -> GlobalTarget:
+        mean, cov = self._fuse(rows)
+        newest = max(r.detected_ns for r in rows)
+        name = min((r.name for r in rows), key=lambda n: (n.born_ns, n.global_id))
+        recent = newest - RECENT_DETECTION_S * NS_PER_S
+        return GlobalTarget(GlobalName(gid, name.born_ns), mean, cov, tuple(sorted({r.member for r in rows})), newest,
+                            tuple(sorted({r.member for r in rows if r.detected_ns >= recent})))
 
     def _lost_at(self, lost: _Lost, stamp_ns: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         return predict_to(self.motion, lost.mean, lost.cov, lost.stamp_ns, stamp_ns)
 
     def _mark_lost(self, targets: dict[str, GlobalTarget], stamp_ns: int) -> None:
-        """Held before and not now: lost; lost and held again: found; lost too long: forgotten."""
+        """Held before and not now: lost, unless it gates with a target held now (renamed); lost and held again:
+        found; lost too long: forgotten."""
         for gid, before in self._held.items():
-            if gid not in targets:
+            if gid not in targets and not self._merged(before, targets.values(), stamp_ns):
                 self._lost[gid] = _Lost(before.name, before.mean, before.cov, self._held_stamp_ns, before.detected_ns)
         for gid in list(self._lost):
             if gid in targets or stamp_ns - self._lost[gid].detected_ns > self.forget_s * NS_PER_S:
                 del self._lost[gid]
         self._held, self._held_stamp_ns = targets, stamp_ns
+
+    def _merged(self, gone: GlobalTarget, held: Iterable[GlobalTarget], stamp_ns: int) -> bool:
+        mean, cov = predict_to(self.motion, gone.mean, gone.cov, self._held_stamp_ns, stamp_ns)
+        for target in held:
+            delta = mean[:2] - target.mean[:2]
+            if float(delta @ np.linalg.solve(cov[:2, :2] + target.cov[:2, :2], delta)) < self._merge_gate:
+                return True
+        return False
