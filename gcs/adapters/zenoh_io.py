@@ -9,6 +9,14 @@ senders: nothing is dropped. The daemon's loop drains the channels, stamps the
 receive time, decodes and validates. Queries (``gcs/track/*``,
 ``gcs/daemon/status``) are taken from the queryables' channels by the loop too,
 and answered from the latest published payloads.
+
+A member of a federation of daemons (``federation=(prefix, member_id)``) also subscribes to every
+member's tracks (``<federation>/federation/*/tracks``) and liveliness (``.../*/alive``, with the
+tokens already declared), delivered like the rest; holds its own liveliness token on
+``<federation>/federation/<member>/alive`` while the session is open; publishes its
+:class:`~protocols.federation.MemberTracks` on ``<federation>/federation/<member>/tracks``, and
+answers queries there with the latest (``gcs status --federation``). Its own messages come back
+through its subscription: the engine ignores its own member id.
 """
 
 from __future__ import annotations
@@ -23,9 +31,10 @@ import zenoh
 
 from gcs.adapters.zenoh_session import ZenohSettings, declare_publisher, open_session
 from protocols.codec import encode
-from protocols.keys import (alive_selector, navs_selector, plan_key, reports_selector, scenarios_selector, status_key,
-                            track_key, tracks_selector, truth_selector)
-from protocols.messages import DaemonStatus, Message, PlanCommand, TrackEstimate
+from protocols.keys import (alive_selector, member_alive_key, member_alive_selector, member_tracks_key,
+                            member_tracks_selector, navs_selector, plan_key, reports_selector, scenarios_selector,
+                            status_key, track_key, tracks_selector, truth_selector)
+from protocols.messages import DaemonStatus, MemberTracks, Message, PlanCommand, TrackEstimate
 
 __all__ = ["Received", "ZenohIO", "INBOX_CAPACITY"]
 
@@ -49,19 +58,26 @@ class Received:
 
 
 class ZenohIO:
-    """Subscriptions to reports, nav, truth, scenarios and liveliness; publications of tracks, plans and status."""
+    """Subscriptions to reports, nav, truth, scenarios and liveliness; publications of tracks, plans and status
+    (and a federation member's, module docstring)."""
 
     def __init__(self, settings: ZenohSettings, prefix: str = "gcs",
                  clock_ns: Callable[[], int] = time.time_ns,
-                 tap: Callable[[str, bytes, str, int], None] | None = None) -> None:
-        """``tap(key, payload, encoding, time_ns)`` sees every message this side publishes (for recording)."""
+                 tap: Callable[[str, bytes, str, int], None] | None = None,
+                 federation: tuple[str, str] | None = None) -> None:
+        """``tap(key, payload, encoding, time_ns)`` sees every message this side publishes (for recording);
+        ``federation``: the federation's prefix and this member's id, or None."""
         self.settings, self.prefix, self.clock_ns, self.tap = settings, prefix, clock_ns, tap
+        self.federation = federation
+        self._member_key = None if federation is None else member_tracks_key(federation[1], federation[0])
         self.session: zenoh.Session | None = None
         self._entities: list = []
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._latest: dict[str, tuple[bytes, str]] = {}
         self._samples: list = []
         self._liveliness: zenoh.Subscriber[zenoh.handlers.Handler[zenoh.Sample]] | None = None
+        self._member_liveliness: zenoh.Subscriber[zenoh.handlers.Handler[zenoh.Sample]] | None = None
+        self._member_queries: zenoh.Queryable | None = None
         self._held: list[Received] = []
 
     def open(self) -> zenoh.Session:
@@ -75,7 +91,19 @@ class ZenohIO:
         self._tracks = self.session.declare_queryable(tracks_selector(self.prefix))
         self._status = self.session.declare_queryable(status_key(self.prefix))
         self._entities += [*self._samples, self._liveliness, self._tracks, self._status]
+        if self.federation is not None:
+            self._join_federation(session, *self.federation)
         return session
+
+    def _join_federation(self, session: zenoh.Session, prefix: str, member_id: str) -> None:
+        """Subscribe to the members' tracks and liveliness, declare this member's token and tracks' queryable."""
+        tracks = session.declare_subscriber(member_tracks_selector(prefix), zenoh.handlers.FifoChannel(INBOX_CAPACITY))
+        self._samples.append(tracks)
+        self._member_liveliness = session.liveliness().declare_subscriber(
+            member_alive_selector(prefix), zenoh.handlers.FifoChannel(INBOX_CAPACITY), history=True)
+        self._member_queries = session.declare_queryable(member_tracks_key(member_id, prefix))
+        token = session.liveliness().declare_token(member_alive_key(member_id, prefix))
+        self._entities += [tracks, self._member_liveliness, self._member_queries, token]
 
     def wait(self, timeout_s: float, until: Callable[[], bool] | None = None) -> bool:
         """Wait until something is received, ``until()`` (if given) is true, or ``timeout_s`` passes
@@ -99,9 +127,10 @@ class ZenohIO:
         if self.session is None or self._liveliness is None:
             return out
         now = self.clock_ns()
-        while len(out) < limit and (sample := self._liveliness.try_recv()) is not None:
-            out.append(Received("alive" if sample.kind == zenoh.SampleKind.PUT else "gone", str(sample.key_expr),
-                                b"", "", now))
+        for liveliness in (self._liveliness, self._member_liveliness):
+            while liveliness is not None and len(out) < limit and (sample := liveliness.try_recv()) is not None:
+                out.append(Received("alive" if sample.kind == zenoh.SampleKind.PUT else "gone", str(sample.key_expr),
+                                    b"", "", now))
         for subscriber in self._samples:
             while len(out) < limit and (sample := subscriber.try_recv()) is not None:
                 out.append(Received("sample", str(sample.key_expr), sample.payload.to_bytes(), str(sample.encoding),
@@ -139,6 +168,12 @@ class ZenohIO:
         """Publish on ``<prefix>/plan/<vehicle>``."""
         self._put(plan_key(plan.vehicle_id, self.prefix), plan)
 
+    def publish_member_tracks(self, message: MemberTracks) -> None:
+        """Publish on ``<federation>/federation/<member>/tracks`` and keep it for queries."""
+        if self._member_key is None:
+            raise RuntimeError("cannot publish member tracks: this daemon is not a member of a federation")
+        self._put(self._member_key, message)
+
     def publish_status(self, status: DaemonStatus) -> None:
         """Publish on ``<prefix>/daemon/status`` and keep it for queries."""
         self._put(status_key(self.prefix), status)
@@ -164,6 +199,12 @@ class ZenohIO:
                 query.reply(key, latest[0], encoding=zenoh.Encoding(latest[1]))
             query.drop()
             answered += 1
+        while self._member_queries is not None and (query := self._member_queries.try_recv()) is not None:
+            latest = self._latest.get(self._member_key or "")
+            if latest is not None and self._member_key is not None:
+                query.reply(self._member_key, latest[0], encoding=zenoh.Encoding(latest[1]))
+            query.drop()
+            answered += 1
         return answered
 
     def close(self) -> None:
@@ -174,7 +215,7 @@ class ZenohIO:
             except zenoh.ZError as error:  # already gone with a broken session
                 log.debug("undeclare failed: %s", error)
         self._entities.clear()
-        self._samples, self._liveliness = [], None
+        self._samples, self._liveliness, self._member_liveliness, self._member_queries = [], None, None, None
         self._publishers.clear()
         if self.session is not None:
             self.session.close()

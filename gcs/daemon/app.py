@@ -14,7 +14,8 @@ fusion, what to plan and when, finished plans, the hand-back on a lost target), 
 3. hand the plans the planner finished to the engine (:class:`~gcs.engine.events.PlanDone`),
    several times a pass so that a plan waits little, and tell it when the planner is free
    (:class:`~gcs.engine.events.PlannerFree`): it answers with the job to plan;
-4. carry out the engine's actions: publish tracks and plans, submit jobs, give vehicles back;
+4. carry out the engine's actions: publish tracks and plans (and, a member of a federation, its member
+   tracks), submit jobs, give vehicles back;
 5. steer every vehicle along the path the engine gives it from its latest MAVLink telemetry,
    :data:`STEER_RATE_HZ` times a second of vehicle time (:meth:`Daemon._steer`,
    :mod:`gcs.core.steering`), and let the commander send what is due (GCS heartbeat,
@@ -50,8 +51,8 @@ from gcs.daemon.plan_runners import PlanRunner
 from gcs.daemon.plan_runner_start import start_plan_runner
 from gcs.daemon.steering import steer_along_paths
 from gcs.engine.engine import ALIVE_REFRESH_S, Engine, EngineOptions
-from gcs.engine.events import (Action, Arrived, Heartbeat, LetGo, Observed, PlanDone, PlannerFree, PublishPlan,
-                               PublishTrack, RetireTrack, SubmitPlan, Tick)
+from gcs.engine.events import (Action, Arrived, Heartbeat, LetGo, Observed, PlanDone, PlannerFree,
+                               PublishMemberTracks, PublishPlan, PublishTrack, RetireTrack, SubmitPlan, Tick)
 from gcs.engine.memory import MIN_PLAN_INTERVAL_S, PLAN_INTERVAL_PER_VEHICLE_S, STEER_RATE_HZ, plan_interval_s
 from gcs.engine.records import PlanRecord, StepRecord
 from protocols.keys import alive_key
@@ -78,10 +79,12 @@ class Daemon:
         self.engine = Engine(scenario, world, EngineOptions(
             prefix=options.prefix, accept_unlisted=options.accept_unlisted, navigation=options.navigation,
             max_wait_s=options.max_wait_s, planner=options.planner, plan_fraction=options.plan_fraction,
-            handback_after_lost_s=options.handback_after_lost_s), on_step=on_step, on_plan=on_plan)
+            handback_after_lost_s=options.handback_after_lost_s, federation=options.federation),
+            on_step=on_step, on_plan=on_plan)
         self.course_loops = {v.id: course_loop(scenario.autopilot_for(v)) for v in scenario.vehicles}
         self.recorder: Recorder | None = None
-        self.zenoh = ZenohIO(options.zenoh, options.prefix, tap=self._record_published)
+        self.zenoh = ZenohIO(options.zenoh, options.prefix, tap=self._record_published, federation=(
+            None if options.federation is None else (options.federation.prefix, options.federation.member_id)))
         self.commander: MavlinkCommander | None = None
         self.plan_runner: PlanRunner | None = None
         self._heard: dict[str, float | None] = {}
@@ -319,6 +322,8 @@ class Daemon:
                 self.zenoh.retire_track(action.target_id)
             elif isinstance(action, PublishPlan):
                 self.zenoh.publish_plan(action.command)
+            elif isinstance(action, PublishMemberTracks):
+                self.zenoh.publish_member_tracks(action.message)
             elif isinstance(action, Observed):
                 if self.live is not None:
                     self.live.observe(action.message)

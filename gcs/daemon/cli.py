@@ -8,7 +8,8 @@ import logging
 import sys
 from pathlib import Path
 
-from gcs.adapters.engine_cli import add_acceptance_arguments, add_navigation_argument
+from gcs.adapters.engine_cli import (add_acceptance_arguments, add_federation_arguments, add_navigation_argument,
+                                     federation_options)
 from gcs.adapters.foxglove_out import FoxgloveMissing, add_foxglove_arguments, foxglove_options
 from gcs.adapters.mavlink_cli import add_mavlink_arguments, connections_from_arguments, signing_key_from_arguments
 from gcs.adapters.web import add_http_argument
@@ -104,6 +105,7 @@ def add_run(sub: argparse._SubParsersAction) -> None:
     add_daemon_arguments(parser)
     add_mavlink_arguments(parser, DEFAULT_GCS_MAVLINK, "every vehicle is reached through")
     add_zenoh_arguments(parser, listen=(DEFAULT_ENDPOINT,), connect=())
+    add_federation_arguments(parser)
     set_command(parser, _cmd_run, check_run)
 
 
@@ -119,6 +121,7 @@ def build_daemon(args: argparse.Namespace, **kwargs) -> Daemon:
     except ProtocolError as error:
         raise UsageError(f"--prefix: {error}") from None
     writable_file(args.record, "--record")
+    federation = federation_options(args, scenario.multitarget is not None, scenario.name)
     try:
         zenoh = required_settings(args, "the daemon")
         mavlink = connections_from_arguments(args, [v.id for v in scenario.vehicles])
@@ -128,7 +131,7 @@ def build_daemon(args: argparse.Namespace, **kwargs) -> Daemon:
                                 plan_process_niceness=args.plan_process_niceness, http=args.http,
                                 foxglove=foxglove_options(args), accept_unlisted=args.accept_unlisted,
                                 max_wait_s=positive(args.max_wait, "--max-wait"),
-                                navigation=args.navigation, **_control_options(args))
+                                navigation=args.navigation, federation=federation, **_control_options(args))
     except (ValueError, FoxgloveMissing) as error:
         raise UsageError(error) from None
     base_dir = scenario_base_dir(args.scenario)

@@ -1,7 +1,7 @@
 """How to run the daemon (:class:`DaemonOptions`): the composition root's frozen configuration of :mod:`gcs.daemon.app`.
 
 The options that change what the engine decides (``accept_unlisted``, ``navigation``,
-``max_wait_s``, ``planner``, ``plan_fraction``, ``handback_after_lost_s``) go to its
+``max_wait_s``, ``planner``, ``plan_fraction``, ``handback_after_lost_s``, ``federation``) go to its
 :class:`~gcs.engine.engine.EngineOptions`; ``gcs replay --process`` takes the same flags.
 """
 
@@ -15,6 +15,7 @@ from gcs.adapters.mavlink_commands import DEFAULT_STREAM_RATE_HZ
 from gcs.adapters.mavlink_takeover import Takeover
 from gcs.adapters.zenoh_session import ZenohSettings
 from gcs.daemon.plan_runners import PLAN_PROCESS_NICENESS
+from gcs.engine.federation import FederationOptions
 
 __all__ = ["DaemonOptions"]
 
@@ -75,6 +76,10 @@ class DaemonOptions:
         ``reported`` takes the ``SensorReport``'s own position as exact; ``auto`` (the default) is
         ``skf`` for a scenario with GPS-denied zones, else ``reported``
         (:func:`gcs.engine.navigation.navigator_for`).
+    federation : FederationOptions or None
+        The daemon is one member of a federation of daemons (``--federation``, ``--member``, ``--area``;
+        :mod:`gcs.engine.federation`): it publishes its member tracks and liveliness token under the
+        federation's prefix and takes in the other members'.
     """
 
     zenoh: ZenohSettings
@@ -95,3 +100,4 @@ class DaemonOptions:
     stream_rate_hz: float = DEFAULT_STREAM_RATE_HZ
     takeover: Takeover = Takeover()
     handback_after_lost_s: float = 60.0
+    federation: FederationOptions | None = None

@@ -41,6 +41,10 @@ COUNTERS: dict[str, str] = {
     "errors.planning": "plans that failed on a bug (logged); the vehicles keep the previous plan",
     "errors.ingest": "received items whose handling failed on a bug (logged); the daemon went on",
     "errors.live_map_open": "the live map could not open (its port held?); the vehicles fly without it",
+    # a federation of daemons (gcs run --federation)
+    "federation.heard": "other members' MemberTracks taken into the federation's picture (newer than the one held)",
+    "federation.joined": "other members' liveliness tokens seen declared (a member joined, or was there already)",
+    "federation.left": "other members' liveliness tokens withdrawn: their tracks leave the picture",
     # MAVLink, per daemon (summed over the vehicles)
     "mavlink.sent": "MAVLink messages sent, of every kind",
     "mavlink.received": "MAVLink messages received from the scenario's vehicles",
@@ -100,6 +104,7 @@ REJECTIONS: dict[str, str] = {
     "late_nav": "a navigation report older than the step already fused",
     "nav_update": "a navigation report the vehicle's filter could not apply",
     "diverged": "a decision step not fused because its result was absurd (the previous estimate stands)",
+    "federation": "a federation member's message that does not decode, or names another member than its key",
 }
 """The reasons of the ``rejected.`` counters."""
 

@@ -23,6 +23,10 @@ token withdrawn: after everything it published), and the scenario the vehicles a
 been heard after :data:`QUIET_NOTICE_S` it says where it waits for them. A
 recording that ends without any vehicle report is a warning and exit status 1
 unless ``--allow-empty``. SIGINT/SIGTERM (or ``--duration``) finish the file.
+
+``--federation PREFIX`` also records a federation of daemons' messages and members'
+liveliness (``PREFIX/federation/**``), which ``gcs replay --process --federation`` feeds
+back to a member's engine.
 """
 
 from __future__ import annotations
@@ -72,6 +76,9 @@ def add_record(sub: argparse._SubParsersAction) -> None:
     parser.add_argument("--duration", type=float, default=None, metavar="S", help="stop after S wall seconds")
     parser.add_argument("--allow-empty", action="store_true",
                         help="exit 0 even when no vehicle report was recorded (default: a warning and exit status 1)")
+    parser.add_argument("--federation", metavar="PREFIX", default=None,
+                        help="also record the federation of daemons under this prefix (its members' tracks and "
+                             "liveliness, PREFIX/federation/**)")
     add_zenoh_arguments(parser, listen=(), connect=(DEFAULT_ENDPOINT,), mode="client",
                         mode_help="client, or router where it listens")
     set_command(parser, _cmd_record, check_record)
@@ -91,10 +98,12 @@ def check_record(args: argparse.Namespace) -> RecordSettings:
     """``gcs record``'s input, checked: where it records (see the module docstring)."""
     writable_file(args.output, "--output")
     positive(args.duration, "--duration")
-    try:
-        validate_prefix(args.prefix)
-    except ProtocolError as error:
-        raise UsageError(f"--prefix: {error}") from None
+    for option, prefix in (("--prefix", args.prefix), ("--federation", args.federation)):
+        try:
+            if prefix is not None:
+                validate_prefix(prefix)
+        except ProtocolError as error:
+            raise UsageError(f"{option}: {error}") from None
     if args.zenoh_listen:
         args.zenoh_default_mode = "router"  # the meeting point: whoever connects hears everyone through it
         if args.zenoh_connect is None:
@@ -201,8 +210,9 @@ def _where(settings: ZenohSettings, listening: list[str]) -> str:
 
 
 def record(where: RecordSettings, prefix: str, output: Path, stop: threading.Event,
-           duration_s: float | None = None, announce=print) -> Recording:
-    """Record until ``stop`` (or ``duration_s`` of wall time); what the recording holds.
+           duration_s: float | None = None, announce=print, federation: str | None = None) -> Recording:
+    """Record until ``stop`` (or ``duration_s`` of wall time); what the recording holds (with ``federation``, the
+    federation's keys under that prefix too).
 
     ``announce`` gets one line once the session is open (what is recorded where, with the endpoints it
     listens on, a port of 0 read back), and one as each vehicle is first heard, as one leaves, and as the
@@ -215,17 +225,20 @@ def record(where: RecordSettings, prefix: str, output: Path, stop: threading.Eve
     tally = _Tally(prefix, recorder, announce)
     try:
         session, settings = _open(where)
+        inside = federation is None or f"{federation}/".startswith(f"{prefix}/")  # already under prefix/**
+        selectors = [f"{prefix}/**"] + ([] if inside else [f"{federation}/federation/**"])
         with session:
-            session.declare_subscriber(f"{prefix}/**", lambda s: inbox.put(
-                (str(s.key_expr), s.payload.to_bytes(), str(s.encoding), time.time_ns())))
-            session.liveliness().declare_subscriber(f"{prefix}/**", lambda s: inbox.put(
-                (str(s.key_expr), s.kind == zenoh.SampleKind.PUT, None, time.time_ns())), history=True)
+            for selector in selectors:
+                session.declare_subscriber(selector, lambda s: inbox.put(
+                    (str(s.key_expr), s.payload.to_bytes(), str(s.encoding), time.time_ns())))
+                session.liveliness().declare_subscriber(selector, lambda s: inbox.put(
+                    (str(s.key_expr), s.kind == zenoh.SampleKind.PUT, None, time.time_ns())), history=True)
             listening = listening_endpoints(session) if any(e.endswith(":0") for e in settings.listen) \
                 else list(settings.listen)
             found = (" (nobody listened there: the vehicles connect here)" if where.find and listening
                      else " (the daemon or router there forwards everything)" if where.find else "")
-            announce(f"recording {prefix}/** to {output} as a zenoh {settings.mode}; {_where(settings, listening)}"
-                     + found)
+            announce(f"recording {' and '.join(selectors)} to {output} as a zenoh {settings.mode}; "
+                     f"{_where(settings, listening)}" + found)
             noticed = False
             while not stop.is_set() and (deadline is None or time.monotonic() < deadline):
                 _drain(inbox, recorder, tally, timeout=0.1)
@@ -263,7 +276,7 @@ def _cmd_record(args: argparse.Namespace) -> int:
     stop_on_signals(stop.set)
     try:
         held = record(where, args.prefix, args.output, stop, args.duration,
-                      announce=lambda line: print(line, flush=True))
+                      announce=lambda line: print(line, flush=True), federation=args.federation)
     except (RuntimeError, OSError) as error:
         print(f"gcs record: error: {one_line(error)}", file=sys.stderr)
         return 1

@@ -16,7 +16,9 @@ processed, or fed back (the command line is :mod:`gcs.recordings.replay_cli`).
   run (``--navigation``, ``--accept-unlisted``, ``--max-wait``, the scenario's roster),
   so a recording of a live run gives back the daemon's tracks bit for bit,
   provided no report or nav report was late in the live run (the daemon's
-  ``rejected.late`` and ``rejected.late_nav`` counters are zero).
+  ``rejected.late`` and ``rejected.late_nav`` counters are zero). With the run's
+  ``--federation``, ``--member`` and ``--area``, the federation's messages and members'
+  liveliness recorded beside them are fed to the engine too.
 """
 
 from __future__ import annotations
@@ -43,6 +45,7 @@ from gcs.engine.records import GOSPA_CUTOFF_M
 from gcs.engine.steps import HOLD_WAITS
 from gcs.engine.engine import Engine, EngineOptions
 from gcs.engine.events import Arrived, Heartbeat, PlannerFree, PublishPlan, PublishTrack, SubmitPlan, Tick
+from gcs.engine.federation import FederationOptions
 from gcs.engine.plan_at_once import plan_at_once
 from gcs.recordings.keys import INPUT_KINDS, VEHICLE_KINDS, key_kind, prefix_of
 from gcs.recordings.recorded_scenario import ScenarioFinder
@@ -94,7 +97,8 @@ def summarise(path: Path) -> dict:
 
 def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world: World | None = None,
             seed: int = 0, navigation: str = "auto", accept_unlisted: bool = False, max_wait_s: float = 0.5,
-            planner: str | None = None, plan: bool = True) -> tuple[list[TrackEstimate], list[PlanCommand], Counter]:
+            planner: str | None = None, plan: bool = True,
+            federation: FederationOptions | None = None) -> tuple[list[TrackEstimate], list[PlanCommand], Counter]:
     """The daemon's engine (:class:`~gcs.engine.engine.Engine`) on a recording: its tracks, plans and counters.
 
     The recorded inputs go to the same engine as live, in recorded order, each with its recorded
@@ -110,6 +114,10 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
     plans at once, with ``seed``, to the end of every generation (no deadline), so the plans are
     reproducible; the daemon's own plans stop at its deadline.
 
+    ``federation`` (``--federation``, ``--member``, ``--area``) makes the engine the member it was live: the
+    recorded members' tracks and liveliness under the federation's prefix are fed to it as they came (without
+    it they are left out).
+
     ``plan`` False fuses without planning, even with a world. A ``[multitarget]`` scenario needs its
     world to fuse (which tracks a sensor covered, past the buildings), and so does the road tracker
     (the road graph, and the sight table of its negative information): without one given, it is
@@ -122,7 +130,7 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
         world = build_world(scenario)
     engine = Engine(scenario, world, EngineOptions(prefix=prefix, accept_unlisted=accept_unlisted,
                                                    navigation=navigation, max_wait_s=max_wait_s, planner=planner,
-                                                   plan_every_step=True))
+                                                   plan_every_step=True, federation=federation))
     rng = np.random.default_rng(seed)
     tracks: list[TrackEstimate] = []
     plans: list[PlanCommand] = []
@@ -147,18 +155,21 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
                 return
             tick = Tick(now, timeouts=False, max_steps=1)
 
+    federated = ("member", "member_alive") if federation is not None else ()
     now = 0.0
     for record in read_recording(path):
         kind, ident = key_kind(record.key)
+        if kind in federated and federation is not None and prefix_of(record.key) != federation.prefix:
+            continue  # another federation's
         now = record.log_time_ns / NS_PER_S
-        if kind in ("alive", "report", "nav", "truth"):
+        if kind in ("alive", "report", "nav", "truth", *federated):
             release(now)  # what timed out before it came in: the live loop, idle, released it before
         if kind == "alive" and record.encoding == HEARTBEAT_ENCODING and ident is not None:
             engine.feed(Heartbeat(ident, now))
-        elif kind == "alive" and record.encoding == LIVELINESS_ENCODING:  # as the daemon's registry saw it
+        elif kind in ("alive", *federated) and record.encoding == LIVELINESS_ENCODING:  # as the daemon saw it
             engine.feed(Arrived("alive" if record.payload == b"alive" else "gone", record.key, b"", "",
                                 record.log_time_ns, now))
-        elif kind in ("report", "nav", "truth"):
+        elif kind in ("report", "nav", "truth", *federated):
             engine.feed(Arrived("sample", record.key, record.payload, record.encoding, record.log_time_ns, now))
         else:
             continue  # the daemon's own outputs

@@ -16,7 +16,8 @@ from gcs.adapters.web import add_http_argument
 from gcs.adapters.zenoh_session import DEFAULT_ENDPOINT, ZenohSettings, add_zenoh_arguments, required_settings
 from gcs.cli_errors import UsageError, existing_file, one_line, positive, set_command, stop_on_signals, writable_file
 from gcs.config.world import build_world
-from gcs.adapters.engine_cli import add_acceptance_arguments, add_navigation_argument
+from gcs.adapters.engine_cli import (add_acceptance_arguments, add_federation_arguments, add_navigation_argument,
+                                     federation_options)
 from gcs.recordings.recorded_scenario import recording_contents, replay_scenario
 from gcs.recordings.replay import (NS_PER_S, needs_world, process, republish, summarise, truth_error, truth_gospa,
                                     write_outputs)
@@ -56,6 +57,7 @@ def add_replay(sub: argparse._SubParsersAction) -> None:
     parser.add_argument("--seed", type=int, default=0, help="--process --plan: the planner's seed (default 0)")
     add_navigation_argument(parser)
     add_acceptance_arguments(parser, "--process: ")
+    add_federation_arguments(parser, "--process: ")
     parser.add_argument("--json", action="store_true", help="--info: print JSON")
     parser.add_argument("--view", action="store_true",
                         help="show the recording on the live map (play/pause, speed; --rate is the starting speed, "
@@ -81,6 +83,8 @@ def check_replay(args: argparse.Namespace) -> ZenohSettings | None:
         raise UsageError("--foxglove serves a replay live: add --view (or write a file with --foxglove-mcap)")
     if args.view and args.http is None and args.foxglove is None:
         raise UsageError("--view needs --http ADDRESS (or --foxglove ADDRESS)")
+    if args.federation is not None and not args.process:
+        raise UsageError("--federation replays a federation member's engine: add --process")
     if not args.fast:
         positive(args.rate, "--rate")
     positive(args.max_wait, "--max-wait")
@@ -101,7 +105,8 @@ def check_replay(args: argparse.Namespace) -> ZenohSettings | None:
         if args.process and not args.recorded.has_report:
             return None  # nothing to process: said as the command runs
         args.scenario = replay_scenario(args.file, args.scenario, args.recorded.scenario)
-        load_scenario(args.scenario)
+        scenario = load_scenario(args.scenario)
+        args.federation_options = federation_options(args, scenario.multitarget is not None, scenario.name)
     if shown or args.info or args.process:
         return None
     try:
@@ -155,7 +160,8 @@ def _process(args: argparse.Namespace) -> None:
     scenario = load_scenario(args.scenario)
     world = build_world(scenario, scenario_base_dir(args.scenario)) if args.plan or needs_world(scenario) else None
     tracks, plans, counters = process(args.file, scenario, args.prefix, world, args.seed, args.navigation,
-                                      accept_unlisted=args.accept_unlisted, max_wait_s=args.max_wait, plan=args.plan)
+                                      accept_unlisted=args.accept_unlisted, max_wait_s=args.max_wait, plan=args.plan,
+                                      federation=args.federation_options)
     if args.out is not None:
         write_outputs(tracks, plans, args.out, args.prefix)
     print(f"{len(tracks)} track estimates" + (f" and {len(plans)} plan commands" if args.plan else "")
