@@ -56,15 +56,26 @@ def _snapshot(picture: Picture) -> dict:
     return json.loads(encode_json(picture.snapshot()[0]))
 
 
-@pytest.fixture
-def flight() -> tuple[FederatedPicture, Picture]:
+def first_step() -> tuple[FederatedPicture, PublishMemberTracks]:
     """Step 1 (10 s): east holds east-t1 in its area, north holds north-t1 in its; west holds west-t4 in its own
     area and west-t3, a car that has crossed into east's area and that east does not see (a hand-over)."""
     federation = FederatedPicture("west", constant_velocity(1.0))
     federation.heard(_member("east", 10.0, EAST, [("east-t1", (1500.0, 500.0))]))
     federation.heard(_member("north", 10.0, NORTH, [("north-t1", (500.0, 1500.0))]))
+    return federation, _step(federation, 10.0, {3: (1050.0, 500.0), 4: (200.0, 200.0)})
+
+
+def second_step(federation: FederatedPicture) -> PublishMemberTracks:
+    """Step 2 (11 s): east has left and west deleted its track on west-t3: both cars are lost."""
+    federation.left("east")
+    return _step(federation, 11.0, {4: (210.0, 200.0)})
+
+
+@pytest.fixture
+def flight() -> tuple[FederatedPicture, Picture]:
+    federation, published = first_step()
     picture = Picture(SCENARIO, build_world(SCENARIO))
-    picture.observe_federation(_step(federation, 10.0, {3: (1050.0, 500.0), 4: (200.0, 200.0)}), federation.members)
+    picture.observe_federation(published, federation.members)
     return federation, picture
 
 
@@ -89,11 +100,10 @@ def test_every_members_area_and_every_target_with_its_holders_and_claim(flight) 
 
 
 def test_a_dead_members_targets_and_a_deleted_own_track_are_lost_and_searched_for(flight) -> None:
-    """Step 2 (11 s): east has left and west deleted its track on west-t3: both cars are lost, in no live member's
-    area, and west (the nearest team) searches for them; they are drawn where the motion model puts them."""
+    """Step 2: the lost cars are in no live member's area, and west (the nearest team) searches for them; they are
+    drawn where the motion model puts them."""
     federation, picture = flight
-    federation.left("east")
-    published = _step(federation, 11.0, {4: (210.0, 200.0)})
+    published = second_step(federation)
     picture.observe_federation(published, federation.members)
     document = _snapshot(picture)
     assert [m["id"] for m in document["federation"]["members"]] == ["west", "north"]
