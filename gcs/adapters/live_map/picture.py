@@ -319,7 +319,7 @@ class Picture:
                     errors[target_id] = {"rmse_m": round(math.sqrt(t.squares / t.scored), 2), "scored": t.scored,
                                          "last_error_m": None if t.last_error_m is None else round(t.last_error_m, 2)}
             document: dict = {"mode": self.mode, "stamp_ns": self.newest_ns, "trail_epoch_ns": self.trail_epoch_ns,
-                        "vehicles": vehicles, "tracks": tracks, "truth": truths}
+                              "vehicles": vehicles, "tracks": tracks, "truth": truths}
             if self.federation is not None:
                 document["federation"] = self.federation
             counters = dict(status.counters) if status is not None else {}
