@@ -70,7 +70,8 @@ def test_the_page_and_its_scripts_are_served_from_the_package_without_any_cdn(se
     status, kind, page = _get(server, "/")
     assert status == 200 and kind.startswith("text/html")
     scripts = re.findall(rb'<script src="([^"]+)"', page)
-    assert scripts == [b"view.js", b"labels.js", b"roads.js", b"draw.js", b"app.js"] and b'href="style.css"' in page
+    assert scripts == [b"view.js", b"labels.js", b"roads.js", b"federation.js", b"draw.js",
+                       b"app.js"] and b'href="style.css"' in page
     assert re.search(rb'(src|href)="(https?:)?//', page) is None  # nothing loaded from elsewhere
     for path, expected in [(s.decode(), "text/javascript") for s in scripts] + [("style.css", "text/css")]:
         status, kind, body = _get(server, path)

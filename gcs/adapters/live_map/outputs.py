@@ -2,7 +2,8 @@
 optionally, Foxglove outputs (:mod:`gcs.adapters.foxglove_out`).
 
 The producer's loop calls :meth:`LiveMap.observe` (decoded messages) or
-:meth:`LiveMap.observe_wire` (payload bytes) as data passes, and
+:meth:`LiveMap.observe_wire` (payload bytes) as data passes, a federation member's daemon
+:meth:`LiveMap.observe_federation` with each :class:`~gcs.engine.federation.PublishMemberTracks`, and
 :meth:`LiveMap.publish` every turn; a snapshot is built and handed to the
 server at most :data:`PUBLISH_RATE_HZ` times a second of wall time, so the
 page costs the loop a few hundred microseconds five times a second and
@@ -13,14 +14,16 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 
 from gcs.adapters.foxglove_out import FoxgloveOptions, FoxgloveOut
 from gcs.adapters.web.server import LiveMapServer
 from gcs.config import Scenario
 from gcs.core.world import World
+from gcs.engine.federation import PublishMemberTracks
 from gcs.adapters.live_map.picture import Picture
 from gcs.adapters.live_map.picture_geometry import encode_json
+from protocols.federation import MemberTracks
 from protocols.messages import DaemonStatus, Message
 
 __all__ = ["LiveMap", "PUBLISH_RATE_HZ"]
@@ -91,6 +94,14 @@ class LiveMap:
             self.picture.observe_wire(payload, encoding)
         except Exception:
             self._failed(f"observing a {encoding}")
+
+    def observe_federation(self, published: PublishMemberTracks, members: Mapping[str, MemberTracks]) -> None:
+        """The engine's federation action of a decision step and the other members' newest messages
+        (``engine.federation.picture.members``): the map draws every member's area and the federation's targets."""
+        try:
+            self.picture.observe_federation(published, members)
+        except Exception:
+            self._failed("observing the federation")
 
     def publish(self, now_s: float, status: Callable[[], DaemonStatus | None] | None = None,
                 extra: dict | None = None, force: bool = False, log_time_ns: int | None = None) -> bool:

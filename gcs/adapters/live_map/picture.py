@@ -6,7 +6,8 @@ status), or, in ``gcs replay --view``, every message of a recording, and keeps
 just what the page draws: each vehicle's latest position, heading, detection
 and a trail; the newest track per target with its prediction, while it is
 published (:data:`TRACK_STALE_STEPS`); each vehicle's planned path; the truth and
-its trail; and the track error against the truth.
+its trail; the track error against the truth; and, on a federation member, the federation's areas and targets
+(:mod:`~gcs.adapters.live_map.federation_view`).
 :meth:`Picture.snapshot` turns that into two plain dicts (JSON-ready), the
 ``/api/tracks`` and ``/api/status`` documents of :mod:`gcs.adapters.web`; the
 page's own format is described in ``docs/live_map.md``.
@@ -26,7 +27,7 @@ from __future__ import annotations
 import math
 import threading
 from collections import deque
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,10 +35,13 @@ import numpy as np
 from gcs.config import Scenario
 from gcs.core.geometry import LocalFrame
 from gcs.core.world import World
+from gcs.engine.federation import PublishMemberTracks
+from gcs.adapters.live_map.federation_view import federation_document
 from gcs.adapters.live_map.picture_geometry import TRAIL_POINTS, TRAIL_STEP_S, Trail, ellipse, world_geometry
 from gcs.adapters.live_map.picture_geometry import rounded as _r
 from protocols.codec import decode
 from protocols.errors import ProtocolError
+from protocols.federation import MemberTracks
 from protocols.messages import (DaemonStatus, Message, NavReport, PlanCommand, SensorReport, TargetTruth,
                                 TrackEstimate, VehicleStatus)
 
@@ -102,6 +106,8 @@ class Picture:
         self.trail_epoch_ns: int | None = None
         """The first stamp seen; trail points' times count from it (fixed, where an older message moves first_ns)."""
         self.counters: dict[str, int] = {}
+        self.federation: dict | None = None
+        """The newest federation view (:func:`federation_document`); None when the daemon is no federation member."""
         self._lock = threading.Lock()
 
     # ------------------------------------------------------------------ input
@@ -142,6 +148,14 @@ class Picture:
                 self._on_truth(message)
             elif isinstance(message, DaemonStatus):
                 self.status = message
+
+    def observe_federation(self, published: PublishMemberTracks, members: Mapping[str, MemberTracks]) -> None:
+        """A federation member's picture of a decision step, with the other members' newest messages; an older
+        picture than the one held is ignored."""
+        document = federation_document(published, members)
+        with self._lock:
+            if self.federation is None or document["stamp_ns"] >= self.federation["stamp_ns"]:
+                self.federation = document
 
     def on_liveliness(self, vehicle_id: str, alive: bool) -> None:
         """A vehicle's liveliness token appeared or went (replay: the status comes from it)."""
@@ -266,7 +280,8 @@ class Picture:
         ``status`` is the daemon's own (link states and counters); without one
         (replay) the newest recorded ``DaemonStatus`` is used if any, and links
         are derived from liveliness tokens and data age. ``extra`` is merged
-        into the status document (e.g. the replay's clock). Trails are
+        into the status document (e.g. the replay's clock). A federation member's tracks document has a
+        ``federation`` part (:mod:`~gcs.adapters.live_map.federation_view`). Trails are
         ``msgspec.Raw`` JSON arrays: :func:`encode_json` embeds them as they are.
         """
         with self._lock:
@@ -303,8 +318,10 @@ class Picture:
                 if t.scored:
                     errors[target_id] = {"rmse_m": round(math.sqrt(t.squares / t.scored), 2), "scored": t.scored,
                                          "last_error_m": None if t.last_error_m is None else round(t.last_error_m, 2)}
-            document = {"mode": self.mode, "stamp_ns": self.newest_ns, "trail_epoch_ns": self.trail_epoch_ns,
-                        "vehicles": vehicles, "tracks": tracks, "truth": truths}
+            document: dict = {"mode": self.mode, "stamp_ns": self.newest_ns, "trail_epoch_ns": self.trail_epoch_ns,
+                              "vehicles": vehicles, "tracks": tracks, "truth": truths}
+            if self.federation is not None:
+                document["federation"] = self.federation
             counters = dict(status.counters) if status is not None else {}
             counters.update(self.counters)
             summary = {

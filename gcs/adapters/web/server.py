@@ -9,7 +9,7 @@ a slow client skips intermediate snapshots instead of queueing them.
 
 Routes
 ------
-``GET /``, ``/style.css``, ``/view.js``, ``/labels.js``, ``/roads.js``, ``/draw.js``, ``/app.js``
+``GET /``, ``/style.css``, ``/view.js``, ``/labels.js``, ``/roads.js``, ``/federation.js``, ``/draw.js``, ``/app.js``
     The page (package data in ``static/``; no CDN, works offline).
 ``GET /api/world``
     Static geometry: city rectangle, buildings, no-fly zones.
@@ -53,7 +53,8 @@ SOCKET_TIMEOUT_S = 10.0
 """A client that does not read for this long is dropped (its thread must not hang forever)."""
 STATIC = {"/": ("index.html", "text/html; charset=utf-8"),
           "/index.html": ("index.html", "text/html; charset=utf-8"),
-          **{f"/{name}": (name, "text/javascript; charset=utf-8") for name in ("view.js", "labels.js", "roads.js", "draw.js", "app.js")},
+          **{f"/{name}": (name, "text/javascript; charset=utf-8")
+             for name in ("view.js", "labels.js", "roads.js", "federation.js", "draw.js", "app.js")},
           "/style.css": ("style.css", "text/css; charset=utf-8")}
 
 

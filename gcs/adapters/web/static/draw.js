@@ -1,4 +1,5 @@
-// gcs live map: drawing the city once (its roads: roads.js) and every snapshot on it.
+// gcs live map: drawing the city once (its roads: roads.js) and every snapshot on it (a federation's part:
+// federation.js).
 // Testable state is in the DOM: every vehicle / track / truth element carries data-x and data-y in ENU metres (a
 // track also data-target, its id; a sight line data-track, the track it goes to); a label (#layer-labels) carries
 // data-for, the id of what it names; a trail band data-age-s, the age of its newest end; the legend's vehicles
@@ -11,7 +12,7 @@ const VEHICLE_COLOURS = ["#1e88e5", "#5e35b1", "#00838f", "#6d4c41", "#283593", 
 const TRAIL_BANDS = 10;  // a trail is drawn in bands of equal age, each fainter than the newer one
 const MARK_PX = { vehicle: 13, track: 5, truth: 7 };  // half the size of each mark on screen
 const layers = {};
-for (const name of ["world", "truth", "plans", "trails", "track", "vehicles", "labels"]) {
+for (const name of ["world", "federation-areas", "truth", "plans", "trails", "track", "federation", "vehicles", "labels"]) {
   layers[name] = document.getElementById("layer-" + name);
 }
 const colourIndex = new Map();
@@ -143,6 +144,8 @@ function render() {
     marks.push({ x: t.x, y: -t.y, r: MARK_PX.track });
   }
   layers.track.innerHTML = paths.join("") + dots.join("");
+  drawFederationAreas(tracks.federation, unit);  // a federation member's: federation.js
+  drawFederationTargets(tracks.federation, unit, labelItems, marks);
   drawLabels(labelItems, marks, unit);
   drawScaleBar(unit);
   drawVehicleLegend(tracks.vehicles);
