@@ -324,6 +324,8 @@ class Daemon:
                 self.zenoh.publish_plan(action.command)
             elif isinstance(action, PublishMemberTracks):
                 self.zenoh.publish_member_tracks(action.message)
+                if self.live is not None and self.engine.federation is not None:
+                    self.live.observe_federation(action, self.engine.federation.picture.members)
             elif isinstance(action, Observed):
                 if self.live is not None:
                     self.live.observe(action.message)
