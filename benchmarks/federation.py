@@ -26,7 +26,8 @@ they are (:class:`~benchmarks.many_targets_loop.SharingScene`, draws from ``defa
 * **NEES inside its band**: the steps whose position NEES averaged over the assigned targets
   (M of them) lies inside the two-sided 95% band of ``chi2(2M) / M``;
 * **hand-over** time: from a car crossing into another member's strip, tracked before under a
-  global id, to that member's own track carrying the same id with its own detection;
+  global id, to that member's own track carrying the same id with its own detection (and, apart, to
+  that member planning for it under that id);
 * **take-up** (with ``--kill``): from a member's death to another member planning for (claiming)
   each target the dead one held, and to another member holding a track on it;
 * **bytes per second** each member publishes, and the **decision time** (scan and plan) per step.
@@ -75,6 +76,8 @@ class FederationConfig:
     kill: tuple[int, int] | None = None
     range_m: float = 1000.0
     """The UAVs' sensor range: a team sees its own strip and its neighbours' edges, not the whole city."""
+    tracker: str = "auto"
+    """``[multitarget] kind``: ``auto`` is the daemon's default, the road tracker on a city with roads."""
 
 
 @dataclass
@@ -89,6 +92,7 @@ class RunScores:
     decision_seconds: list[float] = field(default_factory=list)
     hand_over_s: list[float] = field(default_factory=list)
     hand_overs_missed: int = 0
+    hand_over_claim_s: list[float] = field(default_factory=list)
     take_up_claim_s: list[float] = field(default_factory=list)
     take_up_held_s: list[float] = field(default_factory=list)
     bytes_per_s: list[float] = field(default_factory=list)
@@ -106,7 +110,8 @@ def _team(base: Scenario, config: FederationConfig) -> Scenario:
     scene = config.scene
     team = with_vehicles(base, config.members * config.uavs_per_member)
     team = msgspec.structs.replace(team, sensor=msgspec.structs.replace(team.sensor, max_range_m=config.range_m))
-    return many_target_scenario(team, "jpda", scene.pd, scene.clutter, len(team.vehicles), STARVATION_S, FORGET_S)
+    return many_target_scenario(team, "jpda", scene.pd, scene.clutter, len(team.vehicles), STARVATION_S, FORGET_S,
+                                kind=config.tracker)
 
 
 def _start(team: Scenario, config: FederationConfig, world: World) -> tuple[VehicleState, list[Loiter]]:
@@ -379,14 +384,20 @@ def _hand_overs(scores: RunScores, pictures, world: World, config: FederationCon
             gid = _picture_id(pictures[before].get(stamp[k - 1]), truth_xy[k - 1, j])
             if gid is None:
                 continue
-            done = None
+            done = claimed = None
             for later in range(k, steps):
                 if strips[later] != after:
                     break
-                track = _own_track_on(pictures[after].get(stamp[later]), truth_xy[later, j])
+                published = pictures[after].get(stamp[later])
+                if claimed is None and published is not None and any(
+                        c.target.name.global_id == gid for c in published.claims):
+                    claimed = later
+                track = _own_track_on(published, truth_xy[later, j])
                 if track is not None and track.global_id == gid and track.detected_ns == stamp[later]:
                     done = later
                     break
+            if claimed is not None:
+                scores.hand_over_claim_s.append((claimed - k) * step_s)
             if done is None:
                 scores.hand_overs_missed += 1
             else:

@@ -75,6 +75,7 @@ def _summary(runs: list[RunScores]) -> dict:
         "nees_inside": float(np.mean([r.nees_inside for r in runs])),
         "hand_over_s": _spread([s for r in runs for s in r.hand_over_s]),
         "hand_overs_missed": sum(r.hand_overs_missed for r in runs),
+        "hand_over_claim_s": _spread([s for r in runs for s in r.hand_over_claim_s]),
         "take_up_claim_s": _spread([s for r in runs for s in r.take_up_claim_s]),
         "take_up_held_s": _spread([s for r in runs for s in r.take_up_held_s]),
         "bytes_per_s_max": max((b for r in runs for b in r.bytes_per_s), default=0.0),
@@ -110,8 +111,9 @@ def format_report(report: dict) -> str:
         p = report["gospa_p"]
         lines.append(f"GOSPA federation / central: {ratio:.3f} (paired Wilcoxon p = "
                      f"{'n/a' if p is None else f'{p:.3f}'})")
-    lines.append(f"hand-over median / p90 / max: {_fmt_spread(f['hand_over_s'])}; not completed: "
-                 f"{f['hand_overs_missed']}")
+    lines.append(f"hand-over, to the next member's own track with the id kept, median / p90 / max: "
+                 f"{_fmt_spread(f['hand_over_s'])}; not completed: {f['hand_overs_missed']}")
+    lines.append(f"hand-over, to the next member planning for it: {_fmt_spread(f['hand_over_claim_s'])}")
     if c["kill"]:
         lines.append(f"dead member's targets claimed by another: {_fmt_spread(f['take_up_claim_s'])}; "
                      f"held by another: {_fmt_spread(f['take_up_held_s'])}")
