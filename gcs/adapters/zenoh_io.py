@@ -15,8 +15,8 @@ member's tracks (``<federation>/federation/*/tracks``) and liveliness (``.../*/a
 tokens already declared), delivered like the rest; holds its own liveliness token on
 ``<federation>/federation/<member>/alive`` while the session is open; publishes its
 :class:`~protocols.federation.MemberTracks` on ``<federation>/federation/<member>/tracks``, and
-answers queries there with the latest (``gcs status --federation``). Its own messages come back
-through its subscription: the engine ignores its own member id.
+answers queries there with the latest (``gcs status --federation``). Its own messages do not come back
+through its subscription (it takes only other sessions' samples), so a recording holds each once.
 """
 
 from __future__ import annotations
@@ -97,7 +97,8 @@ class ZenohIO:
 
     def _join_federation(self, session: zenoh.Session, prefix: str, member_id: str) -> None:
         """Subscribe to the members' tracks and liveliness, declare this member's token and tracks' queryable."""
-        tracks = session.declare_subscriber(member_tracks_selector(prefix), zenoh.handlers.FifoChannel(INBOX_CAPACITY))
+        tracks = session.declare_subscriber(member_tracks_selector(prefix), zenoh.handlers.FifoChannel(INBOX_CAPACITY),
+                                            allowed_origin=zenoh.Locality.REMOTE)
         self._samples.append(tracks)
         self._member_liveliness = session.liveliness().declare_subscriber(
             member_alive_selector(prefix), zenoh.handlers.FifoChannel(INBOX_CAPACITY), history=True)

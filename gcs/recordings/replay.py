@@ -44,7 +44,8 @@ from gcs.core.world import World
 from gcs.engine.records import GOSPA_CUTOFF_M
 from gcs.engine.steps import HOLD_WAITS
 from gcs.engine.engine import Engine, EngineOptions
-from gcs.engine.events import Arrived, Heartbeat, PlannerFree, PublishPlan, PublishTrack, SubmitPlan, Tick
+from gcs.engine.events import (Arrived, Heartbeat, PlannerFree, PublishMemberTracks, PublishPlan, PublishTrack,
+                               SubmitPlan, Tick)
 from gcs.engine.federation import FederationOptions
 from gcs.engine.plan_at_once import plan_at_once
 from gcs.recordings.keys import INPUT_KINDS, VEHICLE_KINDS, key_kind, prefix_of
@@ -52,7 +53,7 @@ from gcs.recordings.recorded_scenario import ScenarioFinder
 from protocols.codec import decode, encode
 from protocols.errors import ProtocolError
 from protocols.keys import DEFAULT_PREFIX, plan_key, track_key
-from protocols.messages import PlanCommand, TargetTruth, TrackEstimate
+from protocols.messages import MemberTracks, PlanCommand, TargetTruth, TrackEstimate
 
 __all__ = ["process", "needs_world", "summarise", "write_outputs", "truth_error", "republish", "INPUT_KINDS", "key_kind"]
 
@@ -98,7 +99,8 @@ def summarise(path: Path) -> dict:
 def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world: World | None = None,
             seed: int = 0, navigation: str = "auto", accept_unlisted: bool = False, max_wait_s: float = 0.5,
             planner: str | None = None, plan: bool = True,
-            federation: FederationOptions | None = None) -> tuple[list[TrackEstimate], list[PlanCommand], Counter]:
+            federation: FederationOptions | None = None, member_tracks: list[MemberTracks] | None = None
+            ) -> tuple[list[TrackEstimate], list[PlanCommand], Counter]:
     """The daemon's engine (:class:`~gcs.engine.engine.Engine`) on a recording: its tracks, plans and counters.
 
     The recorded inputs go to the same engine as live, in recorded order, each with its recorded
@@ -116,7 +118,7 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
 
     ``federation`` (``--federation``, ``--member``, ``--area``) makes the engine the member it was live: the
     recorded members' tracks and liveliness under the federation's prefix are fed to it as they came (without
-    it they are left out).
+    it they are left out); the member's own ``MemberTracks`` it publishes go to ``member_tracks`` if given.
 
     ``plan`` False fuses without planning, even with a world. A ``[multitarget]`` scenario needs its
     world to fuse (which tracks a sensor covered, past the buildings), and so does the road tracker
@@ -141,6 +143,8 @@ def process(path: Path, scenario: Scenario, prefix: str = DEFAULT_PREFIX, world:
                 tracks.append(action.track)
             elif isinstance(action, PublishPlan):
                 plans.append(action.command)
+            elif isinstance(action, PublishMemberTracks) and member_tracks is not None:
+                member_tracks.append(action.message)
             elif isinstance(action, SubmitPlan):
                 carry_out(plan_at_once(engine, action.job, rng))
 

@@ -11,7 +11,8 @@ what is checked is the federation's transport and what each member makes of the 
 * ``east`` stops: ``west`` counts it left (its token withdrawn), and the cars ``east`` held in
   ``west``'s picture are held by ``west`` alone in its next pictures;
 * ``west``'s recording, replayed with the same federation flags (``gcs replay --process
-  --federation``), takes in the same members' messages as live; ``gcs record --federation city``
+  --federation``), takes in the same members' messages as live and gives back west's tracks and its
+  own federation messages bit for bit; ``gcs record --federation city``
   beside them records both members' tracks and tokens, east's withdrawn.
 """
 
@@ -33,6 +34,8 @@ from gcs.recordings.keys import key_kind
 from gcs.recordings.record import RecordSettings, record
 from gcs.recordings.replay import process
 from gcs.scenarios import load_scenario
+from protocols.codec import encode
+from protocols.federation import MemberTracks
 from sim_vehicles.run_options import RunOptions
 from tests.integration.sim_harness import running_vehicles, wait_until
 from tests.loopback import ANY_PORT_ENDPOINT
@@ -130,7 +133,13 @@ def test_two_members_hear_each_other_and_one_that_stops_leaves_the_others_pictur
     tokens = [(key_kind(r.key)[1], r.payload) for r in read_recording(recorded) if key_kind(r.key)[0] == "member_alive"]
     members_recorded = {key_kind(r.key)[1] for r in read_recording(recorded) if key_kind(r.key)[0] == "member"}
     assert members_recorded == {"west", "east"} and ("east", b"gone") in tokens, tokens
-    _, _, replayed = process(recording, SCENARIO, world=WORLD, plan=False,
-                             federation=FederationOptions("west", AREAS["west"], prefix=FEDERATION))
+    republished: list[MemberTracks] = []
+    tracks, _, replayed = process(recording, SCENARIO, world=WORLD, plan=False,
+                                  federation=FederationOptions("west", AREAS["west"], prefix=FEDERATION),
+                                  member_tracks=republished)
     assert [replayed.get(name, 0) for name in ("federation.heard", "federation.joined", "federation.left")] == [
         live["federation.heard"], live["federation.joined"], live["federation.left"]]
+    # ... and gives back west's tracks and its federation messages (global ids, lost targets searched) bit for bit.
+    assert [encode(t)[0] for t in tracks] == [r.payload for r in read_recording(recording) if "/track/" in r.key]
+    own = [r.payload for r in read_recording(recording) if key_kind(r.key) == ("member", "west")]
+    assert len(own) >= 10 and [encode(m)[0] for m in republished] == own
