@@ -25,6 +25,10 @@ decides lives here, so that live and replayed runs cannot drift apart:
   (:class:`~gcs.engine.hand_over.PlanHandOver`);
 * **finished plans** (a :class:`~gcs.engine.events.PlanDone`): the warm start kept, the
   ``PlanCommand`` s published, each vehicle's path to steer along (:meth:`Engine.steer`);
+* **a federation** (``options.federation``, :mod:`gcs.engine.federation`): the other members' tracks and
+  liveliness are taken in, each scan's confirmed tracks are named and fused into the federation's picture
+  and published (:class:`~gcs.engine.federation.PublishMemberTracks`), and the vehicles are planned for the
+  targets the picture gives this member;
 * **the hand-back**: after ``handback_after_lost_s`` of stamps with no vehicle seeing the target (many
   targets: with no track and no lost target to search for) every vehicle is let go
   (:class:`~gcs.engine.events.LetGo`), and steered again once it is seen (there is one again).
