@@ -9,7 +9,7 @@ the line it prints; multicast scouting off, as in every session of the project):
 
 Each member has a scenario file of its own (:func:`member_scenario`): the shipped scenario with its
 ``[[vehicles]]`` replaced by the member's UAVs, on a ring about its strip's centre (as in
-:mod:`benchmarks.federation`), and the sensor's range cut to ``range_m``. Every team flies the same
+:mod:`benchmarks.federation`; moved inside the city where the ring leaves it), and the sensor's range cut to ``range_m``. Every team flies the same
 seed and one clock (``--epoch-ns`` and ``--start-at`` the same past instant: a team that comes up
 later joins the clock), so the teams' cars are the same cars at the same stamps.
 """
@@ -40,6 +40,8 @@ STOP_TIMEOUT_S = 30.0
 """Wall seconds a process may take to stop after SIGINT before it is killed."""
 DAEMON_UP = re.compile(r"daemon up: .*MAVLink (.*)$")
 ROUTER_UP = "router listening on "
+EDGE_M = 10.0
+"""A start on the ring beyond the city's edge (narrow strips: many members) is moved in to this far inside it."""
 
 
 def _vehicle_block(vehicle) -> str:
@@ -69,13 +71,15 @@ def member_scenario(name: str, area: tuple[float, float, float, float], uavs: in
         kept.append(line)
     x0, y0, x1, y1 = area
     cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+    base = load_scenario(name)
+    width, height = base.city.size_m
     vehicles = []
-    for i, vehicle in enumerate(with_vehicles(load_scenario(name), uavs).vehicles):
+    for i, vehicle in enumerate(with_vehicles(base, uavs).vehicles):
         angle = 2.0 * math.pi * i / uavs
         heading = math.remainder(angle + math.pi / 2, 2 * math.pi)
-        vehicles.append(msgspec.structs.replace(vehicle, start_enu_m=(cx + RING_M * math.cos(angle),
-                                                                      cy + RING_M * math.sin(angle)),
-                                                start_heading_rad=heading))
+        x = min(max(cx + RING_M * math.cos(angle), EDGE_M), width - EDGE_M)
+        y = min(max(cy + RING_M * math.sin(angle), EDGE_M), height - EDGE_M)
+        vehicles.append(msgspec.structs.replace(vehicle, start_enu_m=(x, y), start_heading_rad=heading))
     path.write_text("\n".join(kept) + "\n" + "".join(_vehicle_block(v) for v in vehicles))
     scenario = load_scenario(path)
     if len(scenario.vehicles) != uavs or scenario.sensor.max_range_m != range_m:
