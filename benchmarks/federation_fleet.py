@@ -134,7 +134,9 @@ class Fleet:
                                    stdout=subprocess.PIPE if from_stdout else subprocess.DEVNULL,
                                    stderr=subprocess.STDOUT if from_stdout else subprocess.PIPE)
         self.processes[name] = process
-        log = ProcessLog(process.stdout if from_stdout else process.stderr, self.workdir / f"{name}.log", pattern)
+        stream = process.stdout if from_stdout else process.stderr
+        assert stream is not None  # a pipe, as asked
+        log = ProcessLog(stream, self.workdir / f"{name}.log", pattern)
         self.logs.append(log)
         return log
 

@@ -179,9 +179,8 @@ def run_processes(config: ProcessesConfig, progress: Callable[[str], None] = lam
     names = [f"m{i}" for i in range(config.members)]
     strips = areas(build_world(load_scenario(SCENARIO)), config.members)
     paths = [workdir / f"{name}.toml" for name in names]
-    scenario = None
-    for path, strip in zip(paths, strips):
-        scenario = member_scenario(SCENARIO, strip, config.uavs_per_member, config.range_m, path)
+    scenario = [member_scenario(SCENARIO, strip, config.uavs_per_member, config.range_m, path)
+                for path, strip in zip(paths, strips)][0]
     step_ns = round(scenario.time.step_s * NS_PER_S)
     observer = Observer(names)
     fleet = Fleet(workdir, config.seed, config.fusion)
