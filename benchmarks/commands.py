@@ -236,15 +236,30 @@ def cmd_federation(args: argparse.Namespace) -> int:
     from benchmarks.federation import FederationConfig
     from benchmarks.multitarget import BenchConfig
 
+    if args.processes:
+        return _federation_processes(args)
     if args.kill is not None and args.kill[0] >= args.members:
         raise UsageError(f"--kill: member {args.kill[0]} is not among the {args.members} members "
                          f"(0..{args.members - 1}); give a member below --members")
     config = FederationConfig(args.members, args.uavs_per_member,
-                              BenchConfig(targets=args.targets, steps=args.steps, pd=args.pd, clutter=args.clutter),
+                              BenchConfig(targets=args.targets, steps=args.steps or 180, pd=args.pd,
+                                          clutter=args.clutter),
                               args.fusion, args.kill, args.range_m)
     report = federation_report.run_benchmark(config, runs=args.runs, seed=args.seed, central=not args.no_central,
                                              progress=progress)
     return _printed(report, federation_report, args.json)
+
+
+def _federation_processes(args: argparse.Namespace) -> int:
+    """``gcs-bench federation --processes`` (:mod:`benchmarks.federation_processes`)."""
+    from benchmarks import federation_processes_report
+    from benchmarks.federation_processes import ProcessesConfig, run_processes
+
+    if args.kill is not None:
+        raise UsageError("--kill: not with --processes (no member is killed there); leave one of them out")
+    config = ProcessesConfig(args.members, args.uavs_per_member, args.steps or 120, args.fusion, args.range_m,
+                             args.seed)
+    return _printed(run_processes(config, progress=progress), federation_processes_report, args.json)
 
 
 def _printed(report: dict, module, json_path) -> int:

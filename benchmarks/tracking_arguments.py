@@ -222,9 +222,14 @@ def add_federation(sub: argparse._SubParsersAction) -> None:
                     "tracks to the others, which fuse them by global id (covariance intersection). Against one "
                     "engine flying every UAV on the same paired seeds: GOSPA, id changes per target, the steps "
                     "with NEES inside its 95%% band, hand-over and take-up times, bytes per second per member and "
-                    "the decision time.")
+                    "the decision time. With --processes: the members as real daemons (gcs run), each with its "
+                    "simulated team (sim-vehicles run), separate processes over a Zenoh router on 127.0.0.1, in real "
+                    "time, on multitarget_urban's cars and sensor (--targets, --pd, --clutter and --runs do not "
+                    "apply; no central daemon): each daemon's decision time per step, the steps over the step, the "
+                    "bytes per second on its federation key and the members it sees.")
     _many_target_scene_arguments(fed)
-    fed.set_defaults(targets=6, steps=180)
+    fed.set_defaults(targets=6, steps=None)
+    next(a for a in fed._actions if a.dest == "steps").help = "1 s steps per run (default 180; 120 with --processes)"
     fed.add_argument("--members", type=positive_int, default=3, help="daemons (default 3)")
     fed.add_argument("--uavs-per-member", type=positive_int, default=3, help="UAVs per daemon (default 3)")
     fed.add_argument("--fusion", choices=("ci", "independent"), default="ci",
@@ -234,6 +239,9 @@ def add_federation(sub: argparse._SubParsersAction) -> None:
     fed.add_argument("--range", type=positive_float, default=1000.0, dest="range_m",
                      help="the UAVs' sensor range, metres (default 1000: a team sees its strip, not the city)")
     fed.add_argument("--no-central", action="store_true", help="fly the federation only")
+    fed.add_argument("--processes", action="store_true",
+                     help="run the members as gcs run processes with sim-vehicles teams over a Zenoh router "
+                          "(implies --no-central)")
     fed.add_argument("--json", type=Path, metavar="FILE", help="also write the report as JSON")
     fed.set_defaults(handler=outputs_checked(commands.cmd_federation))
     finish(fed)
