@@ -24,7 +24,9 @@ they are (:class:`~benchmarks.many_targets_loop.SharingScene`, draws from ``defa
   members); and the **id swaps** (an id that was another target's, :func:`gcs.core.metrics.track_scores`),
   which the side-by-side pair causes in any tracker;
 * **NEES inside its band**: the steps whose position NEES averaged over the assigned targets
-  (M of them) lies inside the two-sided 95% band of ``chi2(2M) / M``;
+  (M of them) lies inside the two-sided 95% band of ``chi2(2M) / M``; and the mean NEES of the
+  estimates fused from two or more members' tracks (2, the dimension, when the fusion is consistent;
+  more when it counts shared information twice);
 * **hand-over** time: from a car crossing into another member's strip, tracked before under a
   global id, to that member's own track carrying the same id with its own detection (and, apart, to
   that member planning for it under that id);
@@ -89,6 +91,8 @@ class RunScores:
     id_changes_mean: float
     nees_inside: float
     id_swaps: float = 0.0
+    nees_fused_mean: float = math.nan
+    """The mean position NEES of the estimates fused from two or more members' tracks (2 when consistent)."""
     decision_seconds: list[float] = field(default_factory=list)
     hand_over_s: list[float] = field(default_factory=list)
     hand_overs_missed: int = 0
@@ -226,7 +230,7 @@ def _estimates_at(pictures: dict[int, PublishMemberTracks], stamp_ns: int):
         return None
     targets = published.picture.targets
     return ([t.name.global_id for t in targets], np.array([t.mean[:2] for t in targets]).reshape(-1, 2),
-            np.array([t.cov[:2, :2] for t in targets]).reshape(-1, 2, 2))
+            np.array([t.cov[:2, :2] for t in targets]).reshape(-1, 2, 2), [len(t.holders) for t in targets])
 
 
 class _Scorer:
@@ -238,9 +242,10 @@ class _Scorer:
         self.nees_steps = 0
         self.nees_inside = 0
         self.steps: list[StepTracks] = []
+        self.nees_fused: list[float] = []
 
     def add(self, ids: list[str], xy: NDArray[np.float64], covs: NDArray[np.float64],
-            truth: NDArray[np.float64]) -> None:
+            holders: list[int] | None, truth: NDArray[np.float64]) -> None:
         result = gospa(xy, truth, mt.CUTOFF_M, mt.ORDER_P)
         self.gospas.append(result.distance)
         self.steps.append(StepTracks(tuple(range(len(truth))), truth, tuple(ids), xy))
@@ -251,6 +256,8 @@ class _Scorer:
                     self.ids[j].append(ids[row])
                 delta = xy[row] - truth[j]
                 nees.append(float(delta @ np.linalg.solve(covs[row], delta)))
+                if holders is not None and holders[row] >= 2:
+                    self.nees_fused.append(nees[-1])
         if nees:
             m = len(nees)
             low, high = chi2.ppf((1 - NEES_BAND) / 2, 2 * m) / m, chi2.ppf((1 + NEES_BAND) / 2, 2 * m) / m
@@ -326,6 +333,8 @@ def score_federation(flown: FlownFederation, world: World, config: FederationCon
         float(np.mean([g for s in scorers for g in s.gospas])), max(changes), float(np.mean(changes)),
         sum(s.nees_inside for s in scorers) / max(1, sum(s.nees_steps for s in scorers)),
         float(np.mean([s.swaps() for s in scorers])))
+    fused = [n for s in scorers for n in s.nees_fused]
+    scores.nees_fused_mean = float(np.mean(fused)) if fused else math.nan
     for m, loop in enumerate(loops):
         scores.decision_seconds += _decision_seconds(loop, steps)
         scores.bytes_per_s.append(flown.members.sent_bytes[m] / (steps * step_s))
@@ -453,8 +462,9 @@ def fly_central(world: World, base: Scenario, seed: int, config: FederationConfi
         tracks = loop.tracks.get(round(k * step_s * NS_PER_S), [])
         scorer.add([t.target_id for t in tracks], np.array([t.state[:2] for t in tracks]).reshape(-1, 2),
                    np.array([np.array(t.covariance).reshape(4, 4)[:2, :2] for t in tracks]).reshape(-1, 2, 2),
-                   scene.truth_xy[k])
+                   None, scene.truth_xy[k])
     changes = scorer.changes()
     return RunScores(float(np.mean(scorer.gospas)), max(changes), float(np.mean(changes)),
-                     scorer.nees_inside / max(1, scorer.nees_steps), scorer.swaps(), _decision_seconds(loop, steps))
+                     scorer.nees_inside / max(1, scorer.nees_steps), scorer.swaps(),
+                     decision_seconds=_decision_seconds(loop, steps))
 

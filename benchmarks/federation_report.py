@@ -73,6 +73,7 @@ def _summary(runs: list[RunScores]) -> dict:
         "id_changes_mean": float(np.mean([r.id_changes_mean for r in runs])),
         "id_swaps_mean": float(np.mean([r.id_swaps for r in runs])),
         "nees_inside": float(np.mean([r.nees_inside for r in runs])),
+        "nees_fused_mean": float(np.nanmean([r.nees_fused_mean for r in runs])) if runs else None,
         "hand_over_s": _spread([s for r in runs for s in r.hand_over_s]),
         "hand_overs_missed": sum(r.hand_overs_missed for r in runs),
         "hand_over_claim_s": _spread([s for r in runs for s in r.hand_over_claim_s]),
@@ -117,6 +118,9 @@ def format_report(report: dict) -> str:
     if c["kill"]:
         lines.append(f"dead member's targets claimed by another: {_fmt_spread(f['take_up_claim_s'])}; "
                      f"held by another: {_fmt_spread(f['take_up_held_s'])}")
+    if f["nees_fused_mean"] is not None and np.isfinite(f["nees_fused_mean"]):
+        lines.append(f"mean NEES of the estimates fused from two or more members: {f['nees_fused_mean']:.2f} "
+                     "(2 when consistent)")
     lines.append(f"traffic: at most {f['bytes_per_s_max'] / 1e3:.1f} kB/s per member")
     return "\n".join(lines)
 
