@@ -89,14 +89,15 @@ def _held_on(observer: Observer, team: str, car: str, after_s: float, before_s: 
 
 
 def _centre_alone(observer: Observer) -> tuple[str, int] | None:
-    """A global id centre's newest message holds that neither other member's newest holds, far from all their
-    tracks; with that message's stamp."""
+    """A global id centre's last four messages hold (so the others have taken it into their pictures) that neither
+    other member's newest holds, far from all their tracks; with centre's newest stamp."""
     centre, others = observer.latest("centre"), [observer.latest(team) for team in ("west", "east")]
     if centre is None or None in others or any(abs(o.stamp_ns - centre.stamp_ns) > 2 * NS_PER_S for o in others):
         return None
     theirs = [track for message in others for track in message.tracks]
+    held_a_while = set.intersection(*({t.global_id for t in m.tracks} for m in observer.of("centre")[-4:]))
     for track in centre.tracks:
-        if all(t.global_id != track.global_id and distance(t, track.state[:2]) > APART_M for t in theirs):
+        if track.global_id in held_a_while and all(t.global_id != track.global_id and distance(t, track.state[:2]) > APART_M for t in theirs):
             return track.global_id, centre.stamp_ns
     return None
 
