@@ -99,7 +99,7 @@ class ZenohIO:
         """Subscribe to the members' tracks and liveliness, declare this member's token and tracks' queryable."""
         tracks = session.declare_subscriber(member_tracks_selector(prefix), zenoh.handlers.FifoChannel(INBOX_CAPACITY),
                                             allowed_origin=zenoh.Locality.REMOTE)
-        self._samples.append(tracks)
+        self._samples.insert(0, tracks)  # taken before the team's reports: a backlog is fused knowing the others
         self._member_liveliness = session.liveliness().declare_subscriber(
             member_alive_selector(prefix), zenoh.handlers.FifoChannel(INBOX_CAPACITY), history=True)
         self._member_queries = session.declare_queryable(member_tracks_key(member_id, prefix))
@@ -118,8 +118,9 @@ class ZenohIO:
         return bool(self._held)
 
     def drain(self, limit: int = 100_000) -> list[Received]:
-        """Everything received so far (up to ``limit``): liveliness first, then the samples in the
-        order each subscription received them; stamped with the time they were taken."""
+        """Everything received so far (up to ``limit``): liveliness first, then the samples (a federation's
+        member tracks before the team's), each subscription's in the order received; stamped with the time they
+        were taken."""
         out, self._held = self._held, []
         return out + self._take(limit - len(out))
 

@@ -57,8 +57,8 @@ def _snapshot(picture: Picture) -> dict:
 
 
 def first_step() -> tuple[FederatedPicture, PublishMemberTracks]:
-    """Step 1 (10 s): east holds east-t1 in its area, north holds north-t1 in its; west holds west-t4 in its own
-    area and west-t3, a car that has crossed into east's area and that east does not see (a hand-over)."""
+    """Step 1 (10 s): east holds east-t1 in its area, north holds north-t1 in its; west holds west-t4-10 in its own
+    area and west-t3-10, a car that has crossed into east's area and that east does not see (a hand-over)."""
     federation = FederatedPicture("west", constant_velocity(1.0))
     federation.heard(_member("east", 10.0, EAST, [("east-t1", (1500.0, 500.0))]))
     federation.heard(_member("north", 10.0, NORTH, [("north-t1", (500.0, 1500.0))]))
@@ -66,7 +66,7 @@ def first_step() -> tuple[FederatedPicture, PublishMemberTracks]:
 
 
 def second_step(federation: FederatedPicture) -> PublishMemberTracks:
-    """Step 2 (11 s): east has left and west deleted its track on west-t3: both cars are lost."""
+    """Step 2 (11 s): east has left and west deleted its track on west-t3-10: both cars are lost."""
     federation.left("east")
     return _step(federation, 11.0, {4: (210.0, 200.0)})
 
@@ -94,9 +94,9 @@ def test_every_members_area_and_every_target_with_its_holders_and_claim(flight) 
     targets = _by_id(_snapshot(picture))
     assert {gid: (t["holders"], t["lost"], t["claim"]) for gid, t in targets.items()} == {
         "east-t1": (["east"], False, None), "north-t1": (["north"], False, None),
-        "west-t3": (["west"], False, "handing_over"), "west-t4": (["west"], False, "area")}
-    assert (targets["west-t3"]["x"], targets["west-t3"]["y"]) == (1050.0, 500.0)  # its own track, held by it alone
-    assert targets["west-t3"]["vx"] == 10.0
+        "west-t3-10": (["west"], False, "handing_over"), "west-t4-10": (["west"], False, "area")}
+    assert (targets["west-t3-10"]["x"], targets["west-t3-10"]["y"]) == (1050.0, 500.0)  # its own track, held by it alone
+    assert targets["west-t3-10"]["vx"] == 10.0
 
 
 def test_a_dead_members_targets_and_a_deleted_own_track_are_lost_and_searched_for(flight) -> None:
@@ -109,10 +109,10 @@ def test_a_dead_members_targets_and_a_deleted_own_track_are_lost_and_searched_fo
     assert [m["id"] for m in document["federation"]["members"]] == ["west", "north"]
     targets = _by_id(document)
     assert {gid: (t["holders"], t["lost"], t["claim"]) for gid, t in targets.items()} == {
-        "east-t1": ([], True, "search"), "west-t3": ([], True, "search"),
-        "north-t1": (["north"], False, None), "west-t4": (["west"], False, "area")}
+        "east-t1": ([], True, "search"), "west-t3-10": ([], True, "search"),
+        "north-t1": (["north"], False, None), "west-t4-10": (["west"], False, "area")}
     assert targets["east-t1"]["x"] == pytest.approx(1500.0 + 10.0, abs=0.05)  # 1 s on at 10 m/s
-    assert targets["west-t3"]["x"] == pytest.approx(1050.0 + 10.0, abs=0.05)
+    assert targets["west-t3-10"]["x"] == pytest.approx(1050.0 + 10.0, abs=0.05)
     core = {t.name.global_id: t for t in published.picture.targets + published.picture.lost}
     for gid, drawn in targets.items():  # the 2-sigma ellipse of each position covariance, by its eigenvalues
         values, vectors = np.linalg.eigh(core[gid].cov[:2, :2])

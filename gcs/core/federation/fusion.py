@@ -42,14 +42,18 @@ FusionRule = Callable[[NDArray[np.float64], NDArray[np.float64]], tuple[NDArray[
 
 def predict_to(motion: LinearMotionModel, mean: NDArray[np.float64], cov: NDArray[np.float64], from_ns: int,
                to_ns: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """An estimate valid at ``from_ns`` predicted to ``to_ns`` (``x' = F x``, ``P' = F P F^T + Q``); unchanged when
-    ``to_ns`` is not later."""
-    if to_ns <= from_ns:
+    """An estimate valid at ``from_ns`` brought to ``to_ns``: predicted (``x' = F x``, ``P' = F P F^T + Q``) when
+    ``to_ns`` is later, taken back (``x' = F^-1 x``, ``P' = F^-1 P F^-T + Q``, the process noise of the interval
+    added either way, so that the estimate stays no more certain than it was) when earlier, as a member does with
+    another's newer message while it catches up on its own older steps."""
+    if to_ns == from_ns:
         return mean, cov
-    f, q = motion.matrices((to_ns - from_ns) / NS_PER_S)
-    predicted_mean: NDArray[np.float64] = f @ mean
-    predicted_cov: NDArray[np.float64] = f @ cov @ f.T + q
-    return predicted_mean, predicted_cov
+    f, q = motion.matrices(abs(to_ns - from_ns) / NS_PER_S)
+    if to_ns < from_ns:
+        f = np.linalg.inv(f)
+    moved_mean: NDArray[np.float64] = f @ mean
+    moved_cov: NDArray[np.float64] = f @ cov @ f.T + q
+    return moved_mean, moved_cov
 
 
 def _information(cov: NDArray[np.float64]) -> NDArray[np.float64]:

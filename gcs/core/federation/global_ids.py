@@ -9,7 +9,8 @@ alone, from what the others publish; the rules make them agree:
    squared Mahalanobis distance of the positions, under the sum of their covariances, below the
    chi-square quantile :data:`ADOPT_PROBABILITY` (2 degrees of freedom). This is how a car keeps its
    id when it drives from one team's area into the next, or when a member that died is replaced.
-3. Otherwise it gets a new name, ``<member>-<local id>``, born at the track's stamp.
+3. Otherwise it gets a new name, ``<member>-t<local id>-<second of its birth>``, born at the track's stamp: a
+   member restarted, whose local ids start again at 1, never gives a name a second time.
 4. When two members named one car at once, each sees the other's track gate with its own within
    the tighter :data:`RENAME_PROBABILITY`; the one holding the younger name (later ``born_ns``, then
    the larger id) takes the older. Both end with the older name, and the renaming is counted as an
@@ -30,6 +31,7 @@ from gcs.core.multitarget.gating import gate_threshold
 
 __all__ = ["ADOPT_PROBABILITY", "RENAME_PROBABILITY", "GlobalName", "KnownTarget", "GlobalNames", "older"]
 
+NS_PER_S = 1_000_000_000
 ADOPT_PROBABILITY = 0.999
 RENAME_PROBABILITY = 0.99
 
@@ -97,7 +99,7 @@ class GlobalNames:
                 self.names[track_id] = name
                 carried.add(name.global_id)
         for track_id in sorted(set(rows) - set(self.names)):
-            self.names[track_id] = GlobalName(f"{self.member_id}-t{track_id}", stamp_ns)
+            self.names[track_id] = GlobalName(f"{self.member_id}-t{track_id}-{stamp_ns // NS_PER_S}", stamp_ns)
         return dict(self.names)
 
     def _rename_if_younger(self, track_id: int, name: GlobalName, position: NDArray[np.float64],

@@ -55,7 +55,7 @@ def test_a_new_track_takes_the_name_of_the_target_it_gates_with() -> None:
     out = names.assign(10 * S, [4, 5], np.array([[100.0, 0.0], [900.0, 0.0]]), np.array([25.0 * np.eye(2)] * 2),
                        [_known("north-t1", 2 * S, (104.0, 3.0))])
     assert out[4] == GlobalName("north-t1", 2 * S)
-    assert out[5] == GlobalName("south-t5", 10 * S)  # nothing near: a new name, born now
+    assert out[5] == GlobalName("south-t5-10", 10 * S)  # nothing near: a new name, born now
     assert names.changes == 0
 
 
@@ -64,7 +64,7 @@ def test_two_names_for_one_car_end_in_the_older_on_both_sides() -> None:
     cov = np.array([25.0 * np.eye(2)])
     name_a = a.assign(5 * S, [1], np.array([[0.0, 0.0]]), cov, [])[1]
     name_b = b.assign(5 * S, [7], np.array([[2.0, 1.0]]), cov, [])[7]
-    assert name_a.global_id == "a-t1" and name_b.global_id == "b-t7"
+    assert name_a.global_id == "a-t1-5" and name_b.global_id == "b-t7-5"
     after_a = a.assign(6 * S, [1], np.array([[0.0, 0.0]]), cov, [_known(name_b.global_id, name_b.born_ns, (2, 1))])
     after_b = b.assign(6 * S, [7], np.array([[2.0, 1.0]]), cov, [_known(name_a.global_id, name_a.born_ns, (0, 0))])
     assert after_a[1] == after_b[7] == name_a  # born together: the smaller id wins
@@ -116,10 +116,10 @@ def test_claims_share_the_targets_by_area_then_hand_over_then_search() -> None:
     teams = {"west": Team((0.0, 0.0, 1000.0, 1000.0), (500.0, 500.0), 3, 3),
              "east": Team((1000.0, 0.0, 2000.0, 1000.0), (1500.0, 500.0), 3, 2)}
     mine = {c.target.name.global_id: c.reason for c in claims("west", view, teams)}
-    assert mine == {"west-t3": "handing_over"}
+    assert mine == {"west-t3-10": "handing_over"}
     theirs = {c.target.name.global_id: c.reason for c in claims("east", view, teams)}
-    assert theirs == {"east-t1": "area", "west-t3": "area"}
+    assert theirs == {"east-t1": "area", "west-t3-10": "area"}
     del teams["east"]  # east is gone: its area's targets go to the nearest team with a vehicle to spare
     assert {c.target.name.global_id: c.reason for c in claims("west", view, teams)} == {
-        "east-t1": "search", "west-t3": "search"}
+        "east-t1": "search", "west-t3-10": "search"}
 

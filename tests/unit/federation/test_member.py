@@ -62,10 +62,10 @@ def test_published_tracks_decode_and_carry_the_own_tracks_under_their_global_ids
     message = decode(*encode(published.message), MemberTracks)
     assert message == published.message
     (track,) = message.tracks
-    assert (track.global_id, track.local_id, track.detected_ns) == ("west-t4", "t4", 7 * S)
+    assert (track.global_id, track.local_id, track.detected_ns) == ("west-t4-7", "t4", 7 * S)
     np.testing.assert_allclose(np.array(track.covariance).reshape(4, 4), own.covs[0])
     assert message.spare_vehicles == 2  # one target in its own area
-    assert plan is not None and plan.ids == ("west-t4",) and plan.means.shape == (1, 5, 4)
+    assert plan is not None and plan.ids == ("west-t4-7",) and plan.means.shape == (1, 5, 4)
 
 
 def test_options_name_a_bad_area_or_rule() -> None:
