@@ -50,7 +50,7 @@ def predict_to(motion: LinearMotionModel, mean: NDArray[np.float64], cov: NDArra
         return mean, cov
     f, q = motion.matrices(abs(to_ns - from_ns) / NS_PER_S)
     if to_ns < from_ns:
-        f = np.linalg.inv(f)
+        f = np.asarray(np.linalg.inv(f), dtype=np.float64)
     moved_mean: NDArray[np.float64] = f @ mean
     moved_cov: NDArray[np.float64] = f @ cov @ f.T + q
     return moved_mean, moved_cov
