@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from gcs.core.federation import FederatedPicture, GlobalNames, OwnTracks, Team, claims, covariance_intersection
-from gcs.core.federation.fusion import independent_fusion
+from gcs.core.federation.fusion import independent_fusion, predict_to
 from gcs.core.federation.global_ids import GlobalName, KnownTarget
 from gcs.core.models.motion import constant_velocity
 from protocols.federation import FederatedTrack, MemberTracks
@@ -123,3 +123,13 @@ def test_claims_share_the_targets_by_area_then_hand_over_then_search() -> None:
     assert {c.target.name.global_id: c.reason for c in claims("west", view, teams)} == {
         "east-t1": "search", "west-t3-10": "search"}
 
+
+
+def test_a_newer_estimate_taken_back_is_where_it_was_and_no_more_certain() -> None:
+    motion = constant_velocity(1.0)
+    mean, cov = np.array([100.0, 50.0, 10.0, -2.0]), np.diag([25.0, 25.0, 4.0, 4.0])
+    back_mean, back_cov = predict_to(motion, mean, cov, 12 * S, 10 * S)
+    np.testing.assert_allclose(back_mean, [80.0, 54.0, 10.0, -2.0])
+    assert np.all(np.linalg.eigvalsh(back_cov - cov) > 0.0)  # the interval's process noise added, not removed
+    forth_mean, _ = predict_to(motion, back_mean, back_cov, 10 * S, 12 * S)
+    np.testing.assert_allclose(forth_mean, mean)
