@@ -43,8 +43,6 @@ import logging
 from collections import Counter, deque
 from collections.abc import Callable
 
-import numpy as np
-
 from gcs.config import Scenario
 from gcs.core.filters.estimate import GaussianEstimate
 from gcs.core.multitarget.planning import plans_targets
@@ -109,9 +107,9 @@ class Engine:
             if self.keeper is None:
                 raise ValueError(f"a federation member tracks many targets: scenario {scenario.name!r} needs a "
                                  "[multitarget] table")
-            starvation = scenario.multitarget.starvation_s if scenario.multitarget is not None else 0.0
-            self.federation = FederationMember(options.federation, self.keeper.motion, self.counters)
-            self._starvation_s = starvation
+            assert scenario.multitarget is not None  # (the keeper exists)
+            self.federation = FederationMember(options.federation, self.keeper.motion,
+                                               scenario.multitarget.starvation_s, self.counters)
 
     # ------------------------------------------------------------------ input
 
@@ -191,9 +189,9 @@ class Engine:
             actions.extend(RetireTrack(target_id) for target_id in self.tracks_now if target_id not in current)
             self.tracks_now = current
             if self.federation is not None:  # the federation's picture decides what this team plans for
-                published, targets = self.federation.after_scan(
-                    ready.stamp_ns, self.keeper.own_tracks(), self._team_centre(now), len(self.registry.plannable(now)),
-                    tracker, self._starvation_s)
+                team = [p for v in self.registry.plannable(now) if (p := self.registry.entries[v].position_enu_m)]
+                published, targets = self.federation.after_scan(ready.stamp_ns, self.keeper.own_tracks(), team,
+                                                                tracker)
                 actions.append(published)
         else:
             estimate, detections = fuse_step(tracker, self.loop.estimate, ready, roster, self.navigator)
@@ -223,15 +221,6 @@ class Engine:
         # What is known of the vehicles now: by the time the planner is free, newer reports may be in.
         return Planning(ready, tuple(active), self.registry.snapshot(active), estimate, predicted, scale,
                         tick.monotonic_s, targets)
-
-    def _team_centre(self, now_s: float) -> tuple[float, float]:
-        """The mean position (x, y) of the vehicles that can be planned for now; the area's centre when none can."""
-        positions = [p for v in self.registry.plannable(now_s) if (p := self.registry.entries[v].position_enu_m)]
-        if not positions:
-            assert self.options.federation is not None
-            x_min, y_min, x_max, y_max = self.options.federation.area
-            return 0.5 * (x_min + x_max), 0.5 * (y_min + y_max)
-        return float(np.mean([p[0] for p in positions])), float(np.mean([p[1] for p in positions]))
 
     def _record(self, ready: ReadyStep, active: list[str], estimate: GaussianEstimate | None, wall_ns: int,
                 detected: dict[str, bool] | None = None,

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import logging
 from collections import Counter
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -73,8 +74,10 @@ class PublishMemberTracks:
 class FederationMember:
     """One engine's membership of a federation (module docstring)."""
 
-    def __init__(self, options: FederationOptions, motion: LinearMotionModel, counters: Counter[str]) -> None:
-        self.options, self.counters = options, counters
+    def __init__(self, options: FederationOptions, motion: LinearMotionModel, starvation_s: float,
+                 counters: Counter[str]) -> None:
+        """``starvation_s``: the ``[multitarget]`` time in which an unseen target's planning weight doubles."""
+        self.options, self.starvation_s, self.counters = options, starvation_s, counters
         self.picture = FederatedPicture(options.member_id, motion, FUSION_RULES[options.fusion], options.forget_s)
         self.seq = 0
         self.latest: PublishMemberTracks | None = None
@@ -104,11 +107,15 @@ class FederationMember:
         if self.picture.heard(message):
             self.counters["federation.heard"] += 1
 
-    def after_scan(self, stamp_ns: int, own: OwnTracks, team_xy: tuple[float, float], vehicles: int,
-                   config: TrackerConfig, starvation_s: float) -> tuple[PublishMemberTracks, TargetsToPlan | None]:
-        """The picture at the scan's stamp, the message to publish, and the targets to plan for (None: none)."""
+    def after_scan(self, stamp_ns: int, own: OwnTracks, team: Sequence[Sequence[float]], config: TrackerConfig
+                   ) -> tuple[PublishMemberTracks, TargetsToPlan | None]:
+        """The picture at the scan's stamp, the message to publish, and the targets to plan for (None: none);
+        ``team``: where the member's vehicles that can be planned for are (x, y, ...)."""
         picture = self.picture.update(stamp_ns, own)
         area = self.options.area
+        vehicles = len(team)
+        team_xy = ((float(np.mean([p[0] for p in team])), float(np.mean([p[1] for p in team]))) if team
+                   else (0.5 * (area[0] + area[2]), 0.5 * (area[1] + area[3])))  # none yet: the area's centre
         spare = spare_vehicles(area, vehicles, picture.targets)
         teams = {member: Team(m.area_enu_m, m.team_xy_m, m.vehicles, m.spare_vehicles)
                  for member, m in self.picture.present(stamp_ns).items()}
@@ -133,5 +140,5 @@ class FederationMember:
         covs = np.array([c.target.cov for c in mine])
         unseen = np.array([max(0.0, (stamp_ns - c.target.detected_ns) / NS_PER_S) for c in mine])
         plan = targets_to_plan(ids, means, covs, unseen, self.picture.motion, config.step_s, config.horizon_steps,
-                               starvation_s, config.predict_ahead)
+                               self.starvation_s, config.predict_ahead)
         return self.latest, plan

@@ -19,7 +19,7 @@ S = 1_000_000_000
 
 def _member(member_id: str = "west") -> FederationMember:
     options = FederationOptions(member_id, (0.0, 0.0, 1000.0, 1000.0), prefix="city")
-    return FederationMember(options, constant_velocity(1.0), Counter())
+    return FederationMember(options, constant_velocity(1.0), 20.0, Counter())
 
 
 def _tracks(member_id: str, stamp_s: int) -> MemberTracks:
@@ -58,13 +58,15 @@ def test_published_tracks_decode_and_carry_the_own_tracks_under_their_global_ids
     class Config:  # the planner's settings the member reads: the step and the horizon
         step_s, horizon_steps, predict_ahead = 1.0, 5, True
 
-    published, plan = member.after_scan(7 * S, own, (500.0, 500.0), 3, Config(), 20.0)  # type: ignore[arg-type]
+    team = [(400.0, 500.0, 200.0), (500.0, 400.0, 210.0), (600.0, 600.0, 220.0)]
+    published, plan = member.after_scan(7 * S, own, team, Config())  # type: ignore[arg-type]
     message = decode(*encode(published.message), MemberTracks)
     assert message == published.message
     (track,) = message.tracks
     assert (track.global_id, track.local_id, track.detected_ns) == ("west-t4-7", "t4", 7 * S)
     np.testing.assert_allclose(np.array(track.covariance).reshape(4, 4), own.covs[0])
-    assert message.spare_vehicles == 2  # one target in its own area
+    assert message.spare_vehicles == 2 and message.vehicles == 3  # one target in its own area
+    assert message.team_xy_m == (500.0, 500.0)
     assert plan is not None and plan.ids == ("west-t4-7",) and plan.means.shape == (1, 5, 4)
 
 
