@@ -16,6 +16,12 @@ alone, from what the others publish; the rules make them agree:
    the larger id) takes the older. Both end with the older name, and the renaming is counted as an
    id change.
 
+5. A name can end on two cars (named together while the cars drove together, before they
+   parted). The holder with the smallest member id keeps it, and so does every holder whose track
+   gates with that holder's track of the name (chi-square :data:`SPLIT_PROBABILITY`); another holder
+   gives the name up, and its track is named again by rules 2 and 3, the name it gave up excepted.
+   The change is counted.
+
 No two own tracks carry one name.
 """
 
@@ -29,11 +35,13 @@ from numpy.typing import NDArray
 
 from gcs.core.multitarget.gating import gate_threshold
 
-__all__ = ["ADOPT_PROBABILITY", "RENAME_PROBABILITY", "GlobalName", "KnownTarget", "GlobalNames", "older"]
+__all__ = ["ADOPT_PROBABILITY", "RENAME_PROBABILITY", "SPLIT_PROBABILITY", "GlobalName", "HolderTrack", "KnownTarget",
+           "GlobalNames", "older"]
 
 NS_PER_S = 1_000_000_000
 ADOPT_PROBABILITY = 0.999
 RENAME_PROBABILITY = 0.99
+SPLIT_PROBABILITY = 0.9999
 
 
 @dataclass(frozen=True)
@@ -45,15 +53,25 @@ class GlobalName:
 
 
 @dataclass(frozen=True)
+class HolderTrack:
+    """Another member's track on a name, at the naming stamp: the member, position (2,), covariance (2, 2)."""
+
+    member_id: str
+    position: NDArray[np.float64]
+    position_cov: NDArray[np.float64]
+
+
+@dataclass(frozen=True)
 class KnownTarget:
     """A target the federation knows apart from this member's own tracks, at the naming stamp: its name,
     position (2,) and position covariance (2, 2); ``held`` when another member holds a track on it (else
-    it is lost and searched for)."""
+    it is lost and searched for), and then each holder's own track."""
 
     name: GlobalName
     position: NDArray[np.float64]
     position_cov: NDArray[np.float64]
     held: bool
+    holders: tuple[HolderTrack, ...] = ()
 
 
 def older(a: GlobalName, b: GlobalName) -> bool:
@@ -75,6 +93,7 @@ class GlobalNames:
         self.changes = 0
         self._adopt = gate_threshold(ADOPT_PROBABILITY, 2)
         self._rename = gate_threshold(RENAME_PROBABILITY, 2)
+        self._split = gate_threshold(SPLIT_PROBABILITY, 2)
 
     def assign(self, stamp_ns: int, ids: Sequence[int], positions: NDArray[np.float64],
                position_covs: NDArray[np.float64], known: Sequence[KnownTarget]) -> dict[int, GlobalName]:
@@ -82,14 +101,21 @@ class GlobalNames:
         ``known``; every own track's name by its id."""
         rows = {int(track_id): row for row, track_id in enumerate(ids)}
         self.names = {track_id: name for track_id, name in self.names.items() if track_id in rows}
+        given_up: dict[int, str] = {}
         for track_id, name in sorted(self.names.items()):
-            self._rename_if_younger(track_id, name, positions[rows[track_id]], position_covs[rows[track_id]], known)
+            row = rows[track_id]
+            if self._on_another_car(name, positions[row], position_covs[row], known):
+                given_up[track_id] = name.global_id
+                del self.names[track_id]
+                self.changes += 1
+            else:
+                self._rename_if_younger(track_id, name, positions[row], position_covs[row], known)
         carried = {name.global_id for name in self.names.values()}
         pairs = []
         for track_id in sorted(set(rows) - set(self.names)):
             row = rows[track_id]
             for index, target in enumerate(known):
-                if target.name.global_id not in carried:
+                if target.name.global_id not in carried and target.name.global_id != given_up.get(track_id):
                     d2 = _distance2(positions[row], position_covs[row], target)
                     if d2 < self._adopt:
                         pairs.append((d2, track_id, index))
@@ -98,9 +124,21 @@ class GlobalNames:
             if track_id not in self.names and name.global_id not in carried:
                 self.names[track_id] = name
                 carried.add(name.global_id)
-        for track_id in sorted(set(rows) - set(self.names)):
+        for track_id in sorted(set(rows) - set(self.names)):  # rule 3 (a given-up name's track is new here too)
             self.names[track_id] = GlobalName(f"{self.member_id}-t{track_id}-{stamp_ns // NS_PER_S}", stamp_ns)
         return dict(self.names)
+
+    def _on_another_car(self, name: GlobalName, position: NDArray[np.float64], cov: NDArray[np.float64],
+                        known: Sequence[KnownTarget]) -> bool:
+        """Rule 5: whether the own track named ``name`` must give it up (another holder keeps it on another car)."""
+        holders = next((t.holders for t in known if t.held and t.name.global_id == name.global_id), ())
+        if not holders:
+            return False
+        first = min(holders, key=lambda h: h.member_id)
+        if first.member_id > self.member_id:
+            return False
+        delta = position - first.position
+        return float(delta @ np.linalg.solve(cov + first.position_cov, delta)) > self._split
 
     def _rename_if_younger(self, track_id: int, name: GlobalName, position: NDArray[np.float64],
                            cov: NDArray[np.float64], known: Sequence[KnownTarget]) -> None:

@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gcs.core.federation.fusion import FusionRule, covariance_intersection, predict_to
-from gcs.core.federation.global_ids import GlobalName, GlobalNames, KnownTarget
+from gcs.core.federation.global_ids import GlobalName, GlobalNames, HolderTrack, KnownTarget
 from gcs.core.models.motion import LinearMotionModel
 from gcs.core.multitarget.gating import gate_threshold
 from protocols.federation import MemberTracks
@@ -154,7 +154,9 @@ class FederatedPicture:
                                        track.stamp_ns, stamp_ns)
                 held.setdefault(track.global_id, []).append(
                     _Held(member_id, mean, cov, track.detected_ns, GlobalName(track.global_id, track.born_ns)))
-        known = [KnownTarget(rows[0].name, *self._fused_position(rows), held=True) for rows in held.values()]
+        known = [KnownTarget(rows[0].name, *self._fused_position(rows), held=True,
+                             holders=tuple(HolderTrack(r.member, r.mean[:2], r.cov[:2, :2]) for r in rows))
+                 for rows in held.values()]
         for gid, gone in sorted(self._lost.items()):
             if gid not in held:
                 mean, cov = self._lost_at(gone, stamp_ns)

@@ -7,7 +7,7 @@ import pytest
 
 from gcs.core.federation import FederatedPicture, GlobalNames, OwnTracks, Team, claims, covariance_intersection
 from gcs.core.federation.fusion import independent_fusion, predict_to
-from gcs.core.federation.global_ids import GlobalName, KnownTarget
+from gcs.core.federation.global_ids import GlobalName, HolderTrack, KnownTarget
 from gcs.core.models.motion import constant_velocity
 from protocols.federation import FederatedTrack, MemberTracks
 
@@ -133,3 +133,27 @@ def test_a_newer_estimate_taken_back_is_where_it_was_and_no_more_certain() -> No
     assert np.all(np.linalg.eigvalsh(back_cov - cov) > 0.0)  # the interval's process noise added, not removed
     forth_mean, _ = predict_to(motion, back_mean, back_cov, 10 * S, 12 * S)
     np.testing.assert_allclose(forth_mean, mean)
+
+
+def _held_by(gid: str, born: int, holders: dict[str, tuple[float, float]]) -> KnownTarget:
+    tracks = tuple(HolderTrack(member, np.array(xy), 25.0 * np.eye(2)) for member, xy in sorted(holders.items()))
+    return KnownTarget(GlobalName(gid, born), tracks[0].position, tracks[0].position_cov, True, tracks)
+
+
+def test_a_name_on_two_cars_stays_with_the_first_holder_and_those_on_its_car() -> None:
+    cov = np.array([25.0 * np.eye(2)])
+    name = GlobalName("a-t1-5", 5 * S)
+    for member, own_xy, keeps in (("b", (0.0, 0.0), True), ("c", (500.0, 0.0), False)):
+        names = GlobalNames(member)
+        names.names = {3: name}  # named together while the cars drove together
+        others = {"a": (2.0, 1.0), "b": (0.0, 0.0), "c": (500.0, 0.0)}
+        del others[member]
+        out = names.assign(20 * S, [3], np.array([own_xy]), cov, [_held_by(name.global_id, name.born_ns, others)])
+        assert (out[3] == name) is keeps
+        assert names.changes == (0 if keeps else 1)
+        if not keeps:  # named anew, never after the name it gave up
+            assert out[3] == GlobalName(f"{member}-t3-20", 20 * S)
+    first = GlobalNames("a")  # the first holder keeps the name wherever the others are
+    first.names = {1: name}
+    assert first.assign(20 * S, [1], np.array([[2.0, 1.0]]), cov,
+                        [_held_by(name.global_id, name.born_ns, {"c": (500.0, 0.0)})])[1] == name
