@@ -84,7 +84,8 @@ class MemberTracks(Message, frozen=True, forbid_unknown_fields=True, kw_only=Tru
     tracks : tuple of FederatedTrack
         Its confirmed tracks.
     searching : tuple of str
-        Global ids of targets no member holds that it searches for.
+        Global ids of the targets it searches for: lost ones (no member holds a track on them), and held
+        ones in no live member's area (a member that died, say).
     """
 
     member_id: Ident
