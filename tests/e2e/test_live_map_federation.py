@@ -78,8 +78,8 @@ def test_the_page_draws_the_members_areas_and_the_federations_targets(tmp_path) 
         assert t["label"] == f"{target['global_id']} \u00b7 {', '.join(target['holders']) or 'lost'}"
         assert t["dashed"] == target["lost"] and (t["opacity"] < 1.0) == target["lost"]
         assert (t["stroke"] > 2.0) == (target["claim"] is not None)
-    west = areas["west"]["box"]  # west-t4 (210, 200) is drawn inside west's area, north-t1 (500, 1500) above it
+    west = areas["west"]["box"]  # west-t4-10 (210, 200) is drawn inside west's area, north-t1 (500, 1500) above it
     centre = lambda t: (t["mark"]["x"] + t["mark"]["w"] / 2, t["mark"]["y"] + t["mark"]["h"] / 2)  # noqa: E731
-    x, y = centre(drawn["west-t4"])
+    x, y = centre(drawn["west-t4-10"])
     assert west["x"] < x < west["x"] + west["w"] and west["y"] < y < west["y"] + west["h"]
     assert centre(drawn["north-t1"])[1] < west["y"]
