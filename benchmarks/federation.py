@@ -360,23 +360,30 @@ def _strip(world: World, config: FederationConfig, x: float) -> int:
     return int(np.clip(x // width, 0, config.members - 1))
 
 
+def _nearest_within_cutoff(items, positions, truth: NDArray[np.float64]):
+    """The item whose position is nearest ``truth``, if within the GOSPA cut-off (None if none is)."""
+    if not items:
+        return None
+    distances = [math.dist(xy, truth) for xy in positions]
+    best = int(np.argmin(distances))
+    return items[best] if distances[best] < mt.CUTOFF_M else None
+
+
 def _own_track_on(published: PublishMemberTracks | None, truth: NDArray[np.float64]):
     """The member's own track nearest ``truth`` within the GOSPA cut-off (None if none)."""
-    if published is None or not published.message.tracks:
+    if published is None:
         return None
     tracks = published.message.tracks
-    distances = [math.dist(t.state[:2], truth) for t in tracks]
-    best = int(np.argmin(distances))
-    return tracks[best] if distances[best] < mt.CUTOFF_M else None
+    return _nearest_within_cutoff(tracks, [t.state[:2] for t in tracks], truth)
 
 
 def _picture_id(published: PublishMemberTracks | None, truth: NDArray[np.float64]) -> str | None:
-    if published is None or not published.picture.targets:
+    """The global id of the member's picture's target nearest ``truth`` within the GOSPA cut-off (None if none)."""
+    if published is None:
         return None
     targets = published.picture.targets
-    distances = [math.dist(t.mean[:2], truth) for t in targets]
-    best = int(np.argmin(distances))
-    return targets[best].name.global_id if distances[best] < mt.CUTOFF_M else None
+    nearest = _nearest_within_cutoff(targets, [t.mean[:2] for t in targets], truth)
+    return None if nearest is None else nearest.name.global_id
 
 
 def _hand_overs(scores: RunScores, pictures, world: World, config: FederationConfig, truth_xy: NDArray[np.float64],

@@ -182,6 +182,7 @@ class Engine:
             self.navigator.advance_to(ready.stamp_ns)
         estimate = predicted = targets = seen = None
         tracks: tuple[TrackEstimate, ...] = ()
+        active = self.registry.plannable(now)
         if self.keeper is not None:  # every target: the multi-target tracker's confirmed tracks
             scanned = self.keeper.scan(ready, roster, tracker, self.loop.track_seq + 1, self.navigator)
             tracks, targets, seen = scanned.tracks, self.keeper.targets(), scanned.detected
@@ -189,7 +190,7 @@ class Engine:
             actions.extend(RetireTrack(target_id) for target_id in self.tracks_now if target_id not in current)
             self.tracks_now = current
             if self.federation is not None:  # the federation's picture decides what this team plans for
-                team = [p for v in self.registry.plannable(now) if (p := self.registry.entries[v].position_enu_m)]
+                team = [p for v in active if (p := self.registry.entries[v].position_enu_m)]
                 published, targets = self.federation.after_scan(ready.stamp_ns, self.keeper.own_tracks(), team,
                                                                 tracker)
                 actions.append(published)
@@ -207,7 +208,6 @@ class Engine:
             self.loop.track_seq += 1
             self.loop.last_track_stamp_ns = ready.stamp_ns
             actions.extend(PublishTrack(track) for track in tracks)
-        active = self.registry.plannable(now)
         scale = self.loop.clock_scale(now, ready.stamp_ns, self.options.plan_fraction)
         seen_any = self._record(ready, active, estimate, tick.wall_ns, seen,
                                 None if self.keeper is None else tuple((t.state[0], t.state[1]) for t in tracks))

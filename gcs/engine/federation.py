@@ -81,6 +81,7 @@ class FederationMember:
         self.picture = FederatedPicture(options.member_id, motion, FUSION_RULES[options.fusion], options.forget_s)
         self.seq = 0
         self.latest: PublishMemberTracks | None = None
+        """The newest step's message, claims and picture."""
 
     def owns(self, key: str) -> bool:
         """Whether ``key`` is in the federation's key space (its inputs come here, not to the team's ingest)."""

@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from gcs.core.multitarget.gating import gate_threshold
 
 __all__ = ["ADOPT_PROBABILITY", "RENAME_PROBABILITY", "SPLIT_PROBABILITY", "GlobalName", "HolderTrack", "KnownTarget",
-           "GlobalNames", "older"]
+           "GlobalNames", "older", "position_distance2"]
 
 NS_PER_S = 1_000_000_000
 ADOPT_PROBABILITY = 0.999
@@ -79,9 +79,15 @@ def older(a: GlobalName, b: GlobalName) -> bool:
     return (a.born_ns, a.global_id) < (b.born_ns, b.global_id)
 
 
+def position_distance2(a: NDArray[np.float64], a_cov: NDArray[np.float64], b: NDArray[np.float64],
+                       b_cov: NDArray[np.float64]) -> float:
+    """The squared Mahalanobis distance of two positions (2,) under the sum of their covariances (2, 2)."""
+    delta = a - b
+    return float(delta @ np.linalg.solve(a_cov + b_cov, delta))
+
+
 def _distance2(position: NDArray[np.float64], cov: NDArray[np.float64], known: KnownTarget) -> float:
-    delta = position - known.position
-    return float(delta @ np.linalg.solve(cov + known.position_cov, delta))
+    return position_distance2(position, cov, known.position, known.position_cov)
 
 
 class GlobalNames:
@@ -137,8 +143,7 @@ class GlobalNames:
         first = min(holders, key=lambda h: h.member_id)
         if first.member_id > self.member_id:
             return False
-        delta = position - first.position
-        return float(delta @ np.linalg.solve(cov + first.position_cov, delta)) > self._split
+        return position_distance2(position, cov, first.position, first.position_cov) > self._split
 
     def _rename_if_younger(self, track_id: int, name: GlobalName, position: NDArray[np.float64],
                            cov: NDArray[np.float64], known: Sequence[KnownTarget]) -> None:

@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gcs.core.federation.fusion import FusionRule, covariance_intersection, predict_to
-from gcs.core.federation.global_ids import GlobalName, GlobalNames, HolderTrack, KnownTarget
+from gcs.core.federation.global_ids import GlobalName, GlobalNames, HolderTrack, KnownTarget, position_distance2
 from gcs.core.models.motion import LinearMotionModel
 from gcs.core.multitarget.gating import gate_threshold
 from protocols.federation import MemberTracks
@@ -203,8 +203,5 @@ class FederatedPicture:
 
     def _merged(self, gone: GlobalTarget, held: Iterable[GlobalTarget], stamp_ns: int) -> bool:
         mean, cov = predict_to(self.motion, gone.mean, gone.cov, self._held_stamp_ns, stamp_ns)
-        for target in held:
-            delta = mean[:2] - target.mean[:2]
-            if float(delta @ np.linalg.solve(cov[:2, :2] + target.cov[:2, :2], delta)) < self._merge_gate:
-                return True
-        return False
+        return any(position_distance2(mean[:2], cov[:2, :2], target.mean[:2], target.cov[:2, :2]) < self._merge_gate
+                   for target in held)
